@@ -5,10 +5,21 @@
 //! generalized trust-region subproblem (GTRS) solve.
 #![deny(clippy::float_cmp)]
 
+pub mod central;
+pub mod cli;
+pub mod engine;
+pub mod error;
 pub mod geometry;
+pub mod graph;
 pub mod local;
 pub mod measure;
+pub mod metrics;
+pub mod motion;
+pub mod noise;
+pub mod protocol;
 pub mod prox;
 pub mod rng;
-pub mod noise;
+pub mod run;
+pub mod scenario;
+pub mod synth;
 pub mod wire;

@@ -48,7 +48,12 @@ pub fn prox_gtrs(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxErr
 }
 
 /// Dispatch on [`LocalSolver`].
-pub fn prox(solver: LocalSolver, p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxError> {
+pub fn prox(
+    solver: LocalSolver,
+    p: &LocalProblem,
+    u: &Vec3,
+    gamma: f64,
+) -> Result<Vec3, ProxError> {
     match solver {
         LocalSolver::Gtrs => prox_gtrs(p, u, gamma),
         LocalSolver::Relaxed => prox_relaxed(p, u, gamma),

@@ -57,8 +57,18 @@ mod tests {
 
     #[test]
     fn same_seed_stream_and_index_give_the_same_numbers() {
-        let a: Vec<u64> = (0..4).map(|_| 0).scan(stream_rng(7, Stream::Measurement, 3), |r, _: u64| Some(r.random::<u64>())).collect();
-        let b: Vec<u64> = (0..4).map(|_| 0).scan(stream_rng(7, Stream::Measurement, 3), |r, _: u64| Some(r.random::<u64>())).collect();
+        let a: Vec<u64> = (0..4)
+            .map(|_| 0)
+            .scan(stream_rng(7, Stream::Measurement, 3), |r, _: u64| {
+                Some(r.random::<u64>())
+            })
+            .collect();
+        let b: Vec<u64> = (0..4)
+            .map(|_| 0)
+            .scan(stream_rng(7, Stream::Measurement, 3), |r, _: u64| {
+                Some(r.random::<u64>())
+            })
+            .collect();
         assert_eq!(a, b);
     }
 

@@ -1,0 +1,256 @@
+//! The `sonarnet` command line (clap derive). `main` stays thin: it parses,
+//! calls [`dispatch`], prints the error chain once, and maps it to an exit code.
+
+use crate::prox::LocalSolver;
+use crate::run::{self, Clock, EngineKind, RunError, RunOptions};
+use crate::scenario::{Mode, Scenario};
+use clap::{Parser, Subcommand};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+/// Emulated distributed multistatic sonar network: asynchronous Douglas-Rachford
+/// gossip with exact GTRS local steps.
+#[derive(Debug, Parser)]
+#[command(name = "sonarnet", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a scenario and write a results directory.
+    Run(RunArgs),
+    /// Check scenario files (and the trace, truth and schedule files they name).
+    Validate {
+        /// Scenario files.
+        #[arg(required = true)]
+        scenarios: Vec<PathBuf>,
+    },
+}
+
+/// `sonarnet run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// The scenario TOML file.
+    pub scenario: PathBuf,
+    /// Gossip mode (overrides algorithm.mode).
+    #[arg(long, value_enum)]
+    pub mode: Option<Mode>,
+    /// Local prox (overrides algorithm.local_solver).
+    #[arg(long, value_parser = parse_solver)]
+    pub local_solver: Option<LocalSolver>,
+    /// Run seed (overrides the scenario's seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Douglas-Rachford iterations per sample (overrides the scenario).
+    #[arg(long)]
+    pub iterations_per_sample: Option<usize>,
+    /// Number of samples to run (at most the scenario's).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Which engine runs the nodes.
+    #[arg(long, value_enum, default_value = "inprocess")]
+    pub engine: EngineKind,
+    /// Clock of async runs (realtime needs --engine processes).
+    #[arg(long, value_enum, default_value = "logical")]
+    pub clock: Clock,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Parse a `--local-solver` value with the scenario file's spelling.
+fn parse_solver(s: &str) -> Result<LocalSolver, String> {
+    serde::Deserialize::deserialize(
+        serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
+    )
+    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs or relaxed)"))
+}
+
+/// How a command failed; decides the exit code.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// Bad input (exit 2).
+    #[error(transparent)]
+    Input(#[from] crate::error::InputError),
+    /// The run failed (exit 1); partial results were written to `dir`.
+    #[error("{error}\npartial results were written to {}", dir.display())]
+    RunFailed {
+        /// The reason.
+        error: crate::engine::EngineError,
+        /// Where the partial results are.
+        dir: PathBuf,
+    },
+    /// Anything else that stops a run (exit 1).
+    #[error(transparent)]
+    Run(RunError),
+}
+
+impl CliError {
+    /// The process exit code: 2 for bad input, 1 for a failed run.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Input(_) | CliError::Run(RunError::Input(_)) => 2,
+            _ => 1,
+        }
+    }
+}
+
+impl From<RunError> for CliError {
+    fn from(e: RunError) -> Self {
+        match e {
+            RunError::Input(i) => CliError::Input(i),
+            other => CliError::Run(other),
+        }
+    }
+}
+
+/// Run a parsed command line.
+pub fn dispatch(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Validate { scenarios } => {
+            for p in &scenarios {
+                let sc = Scenario::load(p)?;
+                println!(
+                    "{}: ok ({} receivers, {} transmitters, {} edges, {} samples, {} {})",
+                    p.display(),
+                    sc.graph.len(),
+                    sc.geometry.transmitters.len(),
+                    sc.graph.edges().len(),
+                    sc.samples,
+                    sc.algorithm.mode.as_str(),
+                    serde_json::to_value(sc.algorithm.local_solver)
+                        .ok()
+                        .and_then(|v| v.as_str().map(str::to_owned))
+                        .unwrap_or_default()
+                );
+            }
+            Ok(())
+        }
+        Command::Run(args) => run_command(args),
+    }
+}
+
+/// Load the scenario and apply the command-line overrides.
+pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
+    let mut sc = Scenario::load(&args.scenario)?;
+    if let Some(s) = args.seed {
+        sc = sc.with_seed(s);
+    }
+    if let Some(m) = args.mode {
+        sc = sc.with_mode(m)?;
+    }
+    if let Some(s) = args.local_solver {
+        sc = sc.with_local_solver(s);
+    }
+    if let Some(n) = args.iterations_per_sample {
+        sc = sc.with_iterations_per_sample(n)?;
+    }
+    if let Some(n) = args.samples {
+        sc = sc.with_samples(n)?;
+    }
+    Ok(sc)
+}
+
+fn run_command(args: RunArgs) -> Result<(), CliError> {
+    let sc = resolve_scenario(&args)?;
+    if args.clock == Clock::Realtime {
+        return Err(crate::error::InputError::at(
+            std::path::Path::new("<command line>"),
+            "--clock",
+            "realtime clocks need --engine processes and async mode",
+        )
+        .into());
+    }
+    let out_dir = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from("results").join(format!(
+            "{}-{}-{}-seed{}",
+            sc.name,
+            sc.algorithm.mode.as_str(),
+            args.engine.as_str(),
+            sc.seed
+        ))
+    });
+    let opts = RunOptions {
+        engine: args.engine,
+        clock: args.clock,
+        out_dir,
+        command_line: std::env::args().collect(),
+        progress: !args.quiet && std::io::stdout().is_terminal(),
+    };
+    let real = sc.realize(sc.seed);
+    let bar = progress_bar(&opts, sc.samples as u64);
+    let mut tick = |k: usize, it: u64| {
+        if let Some(b) = &bar {
+            b.set_position(k as u64);
+            b.set_message(format!("{it} iterations"));
+        }
+    };
+    let (record, result) = match args.engine {
+        EngineKind::Inprocess => run::run_inprocess(&sc, &real, &mut tick),
+        EngineKind::Processes => {
+            return Err(CliError::Run(RunError::Engine(
+                "the multi-process engine is not available in this build yet".into(),
+            )));
+        }
+    };
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let outcome = run::finish(&sc, &real, record, result.err(), &opts)?;
+    print_summary(&outcome);
+    match outcome.error {
+        Some(error) => Err(CliError::RunFailed {
+            error,
+            dir: outcome.out_dir,
+        }),
+        None => Ok(()),
+    }
+}
+
+fn progress_bar(opts: &RunOptions, samples: u64) -> Option<indicatif::ProgressBar> {
+    if !opts.progress {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(samples);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} samples, {msg} ({per_sec})",
+    ) {
+        b.set_style(style);
+    }
+    Some(b)
+}
+
+fn fmt_opt(x: Option<f64>) -> String {
+    x.map_or("-".into(), |v| format!("{v:.3}"))
+}
+
+fn print_summary(o: &run::RunOutcome) {
+    let m = &o.metrics;
+    println!(
+        "sonarnet run: {} / {} / {} clock, seed {}",
+        m.engine, m.mode, m.clock, m.seed
+    );
+    println!("  samples            {}/{}", m.samples_completed, m.samples);
+    println!("  rmse               {} m", fmt_opt(m.rmse));
+    println!("  rmse_after_burn_in {} m", fmt_opt(m.rmse_after_burn_in));
+    println!("  median_error       {} m", fmt_opt(m.median_error));
+    println!("  final_error        {} m", fmt_opt(m.final_error));
+    println!("  ctte               {} m", fmt_opt(m.ctte));
+    println!("  max_disagreement   {:.3} m", m.max_disagreement);
+    println!("  ml_rmse            {} m", fmt_opt(m.ml_rmse));
+    println!("  crlb_rms           {} m", fmt_opt(m.crlb_rms));
+    println!("  iterations         {}", m.iterations);
+    println!("  prox_solves        {}", m.prox_solves);
+    println!("  wall_seconds       {:.4}", m.wall_seconds);
+    if let Some(n) = &m.note {
+        println!("  note: {n}");
+    }
+    println!("  results in {}", o.out_dir.display());
+}

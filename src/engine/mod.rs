@@ -1,0 +1,253 @@
+//! The coordinator logic, shared by both engines.
+//!
+//! [`drive`] runs a scenario over any [`Network`]: it sends each node its own
+//! measurements, runs the sync rounds or hands out the async schedule, and
+//! collects every node's `theta` at the end of every sample. The in-process
+//! engine ([`inprocess::InProcess`]) implements [`Network`] with the
+//! [`NodeCore`](crate::protocol::NodeCore)s in one thread; the multi-process
+//! engine implements it over the transport. Both therefore run the same
+//! coordinator and the same node core.
+
+pub mod inprocess;
+
+use crate::geometry::Vec3;
+use crate::protocol::{Command, Counters, NodeConfig, NodeMode, Report};
+use crate::rng::{Stream, stream_rng};
+use crate::scenario::{Mode, Realization, Scenario};
+use rand::RngExt;
+use std::time::Instant;
+
+/// Why a run stopped early.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EngineError {
+    /// A node could not compute its prox.
+    #[error("node {node} failed at sample {sample}: {reason}")]
+    NodeFailed {
+        /// Node id.
+        node: u32,
+        /// Sample.
+        sample: u32,
+        /// Reason.
+        reason: String,
+    },
+    /// A node process died.
+    #[error("node {node} died ({how}) at sample {sample}")]
+    NodeDied {
+        /// Node id.
+        node: u32,
+        /// Sample.
+        sample: u32,
+        /// Exit status or signal.
+        how: String,
+    },
+    /// The run was interrupted (SIGINT/SIGTERM).
+    #[error("interrupted at sample {sample}")]
+    Interrupted {
+        /// Sample.
+        sample: u32,
+    },
+    /// Transport or process-management failure.
+    #[error("transport: {0}")]
+    Transport(String),
+    /// Internal inconsistency (a bug): the protocol stalled.
+    #[error("protocol stalled: {0}")]
+    Stalled(String),
+}
+
+/// Where commands go and reports come from.
+pub trait Network {
+    /// Queue a command for node `node`.
+    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError>;
+    /// Deliver everything queued.
+    fn flush(&mut self) -> Result<(), EngineError>;
+    /// Block until at least one report is available; append them to `out`.
+    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError>;
+}
+
+/// What a run produced, complete or not.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunRecord {
+    /// `thetas[k][i]`: node `i`'s `theta` after sample `k` (only completed samples).
+    pub thetas: Vec<Vec<Vec3>>,
+    /// The async schedule used, `(v, w)` per iteration (empty in sync mode).
+    pub schedule: Vec<(usize, usize)>,
+    /// DR iterations completed (rounds in sync mode).
+    pub iterations: u64,
+    /// Final per-node counters.
+    pub counters: Vec<Counters>,
+    /// Wall time of the run (seconds).
+    pub wall_seconds: f64,
+}
+
+impl RunRecord {
+    /// Total prox solves over all nodes.
+    pub fn prox_solves(&self) -> u64 {
+        self.counters.iter().map(|c| c.prox_solves).sum()
+    }
+}
+
+/// The configuration of node `id` in `scenario` (what the node is allowed to know).
+pub fn node_config(sc: &Scenario, seed: u64, id: usize, mode: NodeMode) -> NodeConfig {
+    NodeConfig {
+        id: id as u32,
+        n_nodes: sc.graph.len() as u32,
+        anchor: sc.geometry.receivers[id],
+        transmitters: sc.geometry.transmitters.clone(),
+        neighbours: sc.graph.neighbours(id).iter().map(|&w| w as u32).collect(),
+        omega: sc.measurements.omega,
+        gamma: sc.algorithm.gamma,
+        solver: sc.algorithm.local_solver,
+        init_u: sc.algorithm.init_u,
+        seed,
+        mode,
+    }
+}
+
+/// The node mode of a logical-clock run.
+pub fn logical_mode(mode: Mode) -> NodeMode {
+    match mode {
+        Mode::Sync => NodeMode::Sync,
+        Mode::Async => NodeMode::AsyncLogical,
+    }
+}
+
+/// Draws the async schedule: `v` uniform over nodes, `w` uniform over `v`'s
+/// neighbours (seed 002 Sec. II-B), from the run's schedule stream; or replays
+/// a given schedule.
+pub struct Scheduler<'a> {
+    sc: &'a Scenario,
+    rng: crate::rng::SonarRng,
+    next: usize,
+}
+
+impl<'a> Scheduler<'a> {
+    /// A scheduler for a run with `seed`.
+    pub fn new(sc: &'a Scenario, seed: u64) -> Self {
+        Scheduler {
+            sc,
+            rng: stream_rng(seed, Stream::Schedule, 0),
+            next: 0,
+        }
+    }
+
+    /// The edge of the next iteration.
+    pub fn next_pair(&mut self) -> (usize, usize) {
+        let it = self.next;
+        self.next += 1;
+        if let Some((_, s)) = &self.sc.algorithm.schedule {
+            return s[it];
+        }
+        let n = self.sc.graph.len();
+        let v = self.rng.random_range(0..n);
+        let nb = self.sc.graph.neighbours(v);
+        let w = nb[self.rng.random_range(0..nb.len())];
+        (v, w)
+    }
+}
+
+/// Progress callback: `(samples done, iterations done)`.
+pub type Progress<'a> = &'a mut dyn FnMut(usize, u64);
+
+/// Run `scenario` with logical clocks over `net`. Returns the record of
+/// everything completed and, if the run stopped early, why.
+pub fn drive(
+    sc: &Scenario,
+    seed: u64,
+    real: &Realization,
+    net: &mut dyn Network,
+    progress: Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>) {
+    let start = Instant::now();
+    let n = sc.graph.len();
+    let ips = sc.algorithm.iterations_per_sample;
+    let mut rec = RunRecord {
+        counters: vec![Counters::default(); n],
+        ..Default::default()
+    };
+    let mut sched = Scheduler::new(sc, seed);
+    let mut reports = Vec::new();
+    let result = (|| {
+        for k in 0..sc.samples {
+            let sample = k as u32;
+            for (i, meas) in real.measurements[k].nodes.iter().enumerate() {
+                net.send(
+                    i as u32,
+                    Command::Sample {
+                        sample,
+                        meas: meas.clone(),
+                    },
+                )?;
+            }
+            match sc.algorithm.mode {
+                Mode::Sync => {
+                    for i in 0..n {
+                        net.send(
+                            i as u32,
+                            Command::SyncRounds {
+                                sample,
+                                first_round: (k * ips) as u64,
+                                rounds: ips as u32,
+                            },
+                        )?;
+                    }
+                }
+                Mode::Async => {
+                    let mut steps: Vec<Vec<(u64, u32)>> = vec![Vec::new(); n];
+                    for j in 0..ips {
+                        let it = (k * ips + j) as u64;
+                        let (v, w) = sched.next_pair();
+                        rec.schedule.push((v, w));
+                        steps[v].push((it, w as u32));
+                        steps[w].push((it, v as u32));
+                    }
+                    for (i, s) in steps.into_iter().enumerate() {
+                        net.send(i as u32, Command::AsyncPlan { sample, steps: s })?;
+                    }
+                }
+            }
+            net.flush()?;
+            let mut thetas: Vec<Option<Vec3>> = vec![None; n];
+            let mut done = 0;
+            while done < n {
+                reports.clear();
+                net.recv(&mut reports)?;
+                for r in reports.drain(..) {
+                    match r {
+                        Report::SampleDone {
+                            node,
+                            sample: s,
+                            theta,
+                            counters,
+                        } if s == sample => {
+                            let i = node as usize;
+                            if i < n && thetas[i].is_none() {
+                                thetas[i] = Some(theta);
+                                rec.counters[i] = counters;
+                                done += 1;
+                            }
+                        }
+                        Report::Failed {
+                            node,
+                            sample,
+                            reason,
+                        } => {
+                            return Err(EngineError::NodeFailed {
+                                node,
+                                sample,
+                                reason,
+                            });
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            rec.thetas
+                .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
+            rec.iterations += ips as u64;
+            progress(k + 1, rec.iterations);
+        }
+        Ok(())
+    })();
+    rec.wall_seconds = start.elapsed().as_secs_f64();
+    (rec, result)
+}

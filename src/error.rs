@@ -1,0 +1,48 @@
+//! Error types shared across the crate.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// A bad input: names the file, the key or line, and the reason.
+/// The CLI maps it to exit code 2.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InputError {
+    /// The offending file (or `<command line>`).
+    pub file: PathBuf,
+    /// Key path (`network.edges[2]`) or `line N`, when known.
+    pub location: Option<String>,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl InputError {
+    /// An error at `location` in `file`.
+    pub fn at(file: &Path, location: impl Into<String>, reason: impl Into<String>) -> Self {
+        InputError {
+            file: file.to_path_buf(),
+            location: Some(location.into()),
+            reason: reason.into(),
+        }
+    }
+
+    /// An error about `file` as a whole.
+    pub fn file(file: &Path, reason: impl Into<String>) -> Self {
+        InputError {
+            file: file.to_path_buf(),
+            location: None,
+            reason: reason.into(),
+        }
+    }
+}
+
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(loc) = &self.location {
+            write!(f, ": {loc}")?;
+        }
+        write!(f, ": {}", self.reason)
+    }
+}
+
+impl std::error::Error for InputError {}

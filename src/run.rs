@@ -1,0 +1,404 @@
+//! One run of a scenario: realise the measurements, run an engine, score,
+//! and write the results directory.
+//!
+//! Outputs (one directory per run; every file carries the seed):
+//! * `run.json`: resolved scenario, seed, crate version, engine, mode, clock, command line, status;
+//! * `track.csv`: `sample,true_x,true_y,est_x,est_y,error,ml_x,ml_y,crlb,ctte,seed`;
+//! * `nodes.csv`: `sample,node,x,y,d,seed`;
+//! * `schedule.csv`: `iteration,v,w,seed` (async runs);
+//! * `metrics.json`: the metrics, see [`RunMetrics`].
+
+use crate::central;
+use crate::engine::{self, EngineError, RunRecord};
+use crate::error::InputError;
+use crate::geometry::Vec2;
+use crate::metrics;
+use crate::protocol::Counters;
+use crate::scenario::{Realization, Scenario};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Which engine runs the nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum EngineKind {
+    /// All nodes in one thread of this process.
+    Inprocess,
+    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
+    Processes,
+}
+
+impl EngineKind {
+    /// Name as written to outputs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EngineKind::Inprocess => "inprocess",
+            EngineKind::Processes => "processes",
+        }
+    }
+}
+
+/// How a run is clocked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Clock {
+    /// The coordinator sequences rounds/iterations; results are exact.
+    Logical,
+    /// Free-running nodes on Poisson clocks (multi-process async only).
+    Realtime,
+}
+
+/// Options of one run that are not part of the scenario.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Engine.
+    pub engine: EngineKind,
+    /// Clock.
+    pub clock: Clock,
+    /// Results directory.
+    pub out_dir: PathBuf,
+    /// The command line, recorded in `run.json`.
+    pub command_line: Vec<String>,
+    /// Show a progress bar (only when stderr is a terminal).
+    pub progress: bool,
+}
+
+/// Per-node counters as written to `metrics.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NodeCounters {
+    /// Node id.
+    pub node: usize,
+    /// Counters.
+    #[serde(flatten)]
+    pub counters: Counters,
+}
+
+/// The contents of `metrics.json`. Error metrics are `null` without truth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunMetrics {
+    /// RMSE of `theta_bar` over all samples.
+    pub rmse: Option<f64>,
+    /// RMSE after `burn_in` samples.
+    pub rmse_after_burn_in: Option<f64>,
+    /// Median error.
+    pub median_error: Option<f64>,
+    /// Error at the last sample.
+    pub final_error: Option<f64>,
+    /// Cumulative target tracking error.
+    pub ctte: Option<f64>,
+    /// Largest consensus disagreement over all samples.
+    pub max_disagreement: f64,
+    /// RMSE of the centralised ML estimate.
+    pub ml_rmse: Option<f64>,
+    /// RMS of the per-sample CRLB.
+    pub crlb_rms: Option<f64>,
+    /// DR iterations (sync: rounds) completed.
+    pub iterations: u64,
+    /// Prox solves over all nodes.
+    pub prox_solves: u64,
+    /// Engine wall time (seconds).
+    pub wall_seconds: f64,
+    /// `inprocess` or `processes`.
+    pub engine: String,
+    /// `sync` or `async`.
+    pub mode: String,
+    /// `logical` or `realtime`.
+    pub clock: String,
+    /// Run seed.
+    pub seed: u64,
+    /// Samples completed.
+    pub samples_completed: usize,
+    /// Samples asked for.
+    pub samples: usize,
+    /// `ok`, `failed` or `interrupted`.
+    pub status: String,
+    /// Why the run stopped early.
+    pub error: Option<String>,
+    /// Why some metrics are missing.
+    pub note: Option<String>,
+    /// Per-node counters.
+    pub nodes: Vec<NodeCounters>,
+}
+
+/// A finished (or stopped) run.
+#[derive(Debug, Clone)]
+pub struct RunOutcome {
+    /// Metrics as written.
+    pub metrics: RunMetrics,
+    /// The record.
+    pub record: RunRecord,
+    /// Where the results are.
+    pub out_dir: PathBuf,
+    /// Why it stopped early.
+    pub error: Option<EngineError>,
+}
+
+/// Errors of a run that prevent writing results at all.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Bad input.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// Could not write the results directory.
+    #[error("cannot write results to {path}: {source}")]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The engine could not start.
+    #[error("engine: {0}")]
+    Engine(String),
+}
+
+/// Run `sc` in-process.
+pub fn run_inprocess(
+    sc: &Scenario,
+    real: &Realization,
+    progress: engine::Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>) {
+    let mode = engine::logical_mode(sc.algorithm.mode);
+    let configs = (0..sc.graph.len())
+        .map(|i| engine::node_config(sc, sc.seed, i, mode))
+        .collect();
+    let mut net = engine::inprocess::InProcess::new(configs);
+    engine::drive(sc, sc.seed, real, &mut net, progress)
+}
+
+/// Score a record and write the results directory. Always writes what there
+/// is, even for a run that stopped early.
+pub fn finish(
+    sc: &Scenario,
+    real: &Realization,
+    record: RunRecord,
+    error: Option<EngineError>,
+    opts: &RunOptions,
+) -> Result<RunOutcome, RunError> {
+    let done = record.thetas.len();
+    let est: Vec<Vec2> = record
+        .thetas
+        .iter()
+        .map(|t| metrics::theta_bar(t))
+        .collect();
+    let ml = central::ml_track(
+        &sc.geometry,
+        &real.measurements[..done],
+        &real.sigmas[..done],
+    );
+    let truth = real.truth.as_ref().map(|t| &t[..done]);
+    let crlb: Vec<Option<f64>> = match truth {
+        Some(t) => (0..done)
+            .map(|k| {
+                let obs = central::observations(&sc.geometry, &real.measurements[k]);
+                central::crlb(&obs, &real.sigmas[k], &t[k])
+            })
+            .collect(),
+        None => vec![None; done],
+    };
+    let errs = truth.map(|t| metrics::errors(&est, t));
+    let score = errs
+        .as_ref()
+        .and_then(|e| metrics::score(e, sc.algorithm.burn_in.min(done.saturating_sub(1))));
+    let ml_rmse = truth.and_then(|t| metrics::rms(&metrics::errors(&ml, t)));
+    let crlbs: Vec<f64> = crlb.iter().flatten().copied().collect();
+    let max_dis = record
+        .thetas
+        .iter()
+        .map(|t| metrics::disagreement(t))
+        .fold(0.0, f64::max);
+    let status = match &error {
+        None => "ok",
+        Some(EngineError::Interrupted { .. }) => "interrupted",
+        Some(_) => "failed",
+    };
+    let note = if real.truth.is_none() {
+        Some(
+            "no truth file was given: error metrics (rmse, ctte, ml_rmse, crlb) are not computed"
+                .to_string(),
+        )
+    } else if done == 0 {
+        Some("no sample completed".to_string())
+    } else {
+        None
+    };
+    let m = RunMetrics {
+        rmse: score.map(|s| s.rmse),
+        rmse_after_burn_in: score.map(|s| s.rmse_after_burn_in),
+        median_error: score.map(|s| s.median_error),
+        final_error: score.map(|s| s.final_error),
+        ctte: score.map(|s| s.ctte),
+        max_disagreement: max_dis,
+        ml_rmse,
+        crlb_rms: metrics::rms(&crlbs),
+        iterations: record.iterations,
+        prox_solves: record.prox_solves(),
+        wall_seconds: record.wall_seconds,
+        engine: opts.engine.as_str().into(),
+        mode: sc.algorithm.mode.as_str().into(),
+        clock: match opts.clock {
+            Clock::Logical => "logical".into(),
+            Clock::Realtime => "realtime".into(),
+        },
+        seed: sc.seed,
+        samples_completed: done,
+        samples: sc.samples,
+        status: status.into(),
+        error: error.as_ref().map(|e| e.to_string()),
+        note,
+        nodes: record
+            .counters
+            .iter()
+            .enumerate()
+            .map(|(node, c)| NodeCounters { node, counters: *c })
+            .collect(),
+    };
+    let dir = &opts.out_dir;
+    std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
+        path: dir.clone(),
+        source: e,
+    })?;
+    write_run_json(dir, sc, opts, status, error.as_ref())?;
+    // track.csv
+    let ctte = errs.as_ref().map(|e| metrics::running_ctte(e));
+    write_csv(
+        &dir.join("track.csv"),
+        &[
+            "sample", "true_x", "true_y", "est_x", "est_y", "error", "ml_x", "ml_y", "crlb",
+            "ctte", "seed",
+        ],
+        (0..done).map(|k| {
+            let t = truth.map(|t| t[k]);
+            vec![
+                k.to_string(),
+                opt(t.map(|p| p.x)),
+                opt(t.map(|p| p.y)),
+                num(est[k].x),
+                num(est[k].y),
+                opt(errs.as_ref().map(|e| e[k])),
+                num(ml[k].x),
+                num(ml[k].y),
+                opt(crlb[k]),
+                opt(ctte.as_ref().map(|c| c[k])),
+                sc.seed.to_string(),
+            ]
+        }),
+    )?;
+    write_csv(
+        &dir.join("nodes.csv"),
+        &["sample", "node", "x", "y", "d", "seed"],
+        record.thetas.iter().enumerate().flat_map(|(k, ts)| {
+            ts.iter().enumerate().map(move |(i, t)| {
+                vec![
+                    k.to_string(),
+                    i.to_string(),
+                    num(t[0]),
+                    num(t[1]),
+                    num(t[2]),
+                    sc.seed.to_string(),
+                ]
+            })
+        }),
+    )?;
+    if !record.schedule.is_empty() {
+        write_csv(
+            &dir.join("schedule.csv"),
+            &["iteration", "v", "w", "seed"],
+            record.schedule.iter().enumerate().map(|(it, (v, w))| {
+                vec![
+                    it.to_string(),
+                    v.to_string(),
+                    w.to_string(),
+                    sc.seed.to_string(),
+                ]
+            }),
+        )?;
+    }
+    write_json(&dir.join("metrics.json"), &m)?;
+    Ok(RunOutcome {
+        metrics: m,
+        record,
+        out_dir: dir.clone(),
+        error,
+    })
+}
+
+/// Shortest round-trip decimal form of a float (exact replay from CSV).
+fn num(x: f64) -> String {
+    format!("{x:?}")
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(num).unwrap_or_default()
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
+    move |e| RunError::Output {
+        path: path.to_path_buf(),
+        source: e,
+    }
+}
+
+/// Write a CSV file with a header and string rows.
+pub fn write_csv(
+    path: &Path,
+    header: &[&str],
+    rows: impl Iterator<Item = Vec<String>>,
+) -> Result<(), RunError> {
+    let f = std::fs::File::create(path).map_err(io_err(path))?;
+    let mut w = csv::Writer::from_writer(std::io::BufWriter::new(f));
+    let to_io = |e: csv::Error| RunError::Output {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    };
+    w.write_record(header).map_err(to_io)?;
+    for r in rows {
+        w.write_record(&r).map_err(to_io)?;
+    }
+    w.flush().map_err(io_err(path))
+}
+
+/// Write pretty JSON.
+pub fn write_json<T: Serialize>(path: &Path, v: &T) -> Result<(), RunError> {
+    let mut f = std::fs::File::create(path).map_err(io_err(path))?;
+    let s = serde_json::to_string_pretty(v).map_err(|e| RunError::Output {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })?;
+    f.write_all(s.as_bytes()).map_err(io_err(path))?;
+    f.write_all(b"\n").map_err(io_err(path))
+}
+
+fn write_run_json(
+    dir: &Path,
+    sc: &Scenario,
+    opts: &RunOptions,
+    status: &str,
+    error: Option<&EngineError>,
+) -> Result<(), RunError> {
+    let mut resolved = sc.file.clone();
+    resolved.seed = sc.seed;
+    resolved.algorithm.mode = sc.algorithm.mode;
+    resolved.algorithm.local_solver = sc.algorithm.local_solver;
+    resolved.algorithm.iterations_per_sample = sc.algorithm.iterations_per_sample;
+    if let Some(t) = &mut resolved.target {
+        t.samples = sc.samples;
+    }
+    resolved.geometry.receivers = sc.geometry.receivers.iter().map(|r| [r.x, r.y]).collect();
+    let v = serde_json::json!({
+        "scenario_file": sc.path.display().to_string(),
+        "scenario": resolved,
+        "edges": sc.graph.edges(),
+        "seed": sc.seed,
+        "crate_version": env!("CARGO_PKG_VERSION"),
+        "engine": opts.engine.as_str(),
+        "mode": sc.algorithm.mode.as_str(),
+        "clock": match opts.clock { Clock::Logical => "logical", Clock::Realtime => "realtime" },
+        "local_solver": sc.algorithm.local_solver,
+        "command_line": opts.command_line,
+        "status": status,
+        "error": error.map(|e| e.to_string()),
+    });
+    write_json(&dir.join("run.json"), &v)
+}
