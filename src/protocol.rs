@@ -527,22 +527,24 @@ impl NodeCore {
                 }
             }
             PeerMsg::Accept { from, seq, r } => {
-                if let Some(ex) = self.exchange {
-                    if ex.partner == from && ex.seq == seq {
-                        let a = pair_average(&ex.r, &r);
-                        self.theta = ex.theta;
-                        dr_update(&mut self.u, &ex.theta, &ex.r, a);
-                        self.counters.updates += 1;
-                        self.exchange = None;
-                    }
+                if let Some(ex) = self.exchange
+                    && ex.partner == from
+                    && ex.seq == seq
+                {
+                    let a = pair_average(&ex.r, &r);
+                    self.theta = ex.theta;
+                    dr_update(&mut self.u, &ex.theta, &ex.r, a);
+                    self.counters.updates += 1;
+                    self.exchange = None;
                 }
             }
             PeerMsg::Decline { from, seq } => {
-                if let Some(ex) = self.exchange {
-                    if ex.partner == from && ex.seq == seq {
-                        self.exchange = None;
-                        self.counters.declines += 1;
-                    }
+                if let Some(ex) = self.exchange
+                    && ex.partner == from
+                    && ex.seq == seq
+                {
+                    self.exchange = None;
+                    self.counters.declines += 1;
                 }
             }
         }

@@ -453,14 +453,14 @@ impl Scenario {
                     None => None,
                 };
                 let samples = meas.len();
-                if let Some(t) = &file.target {
-                    if t.samples > samples {
-                        return Err(InputError::at(
-                            path,
-                            "target.samples",
-                            format!("asks for {} samples but the trace has {samples}", t.samples),
-                        ));
-                    }
+                if let Some(t) = &file.target
+                    && t.samples > samples
+                {
+                    return Err(InputError::at(
+                        path,
+                        "target.samples",
+                        format!("asks for {} samples but the trace has {samples}", t.samples),
+                    ));
                 }
                 let samples = file.target.as_ref().map_or(samples, |t| t.samples);
                 (
@@ -667,16 +667,16 @@ impl Scenario {
         if n == 0 {
             return Err(cli_error("--samples", "must be at least 1"));
         }
-        if let DataSource::Trace { measurements, .. } = &self.source {
-            if n > measurements.len() {
-                return Err(cli_error(
-                    "--samples",
-                    format!(
-                        "the trace has only {} samples, asked for {n}",
-                        measurements.len()
-                    ),
-                ));
-            }
+        if let DataSource::Trace { measurements, .. } = &self.source
+            && n > measurements.len()
+        {
+            return Err(cli_error(
+                "--samples",
+                format!(
+                    "the trace has only {} samples, asked for {n}",
+                    measurements.len()
+                ),
+            ));
         }
         if self.algorithm.burn_in >= n {
             return Err(cli_error(
