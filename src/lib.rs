@@ -7,6 +7,7 @@
 
 pub mod central;
 pub mod cli;
+pub mod codec;
 pub mod engine;
 pub mod error;
 pub mod geometry;

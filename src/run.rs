@@ -6,6 +6,8 @@
 //! * `track.csv`: `sample,true_x,true_y,est_x,est_y,error,ml_x,ml_y,crlb,ctte,seed`;
 //! * `nodes.csv`: `sample,node,x,y,d,seed`;
 //! * `schedule.csv`: `iteration,v,w,seed` (async runs);
+//! * `measurements.csv`: every measurement in the trace format (replayable);
+//! * `truth.csv`: `sample,x,y,seed` when the truth is known;
 //! * `metrics.json`: the metrics, see [`RunMetrics`].
 
 use crate::central;
@@ -315,6 +317,20 @@ pub fn finish(
             }),
         )?;
     }
+    write_trace(
+        &dir.join("measurements.csv"),
+        &real.measurements[..done],
+        sc.seed,
+    )?;
+    if let Some(t) = truth {
+        write_csv(
+            &dir.join("truth.csv"),
+            &["sample", "x", "y", "seed"],
+            t.iter()
+                .enumerate()
+                .map(|(k, p)| vec![k.to_string(), num(p.x), num(p.y), sc.seed.to_string()]),
+        )?;
+    }
     write_json(&dir.join("metrics.json"), &m)?;
     Ok(RunOutcome {
         metrics: m,
@@ -322,6 +338,56 @@ pub fn finish(
         out_dir: dir.clone(),
         error,
     })
+}
+
+/// Write measurements in the trace format
+/// (`sample,receiver,transmitter,kind,value,seed`), so a run can be replayed.
+pub fn write_trace(
+    path: &Path,
+    samples: &[crate::measure::SampleMeasurements],
+    seed: u64,
+) -> Result<(), RunError> {
+    let rows = samples.iter().enumerate().flat_map(|(k, s)| {
+        s.nodes.iter().enumerate().flat_map(move |(n, nm)| {
+            let mut rows = Vec::new();
+            for &(m, v) in &nm.bistatic {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    m.to_string(),
+                    "bistatic_range".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
+            if let Some(v) = nm.doa {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    String::new(),
+                    "doa".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
+            if let Some(v) = nm.range {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    String::new(),
+                    "range".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
+            rows
+        })
+    });
+    write_csv(
+        path,
+        &["sample", "receiver", "transmitter", "kind", "value", "seed"],
+        rows,
+    )
 }
 
 /// Shortest round-trip decimal form of a float (exact replay from CSV).

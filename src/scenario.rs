@@ -869,18 +869,28 @@ fn csv_reader(path: &Path, header: &[&str]) -> Result<csv::Reader<std::fs::File>
         .headers()
         .map_err(|e| InputError::at(path, "line 1", format!("cannot read header: {e}")))?;
     let got: Vec<&str> = h.iter().collect();
-    if got != header {
+    // sonarnet's own outputs append a `seed` column; accept and ignore it.
+    let with_seed = got.len() == header.len() + 1
+        && got[..header.len()] == *header
+        && got[header.len()] == "seed";
+    if got != header && !with_seed {
         return Err(InputError::at(
             path,
             "line 1",
             format!(
-                "header must be `{}`, got `{}`",
+                "header must be `{}` (optionally followed by `,seed`), got `{}`",
                 header.join(","),
                 got.join(",")
             ),
         ));
     }
     Ok(rdr)
+}
+
+fn trim_record(rec: &csv::StringRecord, n: usize) -> csv::StringRecord {
+    let mut r: csv::StringRecord = rec.iter().take(n).collect();
+    r.set_position(rec.position().cloned());
+    r
 }
 
 fn row_line(rec: &csv::StringRecord) -> String {
@@ -906,7 +916,7 @@ pub fn read_trace(path: &Path, geometry: &Geometry) -> Result<Vec<SampleMeasurem
             InputError::at(path, loc, e.to_string())
         })?;
         let line = row_line(&rec);
-        let row: TraceRow = rec
+        let row: TraceRow = trim_record(&rec, 5)
             .deserialize(None)
             .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
         if !row.value.is_finite() {
@@ -998,7 +1008,7 @@ pub fn read_truth(path: &Path) -> Result<Vec<Vec2>, InputError> {
     for rec in rdr.records() {
         let rec = rec.map_err(|e| InputError::file(path, e.to_string()))?;
         let line = row_line(&rec);
-        let (k, x, y): (usize, f64, f64) = rec
+        let (k, x, y): (usize, f64, f64) = trim_record(&rec, 3)
             .deserialize(None)
             .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
         if k != out.len() {
@@ -1024,7 +1034,7 @@ pub fn read_schedule(path: &Path, graph: &Graph) -> Result<Vec<(usize, usize)>, 
     for rec in rdr.records() {
         let rec = rec.map_err(|e| InputError::file(path, e.to_string()))?;
         let line = row_line(&rec);
-        let (it, v, w): (usize, usize, usize) = rec
+        let (it, v, w): (usize, usize, usize) = trim_record(&rec, 3)
             .deserialize(None)
             .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
         if it != out.len() {

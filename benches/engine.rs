@@ -1,0 +1,52 @@
+//! Engine benchmarks on `mourya2017-spiral` (N = 6): one DR iteration (async
+//! pair or sync round, measured over one sample of 50 iterations) and the
+//! whole 100-sample run in-process.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use sonarnet::run;
+use sonarnet::scenario::{Mode, Scenario};
+use std::hint::black_box;
+use std::path::Path;
+
+fn spiral(mode: Mode, samples: usize) -> Scenario {
+    Scenario::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenarios/mourya2017-spiral.toml"
+    )))
+    .expect("scenario")
+    .with_mode(mode)
+    .expect("mode")
+    .with_samples(samples)
+    .expect("samples")
+}
+
+fn iterations(c: &mut Criterion) {
+    let mut g = c.benchmark_group("dr_iteration_n6");
+    for mode in [Mode::Async, Mode::Sync] {
+        let sc = spiral(mode, 11);
+        let real = sc.realize(sc.seed);
+        g.throughput(Throughput::Elements(sc.total_iterations() as u64));
+        g.bench_function(mode.as_str(), |b| {
+            b.iter(|| black_box(run::run_inprocess(&sc, &real, &mut |_, _| {})))
+        });
+    }
+    g.finish();
+}
+
+fn whole_run(c: &mut Criterion) {
+    let mut g = c.benchmark_group("spiral_run_inprocess");
+    g.sample_size(20);
+    for mode in [Mode::Async, Mode::Sync] {
+        let sc = spiral(mode, 100);
+        g.bench_function(mode.as_str(), |b| {
+            b.iter(|| {
+                let real = sc.realize(sc.seed);
+                black_box(run::run_inprocess(&sc, &real, &mut |_, _| {}))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, iterations, whole_run);
+criterion_main!(benches);

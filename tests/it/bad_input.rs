@@ -1,0 +1,164 @@
+//! Bad input gives one clear message naming the file, the key or line and
+//! the reason, and the CLI exits with code 2.
+
+use crate::util::{TempDir, sonarnet};
+use std::time::Duration;
+
+const GOOD: &str = r#"
+name = "tiny"
+seed = 1
+[geometry]
+transmitters = [[0.0, 0.0]]
+receivers = [[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0]]
+[network]
+edges = [[0, 1], [1, 2]]
+[target]
+samples = 3
+motion = { model = "static", position = [10.0, 20.0] }
+[measurements]
+doa = true
+range_noise = { model = "gaussian", sigma = 1.0 }
+doa_noise = { model = "gaussian", sigma = 0.1 }
+[algorithm]
+mode = "async"
+gamma = 1e-6
+iterations_per_sample = 5
+"#;
+
+fn run_bad(text: &str, extra: &[(&str, &str)]) -> (i32, String, std::path::PathBuf) {
+    let tmp = TempDir::new("bad");
+    for (name, body) in extra {
+        tmp.write(name, body);
+    }
+    let p = tmp.write("scenario.toml", text);
+    let out = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--out",
+            tmp.path().join("out").to_str().unwrap(),
+        ],
+        Duration::from_secs(60),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    (out.status.code().unwrap_or(-1), stderr, p)
+}
+
+fn assert_clear(code: i32, stderr: &str, file: &std::path::Path, needles: &[&str]) {
+    assert_eq!(
+        code, 2,
+        "exit code must be 2 for bad input; stderr:\n{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "must not panic:\n{stderr}");
+    assert_eq!(
+        stderr.matches("error:").count(),
+        1,
+        "exactly one error line:\n{stderr}"
+    );
+    let fname = file.file_name().unwrap().to_string_lossy();
+    assert!(
+        stderr.contains(fname.as_ref()),
+        "message must name {fname}:\n{stderr}"
+    );
+    for n in needles {
+        assert!(stderr.contains(n), "message must contain `{n}`:\n{stderr}");
+    }
+}
+
+#[test]
+fn the_good_scenario_of_these_tests_runs() {
+    let (code, stderr, _) = run_bad(GOOD, &[]);
+    assert_eq!(code, 0, "{stderr}");
+}
+
+#[test]
+fn malformed_toml_names_the_line() {
+    let text = GOOD.replace("gamma = 1e-6", "gamma = = 1e-6");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["line 18"]);
+}
+
+#[test]
+fn an_unknown_key_is_named() {
+    let text = GOOD.replace("gamma = 1e-6", "gamma = 1e-6\ngama = 2.0");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["unknown field `gama`", "line 19"]);
+}
+
+#[test]
+fn a_disconnected_graph_is_rejected_with_the_unreachable_node() {
+    let text = GOOD.replace("edges = [[0, 1], [1, 2]]", "edges = [[0, 1]]");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["network.edges", "disconnected", "node 2"],
+    );
+}
+
+#[test]
+fn a_nan_in_a_trace_names_the_trace_and_line() {
+    let text = GOOD
+        .replace(
+            "[target]\nsamples = 3\nmotion = { model = \"static\", position = [10.0, 20.0] }\n",
+            "",
+        )
+        .replace("doa = true", "doa = true\ntrace = \"trace.csv\"");
+    let trace =
+        "sample,receiver,transmitter,kind,value\n0,0,0,bistatic_range,200.0\n0,1,,doa,NaN\n";
+    let (code, stderr, _) = run_bad(&text, &[("trace.csv", trace)]);
+    let tmp = std::path::PathBuf::from("trace.csv");
+    assert_clear(code, &stderr, &tmp, &["line 3", "finite"]);
+}
+
+#[test]
+fn a_missing_trace_file_is_named() {
+    let text = GOOD
+        .replace(
+            "[target]\nsamples = 3\nmotion = { model = \"static\", position = [10.0, 20.0] }\n",
+            "",
+        )
+        .replace("doa = true", "doa = true\ntrace = \"nowhere.csv\"");
+    let (code, stderr, _) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        std::path::Path::new("nowhere.csv"),
+        &["cannot open"],
+    );
+}
+
+#[test]
+fn a_schedule_that_names_a_non_edge_is_rejected() {
+    let text = GOOD.replace(
+        "iterations_per_sample = 5",
+        "iterations_per_sample = 1\nschedule = \"s.csv\"",
+    );
+    let sched = "iteration,v,w\n0,0,1\n1,0,2\n2,1,2\n";
+    let (code, stderr, _) = run_bad(&text, &[("s.csv", sched)]);
+    assert_clear(
+        code,
+        &stderr,
+        std::path::Path::new("s.csv"),
+        &["line 3", "(0, 2) is not an edge"],
+    );
+}
+
+#[test]
+fn a_negative_gamma_is_rejected_with_its_key() {
+    let text = GOOD.replace("gamma = 1e-6", "gamma = -1.0");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["algorithm.gamma", "> 0"]);
+}
+
+#[test]
+fn usage_errors_exit_with_code_2() {
+    let out = sonarnet(&["run"], Duration::from_secs(30));
+    assert_eq!(out.status.code(), Some(2));
+    let out = sonarnet(
+        &["run", "x.toml", "--mode", "sideways"],
+        Duration::from_secs(30),
+    );
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -1,0 +1,104 @@
+//! The message-driven engine equals a direct, sequential transcription of
+//! seed 002 eq. (11) (async) and of the sync consensus update, bit for bit.
+
+use crate::util::scenario;
+use sonarnet::engine::Scheduler;
+use sonarnet::geometry::{Vec2, Vec3};
+use sonarnet::local::LocalProblem;
+use sonarnet::prox::prox;
+use sonarnet::run;
+use sonarnet::scenario::{Mode, Scenario};
+
+/// The textbook loop: no messages, no actors.
+fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
+    let real = sc.realize(sc.seed);
+    let n = sc.graph.len();
+    let a = &sc.algorithm;
+    let mut u = vec![a.init_u; n];
+    let mut theta = u.clone();
+    let mut sched = Scheduler::new(sc, sc.seed);
+    let mut out = Vec::new();
+    for k in 0..sc.samples {
+        let probs: Vec<LocalProblem> = (0..n)
+            .map(|i| {
+                LocalProblem::build(
+                    sc.geometry.receivers[i],
+                    &sc.geometry.transmitters,
+                    sc.measurements.omega,
+                    &real.measurements[k].nodes[i],
+                )
+            })
+            .collect();
+        for _ in 0..a.iterations_per_sample {
+            match a.mode {
+                Mode::Async => {
+                    let (v, w) = sched.next_pair();
+                    let tv = prox(a.local_solver, &probs[v], &u[v], a.gamma).unwrap();
+                    let tw = prox(a.local_solver, &probs[w], &u[w], a.gamma).unwrap();
+                    let rv = 2.0 * tv - u[v];
+                    let rw = 2.0 * tw - u[w];
+                    let avg = Vec2::new((rv[0] + rw[0]) / 2.0, (rv[1] + rw[1]) / 2.0);
+                    for (i, t, r) in [(v, tv, rv), (w, tw, rw)] {
+                        u[i] += Vec3::new(avg.x, avg.y, r[2]) - t;
+                        theta[i] = t;
+                    }
+                }
+                Mode::Sync => {
+                    let ts: Vec<Vec3> = (0..n)
+                        .map(|i| prox(a.local_solver, &probs[i], &u[i], a.gamma).unwrap())
+                        .collect();
+                    let rs: Vec<Vec3> = (0..n).map(|i| 2.0 * ts[i] - u[i]).collect();
+                    let mut s = Vec2::zeros();
+                    for r in &rs {
+                        s.x += r[0];
+                        s.y += r[1];
+                    }
+                    let avg = s / n as f64;
+                    for i in 0..n {
+                        u[i] += Vec3::new(avg.x, avg.y, rs[i][2]) - ts[i];
+                        theta[i] = ts[i];
+                    }
+                }
+            }
+        }
+        out.push(theta.clone());
+    }
+    out
+}
+
+fn check(mode: Mode, file: &str) {
+    let sc = Scenario::load(&scenario(file))
+        .unwrap()
+        .with_mode(mode)
+        .unwrap()
+        .with_samples(25)
+        .unwrap()
+        .with_seed(11);
+    let real = sc.realize(sc.seed);
+    let (rec, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
+    res.unwrap();
+    let want = reference(&sc);
+    assert_eq!(rec.thetas.len(), want.len());
+    for (k, (a, b)) in rec.thetas.iter().zip(&want).enumerate() {
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(
+                x.iter()
+                    .zip(y.iter())
+                    .all(|(p, q)| p.to_bits() == q.to_bits()),
+                "{file} {mode:?}: sample {k} node {i}: engine {x:?} != reference {y:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn async_engine_equals_the_sequential_transcription_of_eq_11_bit_for_bit() {
+    check(Mode::Async, "mourya2017-spiral.toml");
+    check(Mode::Async, "rgg16-waypoints.toml");
+}
+
+#[test]
+fn sync_engine_equals_the_sequential_consensus_update_bit_for_bit() {
+    check(Mode::Sync, "mourya2017-spiral.toml");
+    check(Mode::Sync, "rgg16-waypoints.toml");
+}

@@ -1,0 +1,9 @@
+//! The one integration-test binary (ripgrep style): shared helpers in `util`,
+//! one module per area.
+
+mod bad_input;
+mod engine;
+mod paper;
+mod replay;
+mod scenarios;
+mod util;
