@@ -54,10 +54,10 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
                         s.y += r[1];
                     }
                     let avg = s / n as f64;
-                    for i in 0..n {
-                        u[i] += Vec3::new(avg.x, avg.y, rs[i][2]) - ts[i];
-                        theta[i] = ts[i];
+                    for ((ui, t), r) in u.iter_mut().zip(&ts).zip(&rs) {
+                        *ui += Vec3::new(avg.x, avg.y, r[2]) - t;
                     }
+                    theta = ts;
                 }
             }
         }
