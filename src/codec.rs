@@ -53,8 +53,10 @@ pub mod kind {
     pub const ITER_DONE: u32 = 33;
     /// Report: failure, `aux` = reason code.
     pub const FAILED: u32 = 34;
-    /// Report: time spent (`data[0]` = prox seconds, `data[1]` = waiting seconds).
+    /// Report: time spent (`data[0]` = busy seconds, `data[1]` = waiting seconds).
     pub const TIMING: u32 = 35;
+    /// Report: the node process is up and its transport is open.
+    pub const READY: u32 = 36;
 }
 
 fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Frame {
@@ -374,6 +376,11 @@ pub struct Timing {
     pub wait_seconds: f64,
 }
 
+/// Encode a READY report.
+pub fn encode_ready(node: u32) -> Frame {
+    frame(kind::READY, node, 0, 0, 0, &[])
+}
+
 /// Encode a timing report.
 pub fn encode_timing(node: u32, t: &Timing) -> Frame {
     frame(
@@ -391,6 +398,11 @@ pub fn encode_timing(node: u32, t: &Timing) -> Frame {
 pub enum CoordinatorInput {
     /// A protocol report.
     Report(Report),
+    /// A node process is up.
+    Ready {
+        /// Node id.
+        node: u32,
+    },
     /// A node's time split.
     Timing {
         /// Node id.
@@ -454,6 +466,7 @@ impl ReportDecoder {
                     wait_seconds: f.data[1],
                 },
             })),
+            READY => Ok(Some(CoordinatorInput::Ready { node: f.from })),
             k => Err(DecodeError::UnknownKind(k)),
         }
     }

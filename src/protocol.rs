@@ -24,7 +24,8 @@ use std::collections::{BTreeMap, VecDeque};
 /// Everything a node knows about the world: itself, its neighbours and the
 /// transmitters. It never learns another node's measurements or state except
 /// through the gossip messages below.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct NodeConfig {
     /// This node's id.
     pub id: u32,
@@ -51,7 +52,8 @@ pub struct NodeConfig {
 }
 
 /// How a run is clocked, as far as a node is concerned.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum NodeMode {
     /// Synchronous rounds; positions averaged over all nodes.
     Sync,

@@ -1,0 +1,470 @@
+//! The multi-process engine: one `sonarnet-node` OS process per receiver,
+//! frames over the transport (iceoryx2 shared memory), this process as the
+//! coordinator.
+//!
+//! Life of a run:
+//! 1. [`cleanup_stale_resources`] removes what crashed runs left behind.
+//! 2. The coordinator creates the run's services (a fresh run id, limits sized
+//!    to the graph) and spawns the N children. Each child gets a
+//!    [`NodeLaunch`] (its own [`NodeConfig`] and the transport topology) as
+//!    JSON, runs in its own process group (a terminal Ctrl-C reaches only the
+//!    coordinator) and receives SIGTERM if the coordinator dies
+//!    (`PR_SET_PDEATHSIG`).
+//! 3. Every node reports READY; the coordinator then drives the samples with
+//!    the shared [`drive`](super::drive) logic, or the realtime loop.
+//! 4. On drop the coordinator sends STOP, waits for every child, kills the
+//!    stragglers, reaps every one of them, and cleans up what a killed child
+//!    left in `/dev/shm` and `/tmp/iceoryx2`.
+
+use super::{EngineError, Network, RunRecord};
+use crate::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
+use crate::protocol::{Command, Counters, NodeConfig, Report};
+use crate::scenario::{Realization, Scenario};
+use crate::transport::{Endpoint, IoxTransport, RunTopology, Transport, TransportError};
+use crate::wire::Frame;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command as Proc, ExitStatus, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Everything a node process is told at start (passed as JSON in `--launch`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeLaunch {
+    /// The run's IPC namespace.
+    pub run_id: String,
+    /// Directed neighbour lists of every node: the transport sizes its
+    /// services from them (the node gossips only with its own list).
+    pub topology: Vec<Vec<u32>>,
+    /// Frames in flight per sender/receiver pair.
+    pub inbox_buffer: usize,
+    /// Broadcast group buffer (sync mode), if any.
+    pub broadcast_buffer: Option<usize>,
+    /// Send timeout (ms).
+    pub send_timeout_ms: u64,
+    /// The node's own configuration.
+    pub node: NodeConfig,
+    /// Log protocol events to stderr.
+    pub verbose: bool,
+}
+
+impl NodeLaunch {
+    /// The transport topology this launch describes.
+    pub fn run_topology(&self) -> Result<RunTopology, TransportError> {
+        let t = RunTopology::new(self.run_id.clone(), self.topology.clone(), self.inbox_buffer)?
+            .with_send_timeout(Duration::from_millis(self.send_timeout_ms));
+        match self.broadcast_buffer {
+            Some(b) => t.with_broadcast(b),
+            None => Ok(t),
+        }
+    }
+}
+
+/// Where to find the `sonarnet-node` binary: `$SONARNET_NODE_BIN`, else next
+/// to the current executable (or its parent directory, for test binaries in
+/// `target/*/deps`).
+pub fn default_node_binary() -> PathBuf {
+    if let Some(p) = std::env::var_os("SONARNET_NODE_BIN") {
+        return PathBuf::from(p);
+    }
+    let exe = std::env::current_exe().unwrap_or_default();
+    let dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
+    let here = dir.join("sonarnet-node");
+    if here.exists() {
+        return here;
+    }
+    dir.parent()
+        .map(|p| p.join("sonarnet-node"))
+        .unwrap_or(here)
+}
+
+/// A flag set by SIGINT/SIGTERM (registered once per process).
+pub fn interrupt_flag() -> Arc<AtomicBool> {
+    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
+    FLAG.get_or_init(|| {
+        let f = Arc::new(AtomicBool::new(false));
+        for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+            // Registration only fails for forbidden signals; these are allowed.
+            let _ = signal_hook::flag::register(sig, Arc::clone(&f));
+        }
+        f
+    })
+    .clone()
+}
+
+/// Options of the multi-process engine.
+#[derive(Debug, Clone)]
+pub struct ProcessOptions {
+    /// The node binary.
+    pub node_binary: PathBuf,
+    /// Log with node ids.
+    pub verbose: bool,
+    /// How long to wait for all nodes to report READY.
+    pub startup_timeout: Duration,
+}
+
+impl Default for ProcessOptions {
+    fn default() -> Self {
+        ProcessOptions {
+            node_binary: default_node_binary(),
+            verbose: false,
+            startup_timeout: Duration::from_secs(60),
+        }
+    }
+}
+
+/// The coordinator side of a multi-process run.
+pub struct Processes {
+    tx: IoxTransport,
+    children: Vec<Option<Child>>,
+    dead: Vec<bool>,
+    decoder: ReportDecoder,
+    frames: Vec<Frame>,
+    encoded: Vec<Frame>,
+    interrupt: Arc<AtomicBool>,
+    /// Latest time split per node.
+    pub timing: Vec<Timing>,
+    /// Seconds from the start of spawning to the last READY.
+    pub startup_seconds: f64,
+    /// Sample currently being driven (for error messages).
+    pub sample: u32,
+    verbose: bool,
+    run_id: String,
+}
+
+fn status_text(s: &ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    match (s.code(), s.signal()) {
+        (Some(c), _) => format!("exit code {c}"),
+        (None, Some(sig)) => format!("killed by signal {sig}"),
+        _ => "unknown status".into(),
+    }
+}
+
+fn terr(e: TransportError) -> EngineError {
+    EngineError::Transport(e.to_string())
+}
+
+impl Processes {
+    /// Create the run's services and spawn one node process per receiver;
+    /// returns once every node reported READY.
+    pub fn spawn(
+        configs: Vec<NodeConfig>,
+        graph_neighbours: Vec<Vec<u32>>,
+        inbox_buffer: usize,
+        broadcast: bool,
+        opts: &ProcessOptions,
+    ) -> Result<Processes, EngineError> {
+        if !opts.node_binary.exists() {
+            return Err(EngineError::Transport(format!(
+                "node binary {} not found (build it with `cargo build --release`, or set SONARNET_NODE_BIN)",
+                opts.node_binary.display()
+            )));
+        }
+        let interrupt = interrupt_flag();
+        let _ = crate::transport::cleanup_stale_resources();
+        let run_id = crate::transport::unique_run_id();
+        let n = configs.len();
+        // Sync nodes run in lock-step rounds: at most two rounds in flight.
+        let broadcast_buffer = broadcast.then_some(4);
+        let launch0 = NodeLaunch {
+            run_id: run_id.clone(),
+            topology: graph_neighbours,
+            inbox_buffer,
+            broadcast_buffer,
+            send_timeout_ms: 30_000,
+            node: configs[0].clone(),
+            verbose: opts.verbose,
+        };
+        let topo = launch0.run_topology().map_err(terr)?;
+        let tx = IoxTransport::coordinator(&topo).map_err(terr)?;
+        let start = Instant::now();
+        let mut p = Processes {
+            tx,
+            children: Vec::with_capacity(n),
+            dead: vec![false; n],
+            decoder: ReportDecoder::default(),
+            frames: Vec::new(),
+            encoded: Vec::new(),
+            interrupt,
+            timing: vec![Timing::default(); n],
+            startup_seconds: 0.0,
+            sample: 0,
+            verbose: opts.verbose,
+            run_id,
+        };
+        for cfg in configs {
+            let id = cfg.id;
+            let launch = NodeLaunch {
+                node: cfg,
+                ..launch0.clone()
+            };
+            let json = serde_json::to_string(&launch)
+                .map_err(|e| EngineError::Transport(format!("encode launch of node {id}: {e}")))?;
+            let mut cmd = Proc::new(&opts.node_binary);
+            cmd.arg("--launch")
+                .arg(json)
+                .stdin(Stdio::null())
+                .stdout(Stdio::null())
+                .stderr(Stdio::inherit());
+            {
+                use std::os::unix::process::CommandExt;
+                cmd.process_group(0);
+                // SAFETY: prctl is async-signal-safe; nothing else runs in the child
+                // between fork and exec.
+                unsafe {
+                    cmd.pre_exec(|| {
+                        if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
+                            return Err(std::io::Error::last_os_error());
+                        }
+                        Ok(())
+                    });
+                }
+            }
+            match cmd.spawn() {
+                Ok(child) => p.children.push(Some(child)),
+                Err(e) => {
+                    return Err(EngineError::Transport(format!(
+                        "cannot start {} for node {id}: {e}",
+                        opts.node_binary.display()
+                    )));
+                }
+            }
+        }
+        p.log(format_args!("spawned {n} node processes (run {})", p.run_id));
+        // Wait for READY from everyone.
+        let mut ready = vec![false; n];
+        let mut count = 0;
+        while count < n {
+            if start.elapsed() > opts.startup_timeout {
+                let missing: Vec<usize> = (0..n).filter(|&i| !ready[i]).collect();
+                return Err(EngineError::Transport(format!(
+                    "nodes {missing:?} did not come up within {:?}",
+                    opts.startup_timeout
+                )));
+            }
+            for input in p.poll(Duration::from_millis(50))? {
+                if let CoordinatorInput::Ready { node } = input {
+                    let i = node as usize;
+                    if i < n && !ready[i] {
+                        ready[i] = true;
+                        count += 1;
+                    }
+                }
+            }
+        }
+        p.startup_seconds = start.elapsed().as_secs_f64();
+        p.log(format_args!("all {n} nodes ready after {:.3} s", p.startup_seconds));
+        Ok(p)
+    }
+
+    fn log(&self, args: std::fmt::Arguments<'_>) {
+        if self.verbose {
+            eprintln!("[coordinator] {args}");
+        }
+    }
+
+    /// Nodes that died so far.
+    pub fn dead(&self) -> &[bool] {
+        &self.dead
+    }
+
+    /// Check every child; returns the first newly dead node and how it died.
+    pub fn check_children(&mut self) -> Option<(u32, String)> {
+        for (i, c) in self.children.iter_mut().enumerate() {
+            if self.dead[i] {
+                continue;
+            }
+            if let Some(child) = c
+                && let Ok(Some(status)) = child.try_wait()
+            {
+                self.dead[i] = true;
+                *c = None;
+                return Some((i as u32, status_text(&status)));
+            }
+        }
+        None
+    }
+
+    /// Receive and decode whatever arrives within `timeout`. Fails on a dead
+    /// child (unless `tolerate_death`), an interrupt, or a transport error.
+    fn poll(&mut self, timeout: Duration) -> Result<Vec<CoordinatorInput>, EngineError> {
+        self.poll_inner(timeout, false)
+    }
+
+    fn poll_inner(
+        &mut self,
+        timeout: Duration,
+        tolerate_death: bool,
+    ) -> Result<Vec<CoordinatorInput>, EngineError> {
+        if self.interrupt.load(Ordering::SeqCst) {
+            return Err(EngineError::Interrupted {
+                sample: self.sample,
+            });
+        }
+        self.frames.clear();
+        self.tx.recv(&mut self.frames, Some(timeout)).map_err(terr)?;
+        let mut out = Vec::new();
+        for f in &self.frames {
+            match self.decoder.feed(f) {
+                Ok(Some(CoordinatorInput::Timing { node, timing })) => {
+                    if let Some(t) = self.timing.get_mut(node as usize) {
+                        *t = timing;
+                    }
+                }
+                Ok(Some(x)) => out.push(x),
+                Ok(None) => {}
+                Err(e) => return Err(EngineError::Transport(format!("bad frame: {e}"))),
+            }
+        }
+        if !tolerate_death && let Some((node, how)) = self.check_children() {
+            return Err(EngineError::NodeDied {
+                node,
+                sample: self.sample,
+                how,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Send a control message to one node.
+    pub fn control(&mut self, node: u32, c: &Control) -> Result<(), EngineError> {
+        if self.dead.get(node as usize).copied().unwrap_or(true) {
+            return Ok(());
+        }
+        self.encoded.clear();
+        codec::encode_control(c, &mut self.encoded);
+        for f in &self.encoded {
+            self.tx.send(Endpoint::Node(node), f).map_err(terr)?;
+        }
+        Ok(())
+    }
+
+    /// Receive reports for up to `timeout`, tolerating dead children (the
+    /// caller inspects [`Processes::check_children`]).
+    pub fn poll_reports(&mut self, timeout: Duration) -> Result<Vec<Report>, EngineError> {
+        Ok(self
+            .poll_inner(timeout, true)?
+            .into_iter()
+            .filter_map(|x| match x {
+                CoordinatorInput::Report(r) => Some(r),
+                _ => None,
+            })
+            .collect())
+    }
+
+    /// Flush queued frames.
+    pub fn flush_all(&mut self) -> Result<(), EngineError> {
+        self.tx.flush().map_err(terr)
+    }
+
+    /// Stop every node and reap it (idempotent; also done on drop).
+    pub fn shutdown(&mut self) {
+        let n = self.children.len();
+        for i in 0..n {
+            if !self.dead[i] {
+                let _ = self.control(i as u32, &Control::Stop);
+            }
+        }
+        let _ = self.tx.flush();
+        let deadline = Instant::now() + Duration::from_secs(5);
+        loop {
+            let mut alive = 0;
+            for c in self.children.iter_mut() {
+                if let Some(child) = c {
+                    match child.try_wait() {
+                        Ok(Some(_)) => *c = None,
+                        _ => alive += 1,
+                    }
+                }
+            }
+            if alive == 0 {
+                break;
+            }
+            if Instant::now() > deadline {
+                for c in self.children.iter_mut().flatten() {
+                    let _ = c.kill();
+                    let _ = c.wait();
+                }
+                self.children.iter_mut().for_each(|c| *c = None);
+                break;
+            }
+            // Keep draining so no node blocks on a full coordinator inbox.
+            self.frames.clear();
+            let _ = self.tx.recv(&mut self.frames, Some(Duration::from_millis(10)));
+        }
+        let killed = self.dead.iter().any(|&d| d);
+        if killed {
+            let _ = crate::transport::cleanup_stale_resources();
+        }
+    }
+}
+
+impl Drop for Processes {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+impl Network for Processes {
+    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError> {
+        if let Command::Sample { sample, .. } = &cmd {
+            self.sample = *sample;
+        }
+        self.control(node, &Control::Command(cmd))
+    }
+
+    fn flush(&mut self) -> Result<(), EngineError> {
+        self.flush_all()
+    }
+
+    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError> {
+        loop {
+            let got = self.poll(Duration::from_millis(50))?;
+            for x in got {
+                if let CoordinatorInput::Report(r) = x {
+                    out.push(r);
+                }
+            }
+            if !out.is_empty() {
+                return Ok(());
+            }
+        }
+    }
+}
+
+/// Run `sc` with logical clocks on node processes.
+pub fn run_logical(
+    sc: &Scenario,
+    real: &Realization,
+    opts: &ProcessOptions,
+    progress: super::Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>, Option<Processes>) {
+    let mode = super::logical_mode(sc.algorithm.mode);
+    let n = sc.graph.len();
+    let configs: Vec<NodeConfig> = (0..n)
+        .map(|i| super::node_config(sc, sc.seed, i, mode))
+        .collect();
+    let neighbours = configs.iter().map(|c| c.neighbours.clone()).collect();
+    let m = sc.geometry.transmitters.len();
+    let inbox = 2 * sc.algorithm.iterations_per_sample + m + 16;
+    let broadcast = sc.algorithm.mode == crate::scenario::Mode::Sync;
+    let mut procs = match Processes::spawn(configs, neighbours, inbox, broadcast, opts) {
+        Ok(p) => p,
+        Err(e) => {
+            return (
+                RunRecord {
+                    counters: vec![Counters::default(); n],
+                    ..Default::default()
+                },
+                Err(e),
+                None,
+            );
+        }
+    };
+    let (rec, res) = super::drive(sc, sc.seed, real, &mut procs, progress);
+    procs.shutdown();
+    (rec, res, Some(procs))
+}
