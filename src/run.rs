@@ -74,6 +74,36 @@ pub struct NodeCounters {
     /// Counters.
     #[serde(flatten)]
     pub counters: Counters,
+    /// Multi-process: seconds spent computing.
+    pub busy_seconds: Option<f64>,
+    /// Multi-process: seconds spent blocked waiting for messages.
+    pub wait_seconds: Option<f64>,
+}
+
+/// Free-running (realtime) statistics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RealtimeStats {
+    /// Fewest exchanges completed in one sample period.
+    pub iterations_per_sample_min: u64,
+    /// Median exchanges per sample period.
+    pub iterations_per_sample_median: f64,
+    /// Most exchanges in one sample period.
+    pub iterations_per_sample_max: u64,
+    /// Declined exchange requests, all nodes.
+    pub declines: u64,
+    /// Network exchange rate (exchanges per second of run time).
+    pub iterations_per_second: f64,
+}
+
+/// A node that died during the run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Death {
+    /// Node id.
+    pub node: u32,
+    /// Sample at which the coordinator noticed.
+    pub sample: u32,
+    /// Exit status or signal.
+    pub how: String,
 }
 
 /// The contents of `metrics.json`. Error metrics are `null` without truth.
@@ -119,6 +149,12 @@ pub struct RunMetrics {
     pub error: Option<String>,
     /// Why some metrics are missing.
     pub note: Option<String>,
+    /// Multi-process: seconds from spawning the nodes to all of them ready.
+    pub startup_seconds: Option<f64>,
+    /// Realtime clock statistics.
+    pub realtime: Option<RealtimeStats>,
+    /// Nodes that died (the gap: they are left out of `theta_bar` from then on).
+    pub deaths: Vec<Death>,
     /// Per-node counters.
     pub nodes: Vec<NodeCounters>,
 }
@@ -205,10 +241,8 @@ pub fn finish(
         .and_then(|e| metrics::score(e, sc.algorithm.burn_in.min(done.saturating_sub(1))));
     let ml_rmse = truth.and_then(|t| metrics::rms(&metrics::errors(&ml, t)));
     let crlbs: Vec<f64> = crlb.iter().flatten().copied().collect();
-    let max_dis = record
-        .thetas
-        .iter()
-        .map(|t| metrics::disagreement(t))
+    let max_dis = (0..done)
+        .map(|k| metrics::disagreement(&record.alive_thetas(k)))
         .fold(0.0, f64::max);
     let status = match &error {
         None => "ok",
@@ -249,11 +283,27 @@ pub fn finish(
         status: status.into(),
         error: error.as_ref().map(|e| e.to_string()),
         note,
+        startup_seconds: record.startup_seconds,
+        realtime: realtime_stats(&record, opts),
+        deaths: record
+            .deaths
+            .iter()
+            .map(|(node, sample, how)| Death {
+                node: *node,
+                sample: *sample,
+                how: how.clone(),
+            })
+            .collect(),
         nodes: record
             .counters
             .iter()
             .enumerate()
-            .map(|(node, c)| NodeCounters { node, counters: *c })
+            .map(|(node, c)| NodeCounters {
+                node,
+                counters: *c,
+                busy_seconds: record.timing.get(node).map(|t| t.busy_seconds),
+                wait_seconds: record.timing.get(node).map(|t| t.wait_seconds),
+            })
             .collect(),
     };
     let dir = &opts.out_dir;
@@ -337,6 +387,20 @@ pub fn finish(
         record,
         out_dir: dir.clone(),
         error,
+    })
+}
+
+fn realtime_stats(rec: &RunRecord, opts: &RunOptions) -> Option<RealtimeStats> {
+    if opts.clock != Clock::Realtime || rec.iterations_per_sample.is_empty() {
+        return None;
+    }
+    let ips: Vec<f64> = rec.iterations_per_sample.iter().map(|&x| x as f64).collect();
+    Some(RealtimeStats {
+        iterations_per_sample_min: rec.iterations_per_sample.iter().copied().min().unwrap_or(0),
+        iterations_per_sample_median: metrics::median(&ips).unwrap_or(0.0),
+        iterations_per_sample_max: rec.iterations_per_sample.iter().copied().max().unwrap_or(0),
+        declines: rec.counters.iter().map(|c| c.declines).sum(),
+        iterations_per_second: rec.iterations as f64 / rec.wall_seconds.max(1e-9),
     })
 }
 

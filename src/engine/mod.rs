@@ -77,9 +77,33 @@ pub struct RunRecord {
     pub counters: Vec<Counters>,
     /// Wall time of the run (seconds).
     pub wall_seconds: f64,
+    /// `alive[k][i]`: node `i` was alive at the end of sample `k` (empty when
+    /// no node ever died). Dead nodes are left out of `theta_bar`.
+    pub alive: Vec<Vec<bool>>,
+    /// Realtime: DR exchanges completed during each sample.
+    pub iterations_per_sample: Vec<u64>,
+    /// Nodes that died, with the sample at which the coordinator noticed.
+    pub deaths: Vec<(u32, u32, String)>,
+    /// Multi-process: per-node busy/wait time split.
+    pub timing: Vec<crate::codec::Timing>,
+    /// Multi-process: seconds from spawning to all nodes ready.
+    pub startup_seconds: Option<f64>,
 }
 
 impl RunRecord {
+    /// The nodes counted in `theta_bar` at sample `k`.
+    pub fn alive_thetas(&self, k: usize) -> Vec<crate::geometry::Vec3> {
+        match self.alive.get(k) {
+            Some(mask) => self.thetas[k]
+                .iter()
+                .zip(mask)
+                .filter(|(_, a)| **a)
+                .map(|(t, _)| *t)
+                .collect(),
+            None => self.thetas[k].clone(),
+        }
+    }
+
     /// Total prox solves over all nodes.
     pub fn prox_solves(&self) -> u64 {
         self.counters.iter().map(|c| c.prox_solves).sum()

@@ -468,3 +468,184 @@ pub fn run_logical(
     procs.shutdown();
     (rec, res, Some(procs))
 }
+
+/// Run `sc` free-running (`--clock realtime`, async): every node gossips on
+/// its own Poisson clock at `rate_hz`; measurements arrive every
+/// `period`; at each sample boundary the coordinator snapshots every live
+/// node's `theta`. A node that dies is left out from then on, and the run
+/// continues while the remaining graph is connected.
+pub fn run_realtime(
+    sc: &Scenario,
+    real: &Realization,
+    opts: &ProcessOptions,
+    progress: super::Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>, Option<Processes>) {
+    let n = sc.graph.len();
+    let mut rec = RunRecord {
+        counters: vec![Counters::default(); n],
+        ..Default::default()
+    };
+    let Some(rt) = sc.realtime.clone() else {
+        return (
+            rec,
+            Err(EngineError::Transport(
+                "--clock realtime needs a [realtime] table in the scenario".into(),
+            )),
+            None,
+        );
+    };
+    let configs: Vec<NodeConfig> = (0..n)
+        .map(|i| super::node_config(sc, sc.seed, i, crate::protocol::NodeMode::Realtime))
+        .collect();
+    let neighbours = configs.iter().map(|c| c.neighbours.clone()).collect();
+    let m = sc.geometry.transmitters.len();
+    let max_deg = (0..n).map(|i| sc.graph.degree(i)).max().unwrap_or(1);
+    let inbox = 4 * max_deg + m + 64;
+    let mut procs = match Processes::spawn(configs, neighbours, inbox, false, opts) {
+        Ok(p) => p,
+        Err(e) => return (rec, Err(e), None),
+    };
+    rec.startup_seconds = Some(procs.startup_seconds);
+    let period = Duration::from_secs_f64(rt.sample_period_ms / 1000.0);
+    let start = Instant::now();
+    let result = realtime_loop(sc, real, &mut procs, &mut rec, rt.wake_rate_hz, period, progress);
+    rec.wall_seconds = start.elapsed().as_secs_f64();
+    rec.timing = procs.timing.clone();
+    procs.shutdown();
+    (rec, result, Some(procs))
+}
+
+fn realtime_loop(
+    sc: &Scenario,
+    real: &Realization,
+    procs: &mut Processes,
+    rec: &mut RunRecord,
+    rate_hz: f64,
+    period: Duration,
+    progress: super::Progress<'_>,
+) -> Result<(), EngineError> {
+    let n = sc.graph.len();
+    let mut last_theta = vec![sc.algorithm.init_u; n];
+    let mut updates_before = 0u64;
+    let t0 = Instant::now();
+    for k in 0..sc.samples {
+        let sample = k as u32;
+        procs.sample = sample;
+        for (i, meas) in real.measurements[k].nodes.iter().enumerate() {
+            procs.control(
+                i as u32,
+                &Control::Command(Command::Sample {
+                    sample,
+                    meas: meas.clone(),
+                }),
+            )?;
+            if k == 0 {
+                procs.control(i as u32, &Control::StartClock(rate_hz))?;
+            }
+        }
+        procs.flush_all()?;
+        // Let the network run until the sample boundary, watching for deaths.
+        let boundary = t0 + period * (k as u32 + 1);
+        loop {
+            let now = Instant::now();
+            if now >= boundary {
+                break;
+            }
+            procs.poll_reports((boundary - now).min(Duration::from_millis(50)))?;
+            handle_deaths(sc, procs, rec, sample)?;
+        }
+        // Snapshot every live node.
+        let alive: Vec<bool> = procs.dead().iter().map(|d| !d).collect();
+        for i in 0..n {
+            if alive[i] {
+                procs.control(i as u32, &Control::Command(Command::Snapshot { sample }))?;
+            }
+        }
+        procs.flush_all()?;
+        let mut got = vec![false; n];
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while (0..n).any(|i| alive[i] && !got[i] && !procs.dead()[i]) {
+            if Instant::now() > deadline {
+                return Err(EngineError::Stalled(format!(
+                    "snapshot of sample {sample} not answered within 10 s"
+                )));
+            }
+            for r in procs.poll_reports(Duration::from_millis(50))? {
+                if let Report::Snapshot {
+                    node,
+                    sample: s,
+                    theta,
+                    counters,
+                } = r
+                    && s == sample
+                    && (node as usize) < n
+                {
+                    got[node as usize] = true;
+                    last_theta[node as usize] = theta;
+                    rec.counters[node as usize] = counters;
+                }
+                if let Report::Failed {
+                    node,
+                    sample,
+                    reason,
+                } = r
+                {
+                    return Err(EngineError::NodeFailed {
+                        node,
+                        sample,
+                        reason,
+                    });
+                }
+            }
+            handle_deaths(sc, procs, rec, sample)?;
+        }
+        let alive_now: Vec<bool> = procs.dead().iter().map(|d| !d).collect();
+        rec.thetas.push(last_theta.clone());
+        if rec.deaths.is_empty() {
+            rec.alive.push(vec![true; n]);
+        } else {
+            // Backfill the all-alive masks of earlier samples.
+            while rec.alive.len() < k {
+                rec.alive.push(vec![true; n]);
+            }
+            rec.alive.push(alive_now);
+        }
+        let updates: u64 = rec.counters.iter().map(|c| c.updates).sum();
+        // Every completed exchange updates both ends.
+        let exchanges = (updates - updates_before.min(updates)) / 2;
+        updates_before = updates;
+        rec.iterations_per_sample.push(exchanges);
+        rec.iterations += exchanges;
+        progress(k + 1, rec.iterations);
+    }
+    if rec.deaths.is_empty() {
+        rec.alive.clear();
+    }
+    Ok(())
+}
+
+fn handle_deaths(
+    sc: &Scenario,
+    procs: &mut Processes,
+    rec: &mut RunRecord,
+    sample: u32,
+) -> Result<(), EngineError> {
+    while let Some((node, how)) = procs.check_children() {
+        procs.log(format_args!("node {node} died ({how}) at sample {sample}"));
+        rec.deaths.push((node, sample, how.clone()));
+        let dead: Vec<usize> = (0..sc.graph.len()).filter(|&i| procs.dead()[i]).collect();
+        let comps = sc.graph.components_without(&dead);
+        if comps.len() != 1 {
+            return Err(EngineError::NodeDied {
+                node,
+                sample,
+                how: format!("{how}; the remaining network is disconnected ({} parts)", comps.len()),
+            });
+        }
+        for i in 0..sc.graph.len() {
+            procs.control(i as u32, &Control::Command(Command::NodeDown { node }))?;
+        }
+        procs.flush_all()?;
+    }
+    Ok(())
+}
