@@ -29,28 +29,50 @@ fn instances() -> Vec<(&'static str, Vec<Region>, Vec2)> {
     let txs = ring(2, 120.0, 0.5);
     let rxs = ring(4, 90.0, 0.0);
     let mut ells = vec![];
-    for (k, (t, r)) in txs.iter().flat_map(|t| rxs.iter().map(move |r| (t, r))).enumerate() {
-        ells.push(Region::from_bistatic(*t, *r, (x_true - t).norm() + (x_true - r).norm() + err[k], 0.0));
+    for (k, (t, r)) in txs
+        .iter()
+        .flat_map(|t| rxs.iter().map(move |r| (t, r)))
+        .enumerate()
+    {
+        ells.push(Region::from_bistatic(
+            *t,
+            *r,
+            (x_true - t).norm() + (x_true - r).norm() + err[k],
+            0.0,
+        ));
     }
     let x_d = pocs(&discs, Vec2::zeros(), 10_000, 1e-9).expect("finite").x;
     let x_e = pocs(&ells, Vec2::zeros(), 10_000, 1e-9).expect("finite").x;
     vec![("8 discs", discs, x_d), ("8 ellipses", ells, x_e)]
 }
 
-type BoundFn = fn(&[Region], &Vec2) -> Result<sonarnet::bounds::BoundOutcome, sonarnet::bounds::BoundError>;
+type BoundFn =
+    fn(&[Region], &Vec2) -> Result<sonarnet::bounds::BoundOutcome, sonarnet::bounds::BoundError>;
 
 fn bench(c: &mut Criterion) {
-    let fns: [(&str, BoundFn); 4] =
-        [("upp_rbbox", upp_rbbox), ("upp_bbox", upp_bbox), ("upp_minball", upp_minball), ("upp_maxdis", upp_maxdis)];
+    let fns: [(&str, BoundFn); 4] = [
+        ("upp_rbbox", upp_rbbox),
+        ("upp_bbox", upp_bbox),
+        ("upp_minball", upp_minball),
+        ("upp_maxdis", upp_maxdis),
+    ];
     let mut summary = vec![];
     for (label, regions, x_hat) in instances() {
         let mut g = c.benchmark_group(label);
         for (name, f) in fns {
-            g.bench_function(name, |b| b.iter(|| f(black_box(&regions), black_box(&x_hat))));
+            g.bench_function(name, |b| {
+                b.iter(|| f(black_box(&regions), black_box(&x_hat)))
+            });
         }
-        g.bench_function("intersection_check", |b| b.iter(|| Intersection::new(black_box(&regions))));
-        let inter = Intersection::new(&regions).expect("solver").expect("nonempty");
-        g.bench_function("rbbox_on_checked_intersection", |b| b.iter(|| inter.upp_rbbox(black_box(&x_hat))));
+        g.bench_function("intersection_check", |b| {
+            b.iter(|| Intersection::new(black_box(&regions)))
+        });
+        let inter = Intersection::new(&regions)
+            .expect("solver")
+            .expect("nonempty");
+        g.bench_function("rbbox_on_checked_intersection", |b| {
+            b.iter(|| inter.upp_rbbox(black_box(&x_hat)))
+        });
         g.finish();
         // Median wall time per call, for the ratio table.
         let med = |f: &dyn Fn()| {
@@ -67,10 +89,17 @@ fn bench(c: &mut Criterion) {
         let times: Vec<(&str, f64, f64)> = fns
             .iter()
             .map(|(n, f)| {
-                let v = f(&regions, &x_hat).expect("bound").value().unwrap_or(f64::NAN);
-                (*n, med(&|| {
-                    black_box(f(&regions, &x_hat).ok());
-                }), v)
+                let v = f(&regions, &x_hat)
+                    .expect("bound")
+                    .value()
+                    .unwrap_or(f64::NAN);
+                (
+                    *n,
+                    med(&|| {
+                        black_box(f(&regions, &x_hat).ok());
+                    }),
+                    v,
+                )
             })
             .collect();
         summary.push((label, times));
@@ -79,7 +108,11 @@ fn bench(c: &mut Criterion) {
         let base = times[0].1;
         eprintln!("\n{label}: median time per instance (ratio to upp_rbbox), bound value");
         for (n, t, v) in times {
-            eprintln!("  {n:12} {:9.1} us  x{:6.2}   bound {v:.3}", t * 1e6, t / base);
+            eprintln!(
+                "  {n:12} {:9.1} us  x{:6.2}   bound {v:.3}",
+                t * 1e6,
+                t / base
+            );
         }
     }
 }

@@ -1,8 +1,8 @@
 //! Position estimators of seed 003 Sec. 4: POCS (eq. (15)-(18)) and the
 //! closed-form linear least squares (seed 000 eq. (15)-(17)).
 
-use super::region::Region;
 use super::BoundError;
+use super::region::Region;
 use crate::geometry::Vec2;
 use nalgebra::{DMatrix, DVector};
 
@@ -26,15 +26,26 @@ pub struct PocsResult {
 /// Errors: [`BoundError::NonFinite`] for non-finite input or `tol`,
 /// [`BoundError::NoRegions`] for an empty slice. A region that is itself
 /// empty makes the set empty: the result is `x0` with `feasible = false`.
-pub fn pocs(regions: &[Region], x0: Vec2, max_iter: usize, tol: f64) -> Result<PocsResult, BoundError> {
+pub fn pocs(
+    regions: &[Region],
+    x0: Vec2,
+    max_iter: usize,
+    tol: f64,
+) -> Result<PocsResult, BoundError> {
     if regions.is_empty() {
         return Err(BoundError::NoRegions);
     }
-    if !(x0.x.is_finite() && x0.y.is_finite()) || !tol.is_finite() || regions.iter().any(|r| !r.is_finite()) {
+    if !(x0.x.is_finite() && x0.y.is_finite() && tol.is_finite())
+        || regions.iter().any(|r| !r.is_finite())
+    {
         return Err(BoundError::NonFinite);
     }
     if regions.iter().any(Region::is_empty) {
-        return Ok(PocsResult { x: x0, iterations: 0, feasible: false });
+        return Ok(PocsResult {
+            x: x0,
+            iterations: 0,
+            feasible: false,
+        });
     }
     let mut x = x0;
     let mut iterations = 0;
@@ -50,13 +61,25 @@ pub fn pocs(regions: &[Region], x0: Vec2, max_iter: usize, tol: f64) -> Result<P
             }
         }
         let Some((dist, p)) = far else {
-            return Ok(PocsResult { x, iterations, feasible: false });
+            return Ok(PocsResult {
+                x,
+                iterations,
+                feasible: false,
+            });
         };
         if dist <= tol {
-            return Ok(PocsResult { x, iterations, feasible: true });
+            return Ok(PocsResult {
+                x,
+                iterations,
+                feasible: true,
+            });
         }
         if iterations >= max_iter {
-            return Ok(PocsResult { x, iterations, feasible: false });
+            return Ok(PocsResult {
+                x,
+                iterations,
+                feasible: false,
+            });
         }
         x = p;
         iterations += 1;
@@ -98,9 +121,16 @@ pub fn lls(anchors: &[Vec2], ranges: &[f64]) -> Result<Vec2, LlsError> {
         return Err(LlsError::LengthMismatch(anchors.len(), ranges.len()));
     }
     if anchors.len() < 3 {
-        return Err(LlsError::TooFew { needed: 3, got: anchors.len() });
+        return Err(LlsError::TooFew {
+            needed: 3,
+            got: anchors.len(),
+        });
     }
-    if anchors.iter().any(|a| !(a.x.is_finite() && a.y.is_finite())) || ranges.iter().any(|r| !r.is_finite()) {
+    if anchors
+        .iter()
+        .any(|a| !(a.x.is_finite() && a.y.is_finite()))
+        || ranges.iter().any(|r| !r.is_finite())
+    {
         return Err(LlsError::NonFinite);
     }
     // Work relative to the first anchor for conditioning: x = a_1 + y.
@@ -110,7 +140,9 @@ pub fn lls(anchors: &[Vec2], ranges: &[f64]) -> Result<Vec2, LlsError> {
     for i in 0..anchors.len() - 1 {
         let (ai, aj) = (anchors[i] - o, anchors[i + 1] - o);
         let row = aj - ai;
-        let rhs = 0.5 * (aj.norm_squared() - ai.norm_squared() + ranges[i] * ranges[i] - ranges[i + 1] * ranges[i + 1]);
+        let rhs = 0.5
+            * (aj.norm_squared() - ai.norm_squared() + ranges[i] * ranges[i]
+                - ranges[i + 1] * ranges[i + 1]);
         ata += row * row.transpose();
         atb += row * rhs;
     }
@@ -120,10 +152,13 @@ pub fn lls(anchors: &[Vec2], ranges: &[f64]) -> Result<Vec2, LlsError> {
 fn solve_normal(ata: &nalgebra::Matrix2<f64>, atb: &Vec2) -> Result<Vec2, LlsError> {
     let det = ata.determinant();
     let scale = ata.norm_squared();
-    if !(det.abs() > 1e-12 * scale) {
+    if det.abs().partial_cmp(&(1e-12 * scale)) != Some(std::cmp::Ordering::Greater) {
         return Err(LlsError::Degenerate("anchors (nearly) collinear"));
     }
-    let y = ata.try_inverse().ok_or(LlsError::Degenerate("singular normal matrix"))? * atb;
+    let y = ata
+        .try_inverse()
+        .ok_or(LlsError::Degenerate("singular normal matrix"))?
+        * atb;
     if !(y.x.is_finite() && y.y.is_finite()) {
         return Err(LlsError::Degenerate("non-finite solution"));
     }
@@ -154,10 +189,14 @@ pub fn lls_bistatic(transmitters: &[Vec2], links: &[BistaticLink]) -> Result<Vec
     let m = transmitters.len();
     let nu = 2 + m;
     if links.len() < nu + 1 {
-        return Err(LlsError::TooFew { needed: nu + 1, got: links.len() });
+        return Err(LlsError::TooFew {
+            needed: nu + 1,
+            got: links.len(),
+        });
     }
     let finite = |v: &Vec2| v.x.is_finite() && v.y.is_finite();
-    if !transmitters.iter().all(finite) || !links.iter().all(|l| finite(&l.rx) && l.sum.is_finite()) {
+    if !transmitters.iter().all(finite) || !links.iter().all(|l| finite(&l.rx) && l.sum.is_finite())
+    {
         return Err(LlsError::NonFinite);
     }
     if let Some(l) = links.iter().find(|l| l.tx >= m) {
@@ -185,8 +224,10 @@ pub fn lls_bistatic(transmitters: &[Vec2], links: &[BistaticLink]) -> Result<Vec
     let svd = a.svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !(smin > 1e-10 * smax) {
-        return Err(LlsError::Degenerate("bistatic geometry does not determine (x, d)"));
+    if smin.partial_cmp(&(1e-10 * smax)) != Some(std::cmp::Ordering::Greater) {
+        return Err(LlsError::Degenerate(
+            "bistatic geometry does not determine (x, d)",
+        ));
     }
     let sol = svd
         .solve(&b, 1e-14 * smax)
@@ -209,7 +250,12 @@ mod tests {
         let mut rng = SonarRng::seed_from_u64(3);
         for _ in 0..100 {
             let anchors: Vec<Vec2> = (0..5)
-                .map(|_| Vec2::new(rng.random_range(-100.0..100.0), rng.random_range(-100.0..100.0)))
+                .map(|_| {
+                    Vec2::new(
+                        rng.random_range(-100.0..100.0),
+                        rng.random_range(-100.0..100.0),
+                    )
+                })
                 .collect();
             let x = Vec2::new(rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0));
             let ranges: Vec<f64> = anchors.iter().map(|a| (x - a).norm()).collect();
@@ -222,7 +268,12 @@ mod tests {
     fn lls_matches_the_normal_equations_of_seed_000_eq_15_to_17() {
         // Noisy ranges: compare with a direct dense evaluation of eq. (15)-(17)
         // in absolute coordinates.
-        let anchors = [Vec2::new(0.5, 0.5), Vec2::new(0.0, 0.5), Vec2::new(0.5, 0.0), Vec2::new(1.0, 1.2)];
+        let anchors = [
+            Vec2::new(0.5, 0.5),
+            Vec2::new(0.0, 0.5),
+            Vec2::new(0.5, 0.0),
+            Vec2::new(1.0, 1.2),
+        ];
         let ranges = [0.31, 0.52, 0.47, 0.9];
         let m = anchors.len();
         let mut a = DMatrix::<f64>::zeros(m - 1, 2);
@@ -232,7 +283,8 @@ mod tests {
             a[(i, 0)] = row.x;
             a[(i, 1)] = row.y;
             b[i] = 0.5
-                * (anchors[i + 1].norm_squared() - anchors[i].norm_squared() + ranges[i] * ranges[i]
+                * (anchors[i + 1].norm_squared() - anchors[i].norm_squared()
+                    + ranges[i] * ranges[i]
                     - ranges[i + 1] * ranges[i + 1]);
         }
         let direct = (a.transpose() * &a).try_inverse().unwrap() * a.transpose() * b;
@@ -242,11 +294,27 @@ mod tests {
 
     #[test]
     fn lls_rejects_collinear_anchors_and_bad_input() {
-        let anchors = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(2.0, 0.0)];
-        assert!(matches!(lls(&anchors, &[1.0, 1.0, 1.0]), Err(LlsError::Degenerate(_))));
-        assert!(matches!(lls(&anchors[..2], &[1.0, 1.0]), Err(LlsError::TooFew { .. })));
-        assert!(matches!(lls(&anchors, &[1.0, f64::NAN, 1.0]), Err(LlsError::NonFinite)));
-        assert!(matches!(lls(&anchors, &[1.0]), Err(LlsError::LengthMismatch(3, 1))));
+        let anchors = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(2.0, 0.0),
+        ];
+        assert!(matches!(
+            lls(&anchors, &[1.0, 1.0, 1.0]),
+            Err(LlsError::Degenerate(_))
+        ));
+        assert!(matches!(
+            lls(&anchors[..2], &[1.0, 1.0]),
+            Err(LlsError::TooFew { .. })
+        ));
+        assert!(matches!(
+            lls(&anchors, &[1.0, f64::NAN, 1.0]),
+            Err(LlsError::NonFinite)
+        ));
+        assert!(matches!(
+            lls(&anchors, &[1.0]),
+            Err(LlsError::LengthMismatch(3, 1))
+        ));
     }
 
     #[test]
@@ -254,16 +322,30 @@ mod tests {
         let mut rng = SonarRng::seed_from_u64(4);
         for _ in 0..100 {
             let txs: Vec<Vec2> = (0..2)
-                .map(|_| Vec2::new(rng.random_range(-100.0..100.0), rng.random_range(-100.0..100.0)))
+                .map(|_| {
+                    Vec2::new(
+                        rng.random_range(-100.0..100.0),
+                        rng.random_range(-100.0..100.0),
+                    )
+                })
                 .collect();
             let rxs: Vec<Vec2> = (0..4)
-                .map(|_| Vec2::new(rng.random_range(-100.0..100.0), rng.random_range(-100.0..100.0)))
+                .map(|_| {
+                    Vec2::new(
+                        rng.random_range(-100.0..100.0),
+                        rng.random_range(-100.0..100.0),
+                    )
+                })
                 .collect();
             let x = Vec2::new(rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0));
             let mut links = Vec::new();
             for (ti, t) in txs.iter().enumerate() {
                 for r in &rxs {
-                    links.push(BistaticLink { tx: ti, rx: *r, sum: (x - t).norm() + (x - r).norm() });
+                    links.push(BistaticLink {
+                        tx: ti,
+                        rx: *r,
+                        sum: (x - t).norm() + (x - r).norm(),
+                    });
                 }
             }
             let xh = lls_bistatic(&txs, &links).unwrap();
@@ -274,12 +356,25 @@ mod tests {
     #[test]
     fn bistatic_lls_rejects_underdetermined_input() {
         let txs = [Vec2::new(0.0, 0.0)];
-        let link = BistaticLink { tx: 0, rx: Vec2::new(1.0, 0.0), sum: 3.0 };
-        assert!(matches!(lls_bistatic(&txs, &[link; 3]), Err(LlsError::TooFew { .. })));
+        let link = BistaticLink {
+            tx: 0,
+            rx: Vec2::new(1.0, 0.0),
+            sum: 3.0,
+        };
+        assert!(matches!(
+            lls_bistatic(&txs, &[link; 3]),
+            Err(LlsError::TooFew { .. })
+        ));
         // Four links from the same receiver: rank deficient.
-        assert!(matches!(lls_bistatic(&txs, &[link; 4]), Err(LlsError::Degenerate(_))));
+        assert!(matches!(
+            lls_bistatic(&txs, &[link; 4]),
+            Err(LlsError::Degenerate(_))
+        ));
         let bad = BistaticLink { tx: 1, ..link };
-        assert!(matches!(lls_bistatic(&txs, &[link, link, link, bad]), Err(LlsError::BadIndex(1))));
+        assert!(matches!(
+            lls_bistatic(&txs, &[link, link, link, bad]),
+            Err(LlsError::BadIndex(1))
+        ));
     }
 
     #[test]
@@ -298,10 +393,16 @@ mod tests {
 
     #[test]
     fn pocs_reports_infeasible_for_disjoint_regions() {
-        let regions = [Region::disc(Vec2::new(0.0, 0.0), 1.0), Region::disc(Vec2::new(5.0, 0.0), 1.0)];
+        let regions = [
+            Region::disc(Vec2::new(0.0, 0.0), 1.0),
+            Region::disc(Vec2::new(5.0, 0.0), 1.0),
+        ];
         let r = pocs(&regions, Vec2::new(0.0, 0.0), 50, 1e-9).unwrap();
         assert!(!r.feasible);
         assert_eq!(r.iterations, 50);
-        assert!(matches!(pocs(&[], Vec2::zeros(), 5, 1e-9), Err(BoundError::NoRegions)));
+        assert!(matches!(
+            pocs(&[], Vec2::zeros(), 5, 1e-9),
+            Err(BoundError::NoRegions)
+        ));
     }
 }

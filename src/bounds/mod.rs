@@ -28,6 +28,16 @@
 //!
 //! All solves use Clarabel in a frame centred on the relaxed box with unit
 //! half-width, so the numbers the solver sees are O(1).
+//!
+//! Orderings that are theorems (and tested): `upp_bbox <= upp_rbbox` (nested
+//! boxes) and `upp_maxdis <= upp_minball` (the enclosing-ball S-lemma
+//! certificate composed with the exact one-constraint S-lemma for
+//! `ball(c, R) in ball(x_hat, R + ||x_hat - c||)` is dual feasible for the SDP).
+//! Seed 003 reports Upp-MaxDis as the tightest in its 10 m cube; it is not a
+//! theorem, and on random 2-D instances with anchors ~100 m away Upp-BBox is
+//! the tightest (about 1.06 x the brute-force `v_max1`) while Upp-MaxDis is
+//! 1.5-2.8 x: the SDP slack `min_i (d_i^2 - ||x - a_i||^2)` grows with the
+//! range (see `tests::report_empirical_orderings`).
 
 mod estimators;
 mod region;
@@ -105,7 +115,10 @@ impl AxisBox {
 
     /// True when `p` is in the box enlarged by `tol`.
     pub fn contains(&self, p: &Vec2, tol: f64) -> bool {
-        p.x >= self.lo.x - tol && p.x <= self.hi.x + tol && p.y >= self.lo.y - tol && p.y <= self.hi.y + tol
+        p.x >= self.lo.x - tol
+            && p.x <= self.hi.x + tol
+            && p.y >= self.lo.y - tol
+            && p.y <= self.hi.y + tol
     }
 }
 
@@ -164,7 +177,7 @@ impl Intersection {
         let origin = 0.5 * (relaxed.lo + relaxed.hi);
         let size = regions.iter().map(Region::size).fold(0.0, f64::max);
         let mut scale = (0.5 * (relaxed.hi - relaxed.lo).max()).max(1e-9 * size);
-        if !(scale > 0.0) {
+        if !scale.is_finite() || scale <= 0.0 {
             scale = 1.0;
         }
         let local: Vec<Region> = regions.iter().map(|r| r.to_frame(&origin, scale)).collect();
@@ -197,7 +210,7 @@ impl Intersection {
         (x - self.origin) / self.scale
     }
 
-    fn from_local(&self, y: &Vec2) -> Vec2 {
+    fn to_world(&self, y: &Vec2) -> Vec2 {
         self.origin + y * self.scale
     }
 
@@ -210,14 +223,18 @@ impl Intersection {
     /// solver finds the set empty).
     pub fn bounding_box(&self) -> Result<Option<AxisBox>, BoundError> {
         Ok(solve::bounding_box(&self.local)?.map(|(lo, hi)| AxisBox {
-            lo: self.from_local(&lo),
-            hi: self.from_local(&hi),
+            lo: self.to_world(&lo),
+            hi: self.to_world(&hi),
         }))
     }
 
     fn local_quadratics(&self) -> Vec<Quadratic> {
         // Regions of a nonempty intersection are nonempty.
-        self.local.iter().filter_map(Region::quadratics).flatten().collect()
+        self.local
+            .iter()
+            .filter_map(Region::quadratics)
+            .flatten()
+            .collect()
     }
 
     /// S-lemma enclosing ball (seed 003 eq. (34)-(44)); `None` if the
@@ -239,23 +256,26 @@ impl Intersection {
                 None => return Ok(None),
             },
         };
-        self.ball_from_local(c, r2)
+        self.ball_to_world(c, r2)
     }
 
     /// The general S-lemma SDP form even for discs (for cross-checking eq. (43)).
     #[cfg(test)]
     pub(crate) fn min_ball_via_sdp(&self) -> Result<Option<Ball>, BoundError> {
         match solve::minball_sdp(&self.local_quadratics())? {
-            Some((c, r2)) => self.ball_from_local(c, r2),
+            Some((c, r2)) => self.ball_to_world(c, r2),
             None => Ok(None),
         }
     }
 
-    fn ball_from_local(&self, c: Vec2, r2: f64) -> Result<Option<Ball>, BoundError> {
+    fn ball_to_world(&self, c: Vec2, r2: f64) -> Result<Option<Ball>, BoundError> {
         if r2 < -FEAS_TOL {
             return Ok(None);
         }
-        Ok(Some(Ball { center: self.from_local(&c), radius: r2.max(0.0).sqrt() * self.scale }))
+        Ok(Some(Ball {
+            center: self.to_world(&c),
+            radius: r2.max(0.0).sqrt() * self.scale,
+        }))
     }
 
     /// `v_sdp` of seed 003 eq. (26) (in m^2): the SDP relaxation value of
@@ -263,7 +283,8 @@ impl Intersection {
     pub fn maxdis_sdp_value(&self, x_hat: &Vec2) -> Result<Option<f64>, BoundError> {
         check_point(x_hat)?;
         let y = self.to_local(x_hat);
-        Ok(solve::maxdis_sdp(&self.local_quadratics(), &y)?.map(|v| v.max(0.0) * self.scale * self.scale))
+        Ok(solve::maxdis_sdp(&self.local_quadratics(), &y)?
+            .map(|v| v.max(0.0) * self.scale * self.scale))
     }
 
     /// Upp-RBBox (eq. (52)-(54)): farthest corner of the relaxed box from `x_hat`.
@@ -301,7 +322,11 @@ impl Intersection {
 }
 
 fn check_point(x: &Vec2) -> Result<(), BoundError> {
-    if x.x.is_finite() && x.y.is_finite() { Ok(()) } else { Err(BoundError::NonFinite) }
+    if x.x.is_finite() && x.y.is_finite() {
+        Ok(())
+    } else {
+        Err(BoundError::NonFinite)
+    }
 }
 
 /// Intersection of the per-region axis-aligned boxes (seed 003 eq. (53),

@@ -71,12 +71,21 @@ impl EllipseGeom {
         if sum < dist {
             return None;
         }
-        let u = if dist > 0.0 { d / dist } else { Vec2::new(1.0, 0.0) };
+        let u = if dist > 0.0 {
+            d / dist
+        } else {
+            Vec2::new(1.0, 0.0)
+        };
         let a = 0.5 * sum;
         let e = 0.5 * dist;
         // (a - e)(a + e) is the accurate form of a^2 - e^2.
         let b = ((a - e) * (a + e)).max(0.0).sqrt();
-        Some(Self { c: 0.5 * (f1 + f2), u, a, b })
+        Some(Self {
+            c: 0.5 * (f1 + f2),
+            u,
+            a,
+            b,
+        })
     }
 
     fn perp(&self) -> Vec2 {
@@ -103,13 +112,20 @@ impl Region {
     /// (seed 003 Remark 4, eq. (19)-(21): `d~ = d^ + rho` bounds the true range
     /// when the error is at least `-rho`).
     pub fn from_range(anchor: Vec2, measured: f64, rho: f64) -> Self {
-        Region::Disc { center: anchor, radius: measured + rho }
+        Region::Disc {
+            center: anchor,
+            radius: measured + rho,
+        }
     }
 
     /// Ellipse from a bistatic range `||x - tx|| + ||x - rx||` measured with an
     /// error of at least `-rho` (seed 003 Remark 4 applied to the range sum).
     pub fn from_bistatic(tx: Vec2, rx: Vec2, measured: f64, rho: f64) -> Self {
-        Region::Ellipse { f1: tx, f2: rx, sum: measured + rho }
+        Region::Ellipse {
+            f1: tx,
+            f2: rx,
+            sum: measured + rho,
+        }
     }
 
     /// True when every number in the region is finite.
@@ -236,7 +252,11 @@ impl Region {
                 let ratio = if g.a > 0.0 { (g.b / g.a).powi(2) } else { 1.0 };
                 let p = g.u * g.u.transpose() * ratio + v * v.transpose();
                 let pc = p * g.c;
-                let ell = Quadratic { p, q: -pc, r: g.c.dot(&pc) - g.b * g.b };
+                let ell = Quadratic {
+                    p,
+                    q: -pc,
+                    r: g.c.dot(&pc) - g.b * g.b,
+                };
                 Some(vec![ell, disc(&g.c, g.a)])
             }
         }
@@ -312,7 +332,10 @@ fn project_ellipse_quadrant(e0: f64, e1: f64, y0: f64, y1: f64) -> (f64, f64) {
     let n0 = r0 * z0;
     let big_g = |s: f64| {
         let (a, b) = (n0 / (s + r0), z1 / (s + 1.0));
-        (a * a + b * b - 1.0, -2.0 * (a * a / (s + r0) + b * b / (s + 1.0)))
+        (
+            a * a + b * b - 1.0,
+            -2.0 * (a * a / (s + r0) + b * b / (s + 1.0)),
+        )
     };
     // Bracket: G(z1 - 1) >= 0 and G(hypot(n0, z1) - 1) <= 0 (Eberly).
     let mut lo = z1 - 1.0;
@@ -396,11 +419,21 @@ mod tests {
                 continue;
             }
             // On the boundary (sum-of-distances form).
-            assert!(reg.violation(&p).abs() <= 1e-9 * sum, "{:?}", reg.violation(&p));
+            assert!(
+                reg.violation(&p).abs() <= 1e-9 * sum,
+                "{:?}",
+                reg.violation(&p)
+            );
             // No boundary point is nearer than p (brute force).
             let db = brute_nearest_on_ellipse(&g, &x);
-            assert!(dp <= db + 1e-9 * (1.0 + db), "projection {dp} vs brute force {db}");
-            assert!(dp >= db - 1e-7 * (1.0 + db), "projection {dp} vs brute force {db}");
+            assert!(
+                dp <= db + 1e-9 * (1.0 + db),
+                "projection {dp} vs brute force {db}"
+            );
+            assert!(
+                dp >= db - 1e-7 * (1.0 + db),
+                "projection {dp} vs brute force {db}"
+            );
         }
     }
 
@@ -417,7 +450,11 @@ mod tests {
         assert!((p - Vec2::new(1.5, 0.0)).norm() < 1e-12);
         let p = seg.project(&Vec2::new(-1.0, -1.0)).unwrap();
         assert!(p.norm() < 1e-12);
-        assert!(Region::ellipse(Vec2::zeros(), Vec2::new(2.0, 0.0), 1.9).project(&p).is_none());
+        assert!(
+            Region::ellipse(Vec2::zeros(), Vec2::new(2.0, 0.0), 1.9)
+                .project(&p)
+                .is_none()
+        );
     }
 
     #[test]

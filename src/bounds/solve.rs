@@ -1,8 +1,8 @@
 //! Clarabel formulations of the convex steps (all in a normalised frame where
 //! the relaxed bounding box has unit half-width).
 
-use super::region::{Quadratic, Region};
 use super::BoundError;
+use super::region::{Quadratic, Region};
 use crate::geometry::Vec2;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -23,7 +23,15 @@ struct Conic {
 
 impl Conic {
     fn new(ncols: usize) -> Self {
-        Self { ncols, rows: 0, ti: vec![], tj: vec![], tv: vec![], b: vec![], cones: vec![] }
+        Self {
+            ncols,
+            rows: 0,
+            ti: vec![],
+            tj: vec![],
+            tv: vec![],
+            b: vec![],
+            cones: vec![],
+        }
     }
 
     /// Append the row `s = b - sum coef * v[col]`.
@@ -38,7 +46,13 @@ impl Conic {
     }
 
     fn a(&self) -> CscMatrix<f64> {
-        CscMatrix::new_from_triplets(self.rows, self.ncols, self.ti.clone(), self.tj.clone(), self.tv.clone())
+        CscMatrix::new_from_triplets(
+            self.rows,
+            self.ncols,
+            self.ti.clone(),
+            self.tj.clone(),
+            self.tv.clone(),
+        )
     }
 
     /// Cone rows for the set constraints on `y = (v[0], v[1])`, with an optional
@@ -93,22 +107,51 @@ fn settings() -> DefaultSettings<f64> {
 enum Solved {
     /// Primal and dual objective values.
     Optimal { primal: f64, dual: f64, x: Vec<f64> },
-    /// The problem is (numerically) primal infeasible.
+    /// The problem is (numerically) primal infeasible, or, for the
+    /// minimisations over certificates (min-ball SDP), unbounded below: both
+    /// mean the feasible set of positions is empty.
     Infeasible,
 }
 
 fn run(solver: &mut DefaultSolver<f64>, problem: &'static str) -> Result<Solved, BoundError> {
+    run_with(solver, problem, false)
+}
+
+fn run_with(
+    solver: &mut DefaultSolver<f64>,
+    problem: &'static str,
+    unbounded_means_empty: bool,
+) -> Result<Solved, BoundError> {
     solver.solve();
     let sol = &solver.solution;
     match sol.status {
         SolverStatus::Solved | SolverStatus::AlmostSolved => {
-            if !(sol.obj_val.is_finite() && sol.obj_val_dual.is_finite()) || sol.x.iter().any(|v| !v.is_finite()) {
-                return Err(BoundError::Solver { problem, status: "non-finite solution".into() });
+            if !(sol.obj_val.is_finite() && sol.obj_val_dual.is_finite())
+                || sol.x.iter().any(|v| !v.is_finite())
+            {
+                return Err(BoundError::Solver {
+                    problem,
+                    status: "non-finite solution".into(),
+                });
             }
-            Ok(Solved::Optimal { primal: sol.obj_val, dual: sol.obj_val_dual, x: sol.x.clone() })
+            Ok(Solved::Optimal {
+                primal: sol.obj_val,
+                dual: sol.obj_val_dual,
+                x: sol.x.clone(),
+            })
         }
-        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Ok(Solved::Infeasible),
-        other => Err(BoundError::Solver { problem, status: format!("{other:?}") }),
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+            Ok(Solved::Infeasible)
+        }
+        SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible
+            if unbounded_means_empty =>
+        {
+            Ok(Solved::Infeasible)
+        }
+        other => Err(BoundError::Solver {
+            problem,
+            status: format!("{other:?}"),
+        }),
     }
 }
 
@@ -118,8 +161,10 @@ fn build(
     c: &Conic,
     problem: &'static str,
 ) -> Result<DefaultSolver<f64>, BoundError> {
-    DefaultSolver::new(p, q, &c.a(), &c.b, &c.cones, settings())
-        .map_err(|e| BoundError::Solver { problem, status: format!("setup: {e}") })
+    DefaultSolver::new(p, q, &c.a(), &c.b, &c.cones, settings()).map_err(|e| BoundError::Solver {
+        problem,
+        status: format!("setup: {e}"),
+    })
 }
 
 /// `min t` such that every region enlarged by `t` contains a common point: the
@@ -158,8 +203,10 @@ pub(crate) fn bounding_box(regions: &[Region]) -> Result<Option<(Vec2, Vec2)>, B
         if k > 0 {
             q.iter_mut().for_each(|v| *v = 0.0);
             q[axis] = sign;
-            s.update_q(&q)
-                .map_err(|e| BoundError::Solver { problem: PROBLEM, status: format!("update: {e}") })?;
+            s.update_q(&q).map_err(|e| BoundError::Solver {
+                problem: PROBLEM,
+                status: format!("update: {e}"),
+            })?;
         }
         match run(&mut s, PROBLEM)? {
             // min sign * y_axis: the optimum lies in [dual, primal]; keep the
@@ -257,14 +304,21 @@ pub(crate) fn minball_qp(discs: &[(Vec2, f64)]) -> Result<(Vec2, f64), BoundErro
         c.row(&[(i, -1.0)], 0.0);
     }
     c.cones.push(NonnegativeConeT(n));
-    let mut q: Vec<f64> = discs.iter().map(|(a, d)| -(a.norm_squared() - d * d)).collect();
+    let mut q: Vec<f64> = discs
+        .iter()
+        .map(|(a, d)| -(a.norm_squared() - d * d))
+        .collect();
     q.extend([0.0, 0.0]);
-    let p = CscMatrix::new_from_triplets(n + 2, n + 2, vec![n, n + 1], vec![n, n + 1], vec![2.0, 2.0]);
+    let p =
+        CscMatrix::new_from_triplets(n + 2, n + 2, vec![n, n + 1], vec![n, n + 1], vec![2.0, 2.0]);
     let mut s = build(&p, &q, &c, PROBLEM)?;
     let lam = match run(&mut s, PROBLEM)? {
         Solved::Optimal { x, .. } => x[..n].to_vec(),
         Solved::Infeasible => {
-            return Err(BoundError::Solver { problem: PROBLEM, status: "simplex reported infeasible".into() });
+            return Err(BoundError::Solver {
+                problem: PROBLEM,
+                status: "simplex reported infeasible".into(),
+            });
         }
     };
     Ok(ball_from_simplex(discs, &lam))
@@ -280,8 +334,16 @@ pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f6
     } else {
         vec![1.0 / n; discs.len()]
     };
-    let xc = discs.iter().zip(&w).fold(Vec2::zeros(), |s, ((a, _), l)| s + a * *l);
-    let r2 = xc.norm_squared() - discs.iter().zip(&w).map(|((a, d), l)| l * (a.norm_squared() - d * d)).sum::<f64>();
+    let xc = discs
+        .iter()
+        .zip(&w)
+        .fold(Vec2::zeros(), |s, ((a, _), l)| s + a * *l);
+    let r2 = xc.norm_squared()
+        - discs
+            .iter()
+            .zip(&w)
+            .map(|((a, d), l)| l * (a.norm_squared() - d * d))
+            .sum::<f64>();
     (xc, r2)
 }
 
@@ -291,7 +353,8 @@ pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f6
 /// `[[S, g, 0], [g^T, h, c^T], [0, c, I]] >= 0`, `S = sum lambda_k P_k - I`,
 /// `g = sum lambda_k q_k + c`, `h = sum lambda_k r_k + gamma` (Schur form of
 /// eq. (37), `gamma - ||c||^2` in the corner). Returns `(c, gamma)` with the
-/// conservative (larger) objective value, or `None` if infeasible.
+/// conservative (larger) objective value, or `None` when `gamma` is unbounded
+/// below (the set is empty).
 pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, BoundError> {
     const PROBLEM: &str = "Upp-MinBall S-lemma SDP (37)";
     let k = quads.len();
@@ -303,7 +366,11 @@ pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, Bo
     c.cones.push(NonnegativeConeT(k));
     add_psd(&mut c, 5, |i, j| {
         let lam = |f: &dyn Fn(&Quadratic) -> f64| -> Vec<(usize, f64)> {
-            quads.iter().enumerate().map(|(idx, qd)| (idx, f(qd))).collect()
+            quads
+                .iter()
+                .enumerate()
+                .map(|(idx, qd)| (idx, f(qd)))
+                .collect()
         };
         match (i, j) {
             (0, 0) => (-1.0, lam(&|qd| qd.p[(0, 0)])),
@@ -334,8 +401,11 @@ pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, Bo
     q[g] = 1.0;
     let p = CscMatrix::zeros((k + 3, k + 3));
     let mut s = build(&p, &q, &c, PROBLEM)?;
-    match run(&mut s, PROBLEM)? {
-        Solved::Optimal { primal, dual, x } => Ok(Some((Vec2::new(x[c0], x[c1]), primal.max(dual)))),
+    // gamma unbounded below certifies ||x - c||^2 <= gamma < 0 on the set: empty.
+    match run_with(&mut s, PROBLEM, true)? {
+        Solved::Optimal { primal, dual, x } => {
+            Ok(Some((Vec2::new(x[c0], x[c1]), primal.max(dual))))
+        }
         Solved::Infeasible => Ok(None),
     }
 }
