@@ -238,6 +238,33 @@ fn tangent_discs_give_a_bound_or_empty_never_an_error() {
     }
 }
 
+#[test]
+fn degenerate_ellipses_segment_and_coincident_foci_are_bounded_correctly() {
+    // Segment [(-4, 0), (4, 0)] cut by a disc: the set is [-1, 3] x {0}.
+    let seg = [
+        Region::ellipse(Vec2::new(-4.0, 0.0), Vec2::new(4.0, 0.0), 8.0),
+        Region::disc(Vec2::new(1.0, 0.0), 2.0),
+    ];
+    let x_hat = Vec2::new(0.0, 1.0);
+    let exact = Vec2::new(3.0, -1.0).norm();
+    for (k, b) in all_bounds(&seg, &x_hat).into_iter().enumerate() {
+        let v = val(b);
+        assert!(v >= exact * (1.0 - REL), "bound {k}: {v} < {exact}");
+    }
+    // Coincident foci: the ellipse is the disc of radius sum / 2.
+    let disc_like = [Region::ellipse(
+        Vec2::new(2.0, 2.0),
+        Vec2::new(2.0, 2.0),
+        6.0,
+    )];
+    let x_hat = Vec2::new(0.0, 0.0);
+    let exact = Vec2::new(2.0, 2.0).norm() + 3.0;
+    let md = val(upp_maxdis(&disc_like, &x_hat).unwrap());
+    assert!((md - exact).abs() < REL * exact, "{md} vs {exact}");
+    let p = disc_like[0].project(&Vec2::new(10.0, 2.0)).unwrap();
+    assert!((p - Vec2::new(5.0, 2.0)).norm() < 1e-12);
+}
+
 /// A random instance whose true position is feasible by construction.
 struct Instance {
     regions: Vec<Region>,
