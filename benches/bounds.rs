@@ -1,0 +1,121 @@
+//! Time per instance of each position-error bound (seed 003) on an N = 8 disc
+//! instance and an 8-ellipse instance. Criterion prints absolute times; the
+//! ratios to `upp_rbbox` are printed once at the end (median of 200 runs).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use sonarnet::bounds::{Intersection, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox};
+use sonarnet::geometry::Vec2;
+use std::hint::black_box;
+use std::time::Instant;
+
+fn ring(n: usize, r: f64, phase: f64) -> Vec<Vec2> {
+    (0..n)
+        .map(|k| {
+            let th = phase + k as f64 * std::f64::consts::TAU / n as f64;
+            Vec2::new(r * th.cos(), r * th.sin())
+        })
+        .collect()
+}
+
+fn instances() -> Vec<(&'static str, Vec<Region>, Vec2)> {
+    let x_true = Vec2::new(7.0, -4.0);
+    // Deterministic positive errors (exponential-like spread, one NLOS bias).
+    let err = [0.3, 1.1, 0.05, 2.4, 0.7, 6.5, 0.2, 1.6];
+    let discs: Vec<Region> = ring(8, 100.0, 0.1)
+        .into_iter()
+        .zip(err)
+        .map(|(a, e)| Region::from_range(a, (x_true - a).norm() + e, 0.0))
+        .collect();
+    let txs = ring(2, 120.0, 0.5);
+    let rxs = ring(4, 90.0, 0.0);
+    let mut ells = vec![];
+    for (k, (t, r)) in txs
+        .iter()
+        .flat_map(|t| rxs.iter().map(move |r| (t, r)))
+        .enumerate()
+    {
+        ells.push(Region::from_bistatic(
+            *t,
+            *r,
+            (x_true - t).norm() + (x_true - r).norm() + err[k],
+            0.0,
+        ));
+    }
+    let x_d = pocs(&discs, Vec2::zeros(), 10_000, 1e-9).expect("finite").x;
+    let x_e = pocs(&ells, Vec2::zeros(), 10_000, 1e-9).expect("finite").x;
+    vec![("8 discs", discs, x_d), ("8 ellipses", ells, x_e)]
+}
+
+type BoundFn =
+    fn(&[Region], &Vec2) -> Result<sonarnet::bounds::BoundOutcome, sonarnet::bounds::BoundError>;
+
+fn bench(c: &mut Criterion) {
+    let fns: [(&str, BoundFn); 4] = [
+        ("upp_rbbox", upp_rbbox),
+        ("upp_bbox", upp_bbox),
+        ("upp_minball", upp_minball),
+        ("upp_maxdis", upp_maxdis),
+    ];
+    let mut summary = vec![];
+    for (label, regions, x_hat) in instances() {
+        let mut g = c.benchmark_group(label);
+        for (name, f) in fns {
+            g.bench_function(name, |b| {
+                b.iter(|| f(black_box(&regions), black_box(&x_hat)))
+            });
+        }
+        g.bench_function("intersection_check", |b| {
+            b.iter(|| Intersection::new(black_box(&regions)))
+        });
+        let inter = Intersection::new(&regions)
+            .expect("solver")
+            .expect("nonempty");
+        g.bench_function("rbbox_on_checked_intersection", |b| {
+            b.iter(|| inter.upp_rbbox(black_box(&x_hat)))
+        });
+        g.finish();
+        // Median wall time per call, for the ratio table.
+        let med = |f: &dyn Fn()| {
+            let mut t: Vec<f64> = (0..200)
+                .map(|_| {
+                    let s = Instant::now();
+                    f();
+                    s.elapsed().as_secs_f64()
+                })
+                .collect();
+            t.sort_by(f64::total_cmp);
+            t[t.len() / 2]
+        };
+        let times: Vec<(&str, f64, f64)> = fns
+            .iter()
+            .map(|(n, f)| {
+                let v = f(&regions, &x_hat)
+                    .expect("bound")
+                    .value()
+                    .unwrap_or(f64::NAN);
+                (
+                    *n,
+                    med(&|| {
+                        black_box(f(&regions, &x_hat).ok());
+                    }),
+                    v,
+                )
+            })
+            .collect();
+        summary.push((label, times));
+    }
+    for (label, times) in summary {
+        let base = times[0].1;
+        eprintln!("\n{label}: median time per instance (ratio to upp_rbbox), bound value");
+        for (n, t, v) in times {
+            eprintln!(
+                "  {n:12} {:9.1} us  x{:6.2}   bound {v:.3}",
+                t * 1e6,
+                t / base
+            );
+        }
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
