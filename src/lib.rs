@@ -11,4 +11,5 @@ pub mod measure;
 pub mod prox;
 pub mod rng;
 pub mod noise;
+pub mod online;
 pub mod wire;
