@@ -58,7 +58,9 @@ pub enum TrackError {
     #[error("non-finite input: {0}")]
     NonFinite(&'static str),
     /// A bistatic measurement names a transmitter the geometry does not have.
-    #[error("bistatic measurement at node {node} refers to transmitter {m}, but the geometry has {count}")]
+    #[error(
+        "bistatic measurement at node {node} refers to transmitter {m}, but the geometry has {count}"
+    )]
     UnknownTransmitter {
         /// Receiver that reported the measurement.
         node: usize,
@@ -219,7 +221,9 @@ fn accumulate<const GRAD: bool, const HESS: bool>(
         && grad.iter().all(|v| v.is_finite())
         && hess.iter().all(|v| v.is_finite());
     if !finite {
-        return Err(TrackError::NonFiniteResult("loss evaluation (check geometry)"));
+        return Err(TrackError::NonFiniteResult(
+            "loss evaluation (check geometry)",
+        ));
     }
     Ok(LossEval {
         value,
@@ -390,22 +394,11 @@ fn newton_displacement(h: &Mat2, g: &Vec2, damping: &NewtonDamping) -> (Vec2, bo
     let c = h[(1, 1)];
     let mean = 0.5 * (a + c);
     let hd = 0.5 * (a - c);
-    let rad = hd.hypot(b);
+    // Entries are bounded by ~|e| / (1e-12 (1 + ||p||)) (see `COINCIDENT_REL`),
+    // far from overflow in the squares, so no `hypot` is needed.
+    let rad = (hd * hd + b * b).sqrt();
     let l1 = mean + rad;
     let l2 = mean - rad;
-    // Eigenvector of l1, computed in the cancellation-free branch.
-    let v = if hd >= 0.0 {
-        Vec2::new(hd + rad, b)
-    } else {
-        Vec2::new(b, rad - hd)
-    };
-    let vn = v.norm();
-    let v1 = if vn > f64::MIN_POSITIVE {
-        v / vn
-    } else {
-        Vec2::new(1.0, 0.0)
-    };
-    let v2 = Vec2::new(-v1.y, v1.x);
     let (rel, abs) = match *damping {
         NewtonDamping::AbsEigen {
             rel_floor,
@@ -418,16 +411,29 @@ fn newton_displacement(h: &Mat2, g: &Vec2, damping: &NewtonDamping) -> (Vec2, bo
         } => (rel_floor, abs_floor),
     };
     let floor = (rel * l1.abs().max(l2.abs())).max(abs);
-    let g1 = v1.dot(g);
-    let g2 = v2.dot(g);
     if l2 >= floor {
-        return (v1 * (g1 / l1) + v2 * (g2 / l2), false);
+        // Plain Newton step: explicit inverse of the SPD 2x2 matrix.
+        let det = l1 * l2;
+        return (Vec2::new(c * g.x - b * g.y, a * g.y - b * g.x) / det, false);
     }
     match *damping {
         NewtonDamping::AbsEigen { .. } => {
+            // Eigenvector of l1, computed in the cancellation-free branch.
+            let v = if hd >= 0.0 {
+                Vec2::new(hd + rad, b)
+            } else {
+                Vec2::new(b, rad - hd)
+            };
+            let vn = v.norm();
+            let v1 = if vn > f64::MIN_POSITIVE {
+                v / vn
+            } else {
+                Vec2::new(1.0, 0.0)
+            };
+            let v2 = Vec2::new(-v1.y, v1.x);
             let m1 = l1.abs().max(floor);
             let m2 = l2.abs().max(floor);
-            (v1 * (g1 / m1) + v2 * (g2 / m2), true)
+            (v1 * (v1.dot(g) / m1) + v2 * (v2.dot(g) / m2), true)
         }
         NewtonDamping::GradientFallback { eta, .. } => (g * eta, true),
     }
@@ -532,7 +538,7 @@ impl Tracker for OgdTracker {
     }
 }
 
-/// Online Newton method, seed 000 Sec. V (after Lesage-Landry et al., seed 000 ref. [23]):
+/// Online Newton method, seed 000 Sec. V (after Lesage-Landry et al., seed 000 ref. 23):
 /// `x_t = x_{t-1} - (hess f_t(x_{t-1}))^{-1} grad f_t(x_{t-1})`, with the
 /// [`NewtonDamping`] modification when the Hessian is not safely positive
 /// definite. Never returns a non-finite estimate.
@@ -693,7 +699,9 @@ pub fn ols_position(geometry: &Geometry, sample: &SampleMeasurements) -> Result<
         why.push_str(&format!("{} one-way ranges (need >= 3)", anchors.len()));
     }
     if bistatic.is_empty() {
-        return Err(TrackError::OlsDegenerate(format!("{why}; no bistatic ranges")));
+        return Err(TrackError::OlsDegenerate(format!(
+            "{why}; no bistatic ranges"
+        )));
     }
     let n_tx = {
         let mut v: Vec<usize> = bistatic.iter().map(|b| b.0).collect();
@@ -737,7 +745,7 @@ fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
     }
     let det = ata.determinant();
     let tr = ata.trace();
-    if !(det > OLS_RANK_REL * tr * tr) {
+    if det.is_nan() || det <= OLS_RANK_REL * tr * tr {
         return Err("one-way anchors are collinear (A^T A singular)".into());
     }
     let x = Vec2::new(
@@ -788,7 +796,7 @@ fn ols_bistatic(
     let svd = a.svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !(smin > OLS_RANK_REL * smax) {
+    if smin.is_nan() || smin <= OLS_RANK_REL * smax {
         return Err(format!("{label}-lifted bistatic system is rank deficient"));
     }
     let z = svd
@@ -1234,7 +1242,11 @@ mod tests {
         for n in &mut s2.nodes {
             n.doa = None;
         }
-        assert_abs_diff_eq!(loss(&g, &s, &x).unwrap(), loss(&g, &s2, &x).unwrap(), epsilon = 0.0);
+        assert_abs_diff_eq!(
+            loss(&g, &s, &x).unwrap(),
+            loss(&g, &s2, &x).unwrap(),
+            epsilon = 0.0
+        );
         assert_eq!(term_count(&s), 4 * 2 + 2);
         let ev = loss_grad(&g, &s, &x).unwrap();
         assert_eq!(ev.terms, 10);
@@ -1251,9 +1263,15 @@ mod tests {
         assert_abs_diff_eq!(ev.value, 0.0, epsilon = 1e-24);
         assert_abs_diff_eq!(ev.grad.norm(), 0.0, epsilon = 1e-12);
         // Single one-way range: f = (||x - a|| - r)^2.
-        let g1 = Geometry { transmitters: vec![], receivers: vec![Vec2::new(1.0, 1.0)] };
+        let g1 = Geometry {
+            transmitters: vec![],
+            receivers: vec![Vec2::new(1.0, 1.0)],
+        };
         let s1 = SampleMeasurements {
-            nodes: vec![NodeMeasurements { range: Some(2.0), ..Default::default() }],
+            nodes: vec![NodeMeasurements {
+                range: Some(2.0),
+                ..Default::default()
+            }],
         };
         let x = Vec2::new(4.0, 5.0); // distance 5
         assert_abs_diff_eq!(loss(&g1, &s1, &x).unwrap(), 9.0, epsilon = 1e-12);
@@ -1264,7 +1282,10 @@ mod tests {
         let g = paper_geometry();
         let s = SampleMeasurements {
             nodes: vec![
-                NodeMeasurements { range: Some(0.3), ..Default::default() },
+                NodeMeasurements {
+                    range: Some(0.3),
+                    ..Default::default()
+                },
                 NodeMeasurements::default(),
                 NodeMeasurements::default(),
             ],
@@ -1294,10 +1315,25 @@ mod tests {
         let mut too_many = good.clone();
         too_many.nodes.push(NodeMeasurements::default());
         for tr in &mut trackers {
-            assert_eq!(tr.step(&g, &nan, 1), Err(TrackError::NonFinite("one-way range")));
-            assert!(matches!(tr.step(&g, &bad_tx, 1), Err(TrackError::UnknownTransmitter { m: 0, count: 0, .. })));
-            assert!(matches!(tr.step(&g, &inf_bi, 1), Err(TrackError::UnknownTransmitter { .. })));
-            assert!(matches!(tr.step(&g, &too_many, 1), Err(TrackError::TooManyNodes { nodes: 4, receivers: 3 })));
+            assert_eq!(
+                tr.step(&g, &nan, 1),
+                Err(TrackError::NonFinite("one-way range"))
+            );
+            assert!(matches!(
+                tr.step(&g, &bad_tx, 1),
+                Err(TrackError::UnknownTransmitter { m: 0, count: 0, .. })
+            ));
+            assert!(matches!(
+                tr.step(&g, &inf_bi, 1),
+                Err(TrackError::UnknownTransmitter { .. })
+            ));
+            assert!(matches!(
+                tr.step(&g, &too_many, 1),
+                Err(TrackError::TooManyNodes {
+                    nodes: 4,
+                    receivers: 3
+                })
+            ));
             assert_eq!(tr.step(&g, &good, 0), Err(TrackError::ZeroTime));
             assert_abs_diff_eq!((tr.estimate() - x0).norm(), 0.0, epsilon = 0.0);
             assert!(tr.reset(Vec2::new(f64::NAN, 0.0)).is_err());
@@ -1306,14 +1342,35 @@ mod tests {
         let gm = mixed_geometry();
         let mut sm = mixed_sample(&gm, &x0, 0.0, &mut rng);
         sm.nodes[1].bistatic[0].1 = f64::INFINITY;
-        assert_eq!(loss(&gm, &sm, &x0), Err(TrackError::NonFinite("bistatic range")));
+        assert_eq!(
+            loss(&gm, &sm, &x0),
+            Err(TrackError::NonFinite("bistatic range"))
+        );
         let mut gnan = g.clone();
         gnan.receivers[2].x = f64::NAN;
-        assert!(matches!(loss(&gnan, &good, &x0), Err(TrackError::NonFiniteResult(_))));
+        assert!(matches!(
+            loss(&gnan, &good, &x0),
+            Err(TrackError::NonFiniteResult(_))
+        ));
         assert!(OgdTracker::new(x0, StepSize::Constant { eta: -1.0 }).is_err());
         assert!(OgdTracker::new(x0, StepSize::InvSqrt { eta0: f64::NAN }).is_err());
-        assert!(OnmTracker::new(x0, NewtonDamping::AbsEigen { rel_floor: 0.0, abs_floor: 0.0 }).is_err());
-        assert!(OgdTracker::new(Vec2::new(f64::INFINITY, 0.0), StepSize::Constant { eta: 0.1 }).is_err());
+        assert!(
+            OnmTracker::new(
+                x0,
+                NewtonDamping::AbsEigen {
+                    rel_floor: 0.0,
+                    abs_floor: 0.0
+                }
+            )
+            .is_err()
+        );
+        assert!(
+            OgdTracker::new(
+                Vec2::new(f64::INFINITY, 0.0),
+                StepSize::Constant { eta: 0.1 }
+            )
+            .is_err()
+        );
     }
 
     #[test]
@@ -1352,7 +1409,8 @@ mod tests {
                 (g, t, bistatic_only(&s))
             },
         ] {
-            let mut onm = OnmTracker::new(truth + Vec2::new(0.02, -0.015), NewtonDamping::default()).unwrap();
+            let mut onm =
+                OnmTracker::new(truth + Vec2::new(0.02, -0.015), NewtonDamping::default()).unwrap();
             let mut errs = vec![(onm.estimate() - truth).norm()];
             for t in 1..=6 {
                 errs.push((onm.step(&g, &s, t).unwrap() - truth).norm());
@@ -1374,7 +1432,10 @@ mod tests {
         // Ranges much larger than the distance: the curvature term 2 e/d is very negative.
         let s = SampleMeasurements {
             nodes: (0..3)
-                .map(|_| NodeMeasurements { range: Some(5.0), ..Default::default() })
+                .map(|_| NodeMeasurements {
+                    range: Some(5.0),
+                    ..Default::default()
+                })
                 .collect(),
         };
         let x0 = Vec2::new(0.4, 0.4);
@@ -1382,7 +1443,11 @@ mod tests {
         assert!(ev.hess.symmetric_eigenvalues().min() < 0.0);
         let mut fb = OnmTracker::new(
             x0,
-            NewtonDamping::GradientFallback { rel_floor: 1e-6, abs_floor: 1e-12, eta: 0.05 },
+            NewtonDamping::GradientFallback {
+                rel_floor: 1e-6,
+                abs_floor: 1e-12,
+                eta: 0.05,
+            },
         )
         .unwrap();
         let x = fb.step(&g, &s, 1).unwrap();
@@ -1399,7 +1464,12 @@ mod tests {
     fn newton_displacement_matches_the_inverse_hessian_on_random_spd_matrices() {
         let mut rng = stream_rng(6, Stream::Aux, 0);
         for _ in 0..1000 {
-            let m = Mat2::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng), gauss(&mut rng));
+            let m = Mat2::new(
+                gauss(&mut rng),
+                gauss(&mut rng),
+                gauss(&mut rng),
+                gauss(&mut rng),
+            );
             let h = m * m.transpose() + Mat2::identity() * 0.1;
             let gv = Vec2::new(gauss(&mut rng), gauss(&mut rng));
             let (d, damped) = newton_displacement(&h, &gv, &NewtonDamping::default());
@@ -1408,10 +1478,18 @@ mod tests {
             assert_abs_diff_eq!((d - want).norm(), 0.0, epsilon = 1e-9 * (1.0 + want.norm()));
         }
         // H = 0: finite (capped) step.
-        let (d, damped) = newton_displacement(&Mat2::zeros(), &Vec2::new(1e-3, 0.0), &NewtonDamping::default());
+        let (d, damped) = newton_displacement(
+            &Mat2::zeros(),
+            &Vec2::new(1e-3, 0.0),
+            &NewtonDamping::default(),
+        );
         assert!(damped && d.x.is_finite() && d.y.is_finite());
         // Diagonal indefinite: eigenvalue magnitudes are used.
-        let (d, _) = newton_displacement(&Mat2::new(2.0, 0.0, 0.0, -4.0), &Vec2::new(1.0, 1.0), &NewtonDamping::default());
+        let (d, _) = newton_displacement(
+            &Mat2::new(2.0, 0.0, 0.0, -4.0),
+            &Vec2::new(1.0, 1.0),
+            &NewtonDamping::default(),
+        );
         assert_abs_diff_eq!((d - Vec2::new(0.5, 0.25)).norm(), 0.0, epsilon = 1e-15);
     }
 
@@ -1448,7 +1526,10 @@ mod tests {
                 }
             }
             // The minimiser must be inside the window, else the grid search is inconclusive.
-            assert!((1..200).contains(&bi) && (1..200).contains(&bj), "window too small");
+            assert!(
+                (1..200).contains(&bi) && (1..200).contains(&bj),
+                "window too small"
+            );
             h = hn;
         }
         best.1
@@ -1514,11 +1595,19 @@ mod tests {
         // Bistatic only, two transmitters (transmitter-lifted: 4 unknowns, 8 rows).
         let gm = mixed_geometry();
         let truth = Vec2::new(0.6, 0.8);
-        let sb = bistatic_only(&mixed_sample(&gm, &truth, 0.0, &mut stream_rng(9, Stream::Aux, 1)));
+        let sb = bistatic_only(&mixed_sample(
+            &gm,
+            &truth,
+            0.0,
+            &mut stream_rng(9, Stream::Aux, 1),
+        ));
         let x = ols_position(&gm, &sb).unwrap();
         assert_abs_diff_eq!((x - truth).norm(), 0.0, epsilon = 1e-9);
         // One transmitter, many receivers.
-        let g1 = Geometry { transmitters: vec![gm.transmitters[0]], receivers: gm.receivers.clone() };
+        let g1 = Geometry {
+            transmitters: vec![gm.transmitters[0]],
+            receivers: gm.receivers.clone(),
+        };
         let mut s1 = sb.clone();
         for n in &mut s1.nodes {
             n.bistatic.truncate(1);
@@ -1526,7 +1615,10 @@ mod tests {
         let x = ols_position(&g1, &s1).unwrap();
         assert_abs_diff_eq!((x - truth).norm(), 0.0, epsilon = 1e-9);
         // Many transmitters, one receiver: the receiver-lifted system is used.
-        let g2 = Geometry { transmitters: gm.receivers.clone(), receivers: vec![gm.transmitters[1]] };
+        let g2 = Geometry {
+            transmitters: gm.receivers.clone(),
+            receivers: vec![gm.transmitters[1]],
+        };
         let s2 = SampleMeasurements {
             nodes: vec![NodeMeasurements {
                 bistatic: g2
@@ -1546,17 +1638,40 @@ mod tests {
     fn ols_rejects_collinear_anchors_and_too_few_ranges() {
         let g = Geometry {
             transmitters: vec![],
-            receivers: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(3.0, 0.0)],
+            receivers: vec![
+                Vec2::new(0.0, 0.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(3.0, 0.0),
+            ],
         };
-        let s = toa_sample(&g, &Vec2::new(1.0, 2.0), 0.0, &mut stream_rng(10, Stream::Aux, 0));
-        assert!(matches!(ols_position(&g, &s), Err(TrackError::OlsDegenerate(_))));
+        let s = toa_sample(
+            &g,
+            &Vec2::new(1.0, 2.0),
+            0.0,
+            &mut stream_rng(10, Stream::Aux, 0),
+        );
+        assert!(matches!(
+            ols_position(&g, &s),
+            Err(TrackError::OlsDegenerate(_))
+        ));
         let mut s2 = s.clone();
         s2.nodes.truncate(2);
-        assert!(matches!(ols_position(&g, &s2), Err(TrackError::OlsDegenerate(_))));
+        assert!(matches!(
+            ols_position(&g, &s2),
+            Err(TrackError::OlsDegenerate(_))
+        ));
         let gm = mixed_geometry();
-        let mut sb = bistatic_only(&mixed_sample(&gm, &Vec2::new(0.6, 0.8), 0.0, &mut stream_rng(10, Stream::Aux, 1)));
+        let mut sb = bistatic_only(&mixed_sample(
+            &gm,
+            &Vec2::new(0.6, 0.8),
+            0.0,
+            &mut stream_rng(10, Stream::Aux, 1),
+        ));
         sb.nodes.truncate(1); // 2 equations, 3 unknowns either way
-        assert!(matches!(ols_position(&gm, &sb), Err(TrackError::OlsDegenerate(_))));
+        assert!(matches!(
+            ols_position(&gm, &sb),
+            Err(TrackError::OlsDegenerate(_))
+        ));
     }
 
     #[test]
@@ -1604,13 +1719,23 @@ mod tests {
         // E||d||^2 = 2 h^2 / 3.
         let want = 2.0 * 0.0025f64.powi(2) / 3.0;
         assert_abs_diff_eq!(var / (len - 1) as f64, want, epsilon = 0.1 * want);
-        assert!(Motion::SqrtDecayCircle { c: f64::NAN }.trajectory(start, 3, &mut stream_rng(1, Stream::Motion, 0)).is_err());
-        assert!(trajectory_eq19(start, c, 0, &mut stream_rng(1, Stream::Motion, 0)).unwrap().is_empty());
+        assert!(
+            Motion::SqrtDecayCircle { c: f64::NAN }
+                .trajectory(start, 3, &mut stream_rng(1, Stream::Motion, 0))
+                .is_err()
+        );
+        assert!(
+            trajectory_eq19(start, c, 0, &mut stream_rng(1, Stream::Motion, 0))
+                .unwrap()
+                .is_empty()
+        );
     }
 
     // ----- Reproductions (ignored; they print numbers) -----------------------
     //
     // cargo test --lib online::tests::reproduce -- --ignored --nocapture --test-threads 1
+
+    type SigmaOfT = Box<dyn Fn(usize) -> f64>;
 
     struct CtteCurves {
         ogd: Vec<f64>,
@@ -1665,7 +1790,10 @@ mod tests {
     fn print_curves(label: &str, cv: &CtteCurves, checkpoints: &[usize]) {
         let n = cv.ogd.len();
         println!("  {label}  (ONM modified steps: {})", cv.onm_damped);
-        println!("    {:>6} {:>12} {:>12} {:>10}", "t", "CTTE OGD", "CTTE ONM", "ONM-OGD");
+        println!(
+            "    {:>6} {:>12} {:>12} {:>10}",
+            "t", "CTTE OGD", "CTTE ONM", "ONM-OGD"
+        );
         for &t in checkpoints {
             println!(
                 "    {:>6} {:>12.5} {:>12.5} {:>10.5}",
@@ -1699,10 +1827,13 @@ mod tests {
     fn reproduce_seed000_sec_v_a_ctte_of_ogd_vs_onm() {
         let trials = 200;
         let cps = [10, 50, 100, 200, 300, 400, 500];
-        let scenarios: [(&str, Box<dyn Fn(usize) -> f64>); 3] = [
+        let scenarios: [(&str, SigmaOfT); 3] = [
             ("sigma = 1e-4", Box::new(|_| 1e-4)),
             ("sigma = 1e-2", Box::new(|_| 1e-2)),
-            ("sigma = 0.01/sqrt(t)", Box::new(|t| 0.01 / (t as f64).sqrt())),
+            (
+                "sigma = 0.01/sqrt(t)",
+                Box::new(|t| 0.01 / (t as f64).sqrt()),
+            ),
         ];
         println!("seed 000 Sec. V-A: T = 500, c = 0.005, {trials} trials, OGD eta = 0.1");
         for (label, sigma) in &scenarios {
@@ -1713,10 +1844,16 @@ mod tests {
         }
         println!("seed 000 Fig. 2 / Fig. 3: T = 10000, exact init");
         let cps = [100, 1000, 2000, 5000, 10000];
-        let long: [(&str, Box<dyn Fn(usize) -> f64>); 3] = [
+        let long: [(&str, SigmaOfT); 3] = [
             ("Fig. 2 sigma = 1e-4", Box::new(|_| 1e-4)),
-            ("Fig. 3a sigma = 0.005/sqrt(2t)", Box::new(|t| 0.005 / (2.0 * t as f64).sqrt())),
-            ("Fig. 3b sigma = 0.008/sqrt(2t)", Box::new(|t| 0.008 / (2.0 * t as f64).sqrt())),
+            (
+                "Fig. 3a sigma = 0.005/sqrt(2t)",
+                Box::new(|t| 0.005 / (2.0 * t as f64).sqrt()),
+            ),
+            (
+                "Fig. 3b sigma = 0.008/sqrt(2t)",
+                Box::new(|t| 0.008 / (2.0 * t as f64).sqrt()),
+            ),
         ];
         for (label, sigma) in &long {
             let cv = seed000_ctte(Init::Exact, 0.005, sigma.as_ref(), 10_000, trials);
@@ -1731,16 +1868,39 @@ mod tests {
         let horizon = 10_000;
         let trials = 200u64;
         let examples = [
-            ("Ex. 1: diagonal +-, sigma = 1e-4", Motion::SqrtDecayDiagonal { c: 0.0025 }, 1e-4),
-            ("Ex. 2: diagonal +-, sigma = 1e-2", Motion::SqrtDecayDiagonal { c: 0.0025 }, 1e-2),
-            ("Ex. 3a: uniform box, sigma = 1e-4", Motion::UniformBox { half_width: 0.0025 }, 1e-4),
-            ("Ex. 3b: uniform box, sigma = 1e-2", Motion::UniformBox { half_width: 0.0025 }, 1e-2),
+            (
+                "Ex. 1: diagonal +-, sigma = 1e-4",
+                Motion::SqrtDecayDiagonal { c: 0.0025 },
+                1e-4,
+            ),
+            (
+                "Ex. 2: diagonal +-, sigma = 1e-2",
+                Motion::SqrtDecayDiagonal { c: 0.0025 },
+                1e-2,
+            ),
+            (
+                "Ex. 3a: uniform box, sigma = 1e-4",
+                Motion::UniformBox { half_width: 0.0025 },
+                1e-4,
+            ),
+            (
+                "Ex. 3b: uniform box, sigma = 1e-2",
+                Motion::UniformBox { half_width: 0.0025 },
+                1e-2,
+            ),
         ];
-        println!("seed 001 Sec. V: T = {horizon}, {trials} trials, OGD eta_t = 1/sqrt(t), x_0 = x_0^*");
-        println!("  regret_pred = sum f_t(x_(t-1)) - f_t(x_hat_t) (seed 001 definition); regret_post uses x_t");
+        println!(
+            "seed 001 Sec. V: T = {horizon}, {trials} trials, OGD eta_t = 1/sqrt(t), x_0 = x_0^*"
+        );
+        println!(
+            "  regret_pred = sum f_t(x_(t-1)) - f_t(x_hat_t) (seed 001 definition); regret_post uses x_t"
+        );
+        let cps = [1usize, 10, 100, 1000, 5000, 10_000];
         for (label, motion, sigma) in examples {
             let mut pred = vec![0.0; horizon];
             let mut post = vec![0.0; horizon];
+            // Per-trial cumulative regret_pred at the checkpoints (for medians).
+            let mut per_trial: Vec<Vec<f64>> = vec![Vec::new(); cps.len()];
             let mut not_conv = 0usize;
             let mut lost = 0usize;
             let mut final_err = 0.0;
@@ -1748,7 +1908,9 @@ mod tests {
                 let mut motion_rng = stream_rng(trial, Stream::Motion, 1);
                 let mut noise_rng = stream_rng(trial, Stream::Measurement, 1);
                 // Positions x*_0 .. x*_T; sample t measures x*_t.
-                let traj = motion.trajectory(Vec2::new(2.0, 1.0), horizon + 1, &mut motion_rng).unwrap();
+                let traj = motion
+                    .trajectory(Vec2::new(2.0, 1.0), horizon + 1, &mut motion_rng)
+                    .unwrap();
                 let mut ogd = OgdTracker::new(traj[0], StepSize::InvSqrt { eta0: 1.0 }).unwrap();
                 let (mut rp, mut rq) = (DynamicRegret::default(), DynamicRegret::default());
                 for t in 1..=horizon {
@@ -1757,29 +1919,48 @@ mod tests {
                     not_conv += usize::from(!xh.converged);
                     let before = ogd.estimate();
                     let after = ogd.step(&g, &s, t).unwrap();
-                    pred[t - 1] += rp.push(regret_term(&g, &s, &before, &xh).unwrap()) / trials as f64;
-                    post[t - 1] += rq.push(regret_term(&g, &s, &after, &xh).unwrap()) / trials as f64;
+                    let r = rp.push(regret_term(&g, &s, &before, &xh).unwrap());
+                    pred[t - 1] += r / trials as f64;
+                    post[t - 1] +=
+                        rq.push(regret_term(&g, &s, &after, &xh).unwrap()) / trials as f64;
+                    if let Some(i) = cps.iter().position(|&c| c == t) {
+                        per_trial[i].push(r);
+                    }
                 }
                 let e = (ogd.estimate() - traj[horizon]).norm();
                 final_err += e / trials as f64;
                 lost += usize::from(e > 0.1);
             }
-            println!("  {label}: x_hat not converged in {not_conv} of {} solves; mean final error {final_err:.3e}; trials with final error > 0.1: {lost}", horizon as u64 * trials);
-            println!("    {:>6} {:>12} {:>12}", "t", "regret_pred", "regret_post");
-            for t in [10, 100, 1000, 5000, 10000] {
-                println!("    {:>6} {:>12.5e} {:>12.5e}", t, pred[t - 1], post[t - 1]);
+            println!(
+                "  {label}: x_hat not converged in {not_conv} of {} solves; mean final error {final_err:.3e}; trials with final error > 0.1: {lost}",
+                horizon as u64 * trials
+            );
+            println!(
+                "    {:>6} {:>12} {:>12} {:>12} {:>16}",
+                "t", "mean R_pred", "median R_pred", "mean R_post", "mean per-step in (prev cp, t]"
+            );
+            let mut prev = 0usize;
+            for (i, &t) in cps.iter().enumerate() {
+                let mut v = per_trial[i].clone();
+                v.sort_by(f64::total_cmp);
+                let med = v[v.len() / 2];
+                let base = if prev == 0 { 0.0 } else { pred[prev - 1] };
+                println!(
+                    "    {:>6} {:>12.5e} {:>12.5e} {:>12.5e} {:>16.3e}",
+                    t,
+                    pred[t - 1],
+                    med,
+                    post[t - 1],
+                    (pred[t - 1] - base) / (t - prev) as f64
+                );
+                prev = t;
             }
             let tenth = horizon / 10;
-            for (name, c) in [("pred", &pred), ("post", &post)] {
-                println!(
-                    "    {name}: slope first tenth {:.3e}, last tenth {:.3e}; log-log exponent 10..100 {:.2}, 100..1000 {:.2}, 1000..10000 {:.2}",
-                    c[tenth - 1] / tenth as f64,
-                    (c[horizon - 1] - c[horizon - tenth - 1]) / tenth as f64,
-                    exponent(c, 10, 100),
-                    exponent(c, 100, 1000),
-                    exponent(c, 1000, 10000),
-                );
-            }
+            println!(
+                "    R_pred slope first tenth {:.3e}, last tenth {:.3e}",
+                pred[tenth - 1] / tenth as f64,
+                (pred[horizon - 1] - pred[horizon - tenth - 1]) / tenth as f64,
+            );
         }
     }
 }
