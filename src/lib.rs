@@ -18,6 +18,7 @@ pub mod measure;
 pub mod metrics;
 pub mod motion;
 pub mod noise;
+pub mod online;
 pub mod protocol;
 pub mod prox;
 pub mod rng;

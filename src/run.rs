@@ -394,7 +394,11 @@ fn realtime_stats(rec: &RunRecord, opts: &RunOptions) -> Option<RealtimeStats> {
     if opts.clock != Clock::Realtime || rec.iterations_per_sample.is_empty() {
         return None;
     }
-    let ips: Vec<f64> = rec.iterations_per_sample.iter().map(|&x| x as f64).collect();
+    let ips: Vec<f64> = rec
+        .iterations_per_sample
+        .iter()
+        .map(|&x| x as f64)
+        .collect();
     Some(RealtimeStats {
         iterations_per_sample_min: rec.iterations_per_sample.iter().copied().min().unwrap_or(0),
         iterations_per_sample_median: metrics::median(&ips).unwrap_or(0.0),
