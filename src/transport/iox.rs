@@ -5,10 +5,14 @@
 //!
 //! Every run gets its own iceoryx2 *prefix* `iox2_sn<h>_`, where `<h>` is the 64-bit
 //! FNV-1a hash of the run id in 16 hex digits (see [`resource_prefix`]). All files
-//! iceoryx2 creates for the run (shared memory in `/dev/shm`, static configs, node
-//! details and sockets under `/tmp/iceoryx2`) start with that prefix, so concurrent
-//! runs are fully separated and a run's leftovers can be listed ([`run_resources`])
-//! and cleaned ([`cleanup_stale_resources`]). Inside the namespace the services are:
+//! iceoryx2 creates for the run start with that prefix: shared memory in `/dev/shm`,
+//! and static service configs, node details, monitor locks and event sockets under
+//! the iceoryx2 root directory, which sonarnet moves from the default `/tmp/iceoryx2`
+//! to the tmpfs directory `/dev/shm/sonarnet-iceoryx2/` (creating the ~40 small files
+//! per endpoint on the disk file system made a 256-node run take ~30 s to set up
+//! instead of ~1.4 s). Concurrent runs are therefore fully separated, and a run's
+//! files can be listed ([`run_resources`]) and cleaned ([`cleanup_stale_resources`]).
+//! Inside the namespace the services are:
 //!
 //! | service | pattern | publishers / notifiers | subscribers / listeners | max nodes | buffer |
 //! |---|---|---|---|---|---|
@@ -53,14 +57,19 @@
 //! # Cleanup
 //!
 //! Dropping an [`IoxTransport`] removes its ports; iceoryx2 removes a service when
-//! the last process holding it drops it, and each process removes the run's global
-//! management segment (`<prefix>…node.<version>.global_mgmt` in `/dev/shm`, only
-//! needed while an iceoryx2 node is created) right after creating its node. After a
-//! clean run nothing of the run is left in `/dev/shm` or `/tmp/iceoryx2` (the shared
-//! directories `/tmp/iceoryx2/{nodes,services}` remain). Processes killed with
-//! SIGKILL leave files behind; [`cleanup_stale_resources`] (call it when the
-//! coordinator starts) removes those of every sonarnet run whose processes are all
-//! dead, using iceoryx2's dead-node detection (file-lock monitors).
+//! the last process holding it drops it. Each process also removes the run's global
+//! management segment (`<prefix><hash>_node.<version>.global_mgmt` in `/dev/shm`, a
+//! persistent node counter only needed while an iceoryx2 node is created) right after
+//! creating its node. After a clean run nothing of the run is left (only the empty
+//! shared directories `/dev/shm/sonarnet-iceoryx2/{nodes,services}` remain).
+//!
+//! iceoryx2's automatic dead-node scans (on node creation, node drop and service
+//! open) are switched off: each costs O(N), O(N²) per run. Processes that die
+//! without dropping their transport (SIGKILL, abort) therefore leave their files
+//! until [`cleanup_stale_resources`] runs; the coordinator should call it when it
+//! starts, and again after reaping the nodes of a run that ended abnormally. It
+//! removes the resources of dead iceoryx2 nodes of every sonarnet run (iceoryx2's
+//! file-lock monitors tell dead from alive) and leaves live runs alone.
 //!
 //! # Process behaviour
 //!
@@ -130,10 +139,33 @@ fn parse_prefix(name: &str) -> Option<&str> {
         .then_some(p)
 }
 
-fn config_for_prefix(prefix: &str) -> Result<Config, TransportError> {
+/// iceoryx2's root directory for sonarnet (static configs, node details, monitor
+/// locks, event sockets): on tmpfs next to the shared memory, because creating the
+/// ~40 small files per endpoint on a disk file system (the default `/tmp/iceoryx2`)
+/// made a 256-node run take tens of seconds to set up instead of about one. Falls
+/// back to the iceoryx2 default where `/dev/shm` does not exist.
+const ROOT_DIR: &str = "/dev/shm/sonarnet-iceoryx2/";
+
+/// The iceoryx2 configuration shared by all sonarnet processes (prefix not set).
+fn base_config() -> Result<Config, TransportError> {
     let mut cfg = Config::default();
+    if Path::new(SHM_DIR).is_dir() {
+        let root = iceoryx2::prelude::Path::new(ROOT_DIR.as_bytes())
+            .map_err(|e| TransportError::ipc(format!("using root {ROOT_DIR}"), e))?;
+        cfg.global.set_root_path(&root);
+    }
+    Ok(cfg)
+}
+
+fn config_for_prefix(prefix: &str) -> Result<Config, TransportError> {
+    let mut cfg = base_config()?;
     cfg.global.prefix = FileName::new(prefix.as_bytes())
         .map_err(|e| TransportError::ipc(format!("using prefix {prefix:?}"), e))?;
+    // Dead-node scans on every node creation/drop and service open cost O(N) each,
+    // O(N^2) per run; dead nodes are handled by `cleanup_stale_resources` instead.
+    cfg.global.node.cleanup_dead_nodes_on_creation = false;
+    cfg.global.node.cleanup_dead_nodes_on_destruction = false;
+    cfg.global.service.cleanup_dead_nodes_on_open = false;
     Ok(cfg)
 }
 
@@ -141,10 +173,22 @@ fn iox_path_to_std(p: &iceoryx2::prelude::Path) -> PathBuf {
     PathBuf::from(String::from_utf8_lossy(p.as_bytes()).into_owned())
 }
 
-/// Removes the run's global management segment(s) from `/dev/shm`. iceoryx2 only
-/// uses it while creating a node (to draw a per-machine node counter); node ids
-/// stay unique without it (they also contain pid and creation time).
-fn remove_global_mgmt_segments(prefix: &str) -> usize {
+/// Removes the run's global management segment (in `/dev/shm`). iceoryx2 only uses
+/// it while creating a node, to draw a per-machine node counter; node ids stay unique
+/// without it (they also contain the pid and the creation time in nanoseconds).
+fn remove_global_mgmt_segment(cfg: &Config) {
+    // SAFETY: the function requires that no other process uses the segment's domain.
+    // The domain is this run's prefix, whose processes use the segment only inside
+    // `NodeBuilder::create`, which opens-or-creates it in a retry loop: removing it
+    // concurrently at worst restarts the node counter, which cannot make node ids
+    // collide (see above). The segment is removed by every process right after its
+    // own node exists, so the last one to be created is also removed.
+    let _ = unsafe { iceoryx2::testing::remove_global_mgmt_segment::<Svc>(cfg) };
+}
+
+/// Removes global management segments with `prefix` by listing `/dev/shm` (used by
+/// the stale-resource cleanup, which does not know the exact name).
+fn remove_global_mgmt_segments_by_scan(prefix: &str) -> usize {
     let Ok(dir) = std::fs::read_dir(SHM_DIR) else {
         return 0;
     };
@@ -179,15 +223,18 @@ fn collect_files_with_prefix(dir: &Path, prefix: &str, out: &mut Vec<PathBuf>) {
 }
 
 /// All files and shared-memory objects that currently exist for run `run_id` (in
-/// `/dev/shm` and under the iceoryx2 root `/tmp/iceoryx2`). Empty after a clean run
+/// `/dev/shm`, including the iceoryx2 root below it). Empty after a clean run
 /// or after [`cleanup_stale_resources`] removed a crashed one.
 pub fn run_resources(run_id: &str) -> Vec<PathBuf> {
     let prefix = resource_prefix(run_id);
     let mut out = Vec::new();
     collect_files_with_prefix(Path::new(SHM_DIR), &prefix, &mut out);
-    let root = iox_path_to_std(Config::default().global.root_path());
-    collect_files_with_prefix(&root, &prefix, &mut out);
+    if let Ok(cfg) = base_config() {
+        let root = iox_path_to_std(cfg.global.root_path());
+        collect_files_with_prefix(&root, &prefix, &mut out);
+    }
     out.sort();
+    out.dedup();
     out
 }
 
@@ -215,7 +262,7 @@ pub struct CleanupReport {
 /// their services (removing services nobody holds any more).
 pub fn cleanup_stale_resources() -> Result<CleanupReport, TransportError> {
     init_logging();
-    let base = Config::default();
+    let base = base_config()?;
     let mut prefixes: Vec<String> = Vec::new();
     let mut note = |name: &str, suffix: &str| {
         if name.ends_with(suffix)
@@ -257,7 +304,7 @@ pub fn cleanup_stale_resources() -> Result<CleanupReport, TransportError> {
         })
         .map_err(|e| TransportError::ipc(format!("listing iceoryx2 nodes of {prefix}"), e))?;
         if alive == 0 {
-            report.segments_removed += remove_global_mgmt_segments(prefix);
+            report.segments_removed += remove_global_mgmt_segments_by_scan(prefix);
         } else {
             report.runs_alive += 1;
         }
@@ -527,7 +574,7 @@ fn make_node(t: &RunTopology, name: &str) -> Result<Node<Svc>, TransportError> {
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<Svc>()
         .map_err(|e| TransportError::ipc(format!("creating iceoryx2 node {name}"), e))?;
-    remove_global_mgmt_segments(&prefix);
+    remove_global_mgmt_segment(&cfg);
     Ok(node)
 }
 
