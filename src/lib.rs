@@ -25,4 +25,5 @@ pub mod rng;
 pub mod run;
 pub mod scenario;
 pub mod synth;
+pub mod transport;
 pub mod wire;

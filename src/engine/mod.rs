@@ -9,6 +9,7 @@
 //! coordinator and the same node core.
 
 pub mod inprocess;
+pub mod processes;
 
 use crate::geometry::Vec3;
 use crate::protocol::{Command, Counters, NodeConfig, NodeMode, Report};
