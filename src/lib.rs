@@ -10,5 +10,6 @@ pub mod local;
 pub mod measure;
 pub mod prox;
 pub mod rng;
+pub mod robust;
 pub mod noise;
 pub mod wire;

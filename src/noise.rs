@@ -353,7 +353,9 @@ impl Default for NlosLinks {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NlosError {
     /// A listed link names a transmitter or receiver that does not exist.
-    #[error("nlos_links.links: link [{m}, {n}] out of range ({n_tx} transmitters, {n_rx} receivers)")]
+    #[error(
+        "nlos_links.links: link [{m}, {n}] out of range ({n_tx} transmitters, {n_rx} receivers)"
+    )]
     LinkOutOfRange {
         /// Transmitter index.
         m: usize,
@@ -565,7 +567,10 @@ mod tests {
         // Fraction beyond 5 sigma1 is ~ c2 P(|z| > 0.5) (wide) + c1 P(|z| > 5).
         let frac = xs.iter().filter(|x| x.abs() > 5.0 * 1.5).count() as f64 / N as f64;
         let expect = 0.1 * 0.617_075 + 0.9 * 5.733e-7;
-        assert!((frac - expect).abs() < 5.0 * (expect / N as f64).sqrt(), "{frac} vs {expect}");
+        assert!(
+            (frac - expect).abs() < 5.0 * (expect / N as f64).sqrt(),
+            "{frac} vs {expect}"
+        );
     }
 
     #[test]
@@ -598,7 +603,10 @@ mod tests {
             nlos += usize::from(d.nlos);
         }
         let rate = nlos as f64 / N as f64;
-        assert!((rate - 0.2).abs() < 5.0 * (0.2 * 0.8 / N as f64).sqrt(), "{rate}");
+        assert!(
+            (rate - 0.2).abs() < 5.0 * (0.2 * 0.8 / N as f64).sqrt(),
+            "{rate}"
+        );
     }
 
     #[test]
@@ -623,19 +631,114 @@ mod tests {
         let bad = [
             (NoiseModel::gaussian(-1.0), "sigma"),
             (NoiseModel::gaussian(f64::NAN), "sigma"),
-            (NoiseModel::Laplacian { sigma: f64::NAN, schedule: c }, "sigma"),
-            (NoiseModel::Gmm { c2: 1.5, sigma1: 1.0, variance_ratio: 100.0, schedule: c }, "c2"),
-            (NoiseModel::Gmm { c2: -0.1, sigma1: 1.0, variance_ratio: 100.0, schedule: c }, "c2"),
-            (NoiseModel::Gmm { c2: 0.1, sigma1: -1.0, variance_ratio: 100.0, schedule: c }, "sigma1"),
-            (NoiseModel::Gmm { c2: 0.1, sigma1: 1.0, variance_ratio: 0.5, schedule: c }, "variance_ratio"),
-            (NoiseModel::Gmm { c2: 0.1, sigma1: 1.0, variance_ratio: f64::NAN, schedule: c }, "variance_ratio"),
-            (NoiseModel::NlosExponential { sigma: 1.0, nlos_mean: -3.0, schedule: c }, "nlos_mean"),
-            (NoiseModel::NlosExponential { sigma: f64::INFINITY, nlos_mean: 3.0, schedule: c }, "sigma"),
-            (NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: 1.01, r: 10.0 }, "p"),
-            (NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: -0.01, r: 10.0 }, "p"),
-            (NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: f64::NAN, r: 10.0 }, "p"),
-            (NoiseModel::NlosBernoulliUniform { los_mean: -1.0, p: 0.2, r: 10.0 }, "los_mean"),
-            (NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: 0.2, r: -10.0 }, "r"),
+            (
+                NoiseModel::Laplacian {
+                    sigma: f64::NAN,
+                    schedule: c,
+                },
+                "sigma",
+            ),
+            (
+                NoiseModel::Gmm {
+                    c2: 1.5,
+                    sigma1: 1.0,
+                    variance_ratio: 100.0,
+                    schedule: c,
+                },
+                "c2",
+            ),
+            (
+                NoiseModel::Gmm {
+                    c2: -0.1,
+                    sigma1: 1.0,
+                    variance_ratio: 100.0,
+                    schedule: c,
+                },
+                "c2",
+            ),
+            (
+                NoiseModel::Gmm {
+                    c2: 0.1,
+                    sigma1: -1.0,
+                    variance_ratio: 100.0,
+                    schedule: c,
+                },
+                "sigma1",
+            ),
+            (
+                NoiseModel::Gmm {
+                    c2: 0.1,
+                    sigma1: 1.0,
+                    variance_ratio: 0.5,
+                    schedule: c,
+                },
+                "variance_ratio",
+            ),
+            (
+                NoiseModel::Gmm {
+                    c2: 0.1,
+                    sigma1: 1.0,
+                    variance_ratio: f64::NAN,
+                    schedule: c,
+                },
+                "variance_ratio",
+            ),
+            (
+                NoiseModel::NlosExponential {
+                    sigma: 1.0,
+                    nlos_mean: -3.0,
+                    schedule: c,
+                },
+                "nlos_mean",
+            ),
+            (
+                NoiseModel::NlosExponential {
+                    sigma: f64::INFINITY,
+                    nlos_mean: 3.0,
+                    schedule: c,
+                },
+                "sigma",
+            ),
+            (
+                NoiseModel::NlosBernoulliUniform {
+                    los_mean: 1.0,
+                    p: 1.01,
+                    r: 10.0,
+                },
+                "p",
+            ),
+            (
+                NoiseModel::NlosBernoulliUniform {
+                    los_mean: 1.0,
+                    p: -0.01,
+                    r: 10.0,
+                },
+                "p",
+            ),
+            (
+                NoiseModel::NlosBernoulliUniform {
+                    los_mean: 1.0,
+                    p: f64::NAN,
+                    r: 10.0,
+                },
+                "p",
+            ),
+            (
+                NoiseModel::NlosBernoulliUniform {
+                    los_mean: -1.0,
+                    p: 0.2,
+                    r: 10.0,
+                },
+                "los_mean",
+            ),
+            (
+                NoiseModel::NlosBernoulliUniform {
+                    los_mean: 1.0,
+                    p: 0.2,
+                    r: -10.0,
+                },
+                "r",
+            ),
             (NoiseModel::Exponential { mean: f64::NAN }, "mean"),
             (NoiseModel::Exponential { mean: -2.0 }, "mean"),
         ];
@@ -645,27 +748,66 @@ mod tests {
         }
         let good = [
             NoiseModel::gaussian(0.0),
-            NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: 0.0, r: 10.0 },
-            NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: 1.0, r: 10.0 },
-            NoiseModel::Gmm { c2: 0.0, sigma1: 1.0, variance_ratio: 1.0, schedule: c },
+            NoiseModel::NlosBernoulliUniform {
+                los_mean: 1.0,
+                p: 0.0,
+                r: 10.0,
+            },
+            NoiseModel::NlosBernoulliUniform {
+                los_mean: 1.0,
+                p: 1.0,
+                r: 10.0,
+            },
+            NoiseModel::Gmm {
+                c2: 0.0,
+                sigma1: 1.0,
+                variance_ratio: 1.0,
+                schedule: c,
+            },
         ];
         for m in good {
             m.validate().unwrap();
         }
-        assert!(NlosLinks::RandomFraction { fraction: 1.2 }.validate().is_err());
-        assert!(NlosLinks::RandomFraction { fraction: f64::NAN }.validate().is_err());
+        assert!(
+            NlosLinks::RandomFraction { fraction: 1.2 }
+                .validate()
+                .is_err()
+        );
+        assert!(
+            NlosLinks::RandomFraction { fraction: f64::NAN }
+                .validate()
+                .is_err()
+        );
     }
 
     #[test]
     fn toml_config_parses_with_defaults_and_rejects_unknown_keys() {
-        let m: NoiseModel = toml::from_str("model = \"nlos_bernoulli_uniform\"\np = 0.2\nr = 10.0").unwrap();
-        assert_eq!(m, NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: 0.2, r: 10.0 });
+        let m: NoiseModel =
+            toml::from_str("model = \"nlos_bernoulli_uniform\"\np = 0.2\nr = 10.0").unwrap();
+        assert_eq!(
+            m,
+            NoiseModel::NlosBernoulliUniform {
+                los_mean: 1.0,
+                p: 0.2,
+                r: 10.0
+            }
+        );
         let g: NoiseModel =
-            toml::from_str("model = \"gmm\"\nc2 = 0.1\nsigma1 = 1.0\nvariance_ratio = 100.0").unwrap();
+            toml::from_str("model = \"gmm\"\nc2 = 0.1\nsigma1 = 1.0\nvariance_ratio = 100.0")
+                .unwrap();
         assert!(matches!(g, NoiseModel::Gmm { .. }));
-        assert!(toml::from_str::<NoiseModel>("model = \"exponential\"\nmean = 1.0\nsigma = 2.0").is_err());
+        assert!(
+            toml::from_str::<NoiseModel>("model = \"exponential\"\nmean = 1.0\nsigma = 2.0")
+                .is_err()
+        );
         let l: NlosLinks = toml::from_str("kind = \"list\"\nlinks = [[0, 1], [2, 3]]").unwrap();
-        assert_eq!(l, NlosLinks::List { links: vec![[0, 1], [2, 3]], one_way: vec![] });
+        assert_eq!(
+            l,
+            NlosLinks::List {
+                links: vec![[0, 1], [2, 3]],
+                one_way: vec![]
+            }
+        );
         let o: NlosLinks = toml::from_str("kind = \"one_random_transmitter_or_receiver\"").unwrap();
         assert_eq!(o, NlosLinks::OneRandomTransmitterOrReceiver {});
         assert!(toml::from_str::<NlosLinks>("kind = \"none\"\nfraction = 0.1").is_err());
@@ -678,9 +820,15 @@ mod tests {
         let mut hits = vec![0usize; n_tx + n_rx];
         let trials = 16_000;
         for _ in 0..trials {
-            let mask = NlosLinks::OneRandomTransmitterOrReceiver {}.draw(n_tx, n_rx, &mut rng).unwrap();
-            let tx: Vec<usize> = (0..n_tx).filter(|&m| (0..n_rx).all(|n| mask.is_nlos(m, n))).collect();
-            let rx: Vec<usize> = (0..n_rx).filter(|&n| (0..n_tx).all(|m| mask.is_nlos(m, n))).collect();
+            let mask = NlosLinks::OneRandomTransmitterOrReceiver {}
+                .draw(n_tx, n_rx, &mut rng)
+                .unwrap();
+            let tx: Vec<usize> = (0..n_tx)
+                .filter(|&m| (0..n_rx).all(|n| mask.is_nlos(m, n)))
+                .collect();
+            let rx: Vec<usize> = (0..n_rx)
+                .filter(|&n| (0..n_tx).all(|m| mask.is_nlos(m, n)))
+                .collect();
             if tx.len() == 1 {
                 assert_eq!(mask.bistatic_count(), n_rx);
                 assert!(mask.one_way.iter().all(|&b| !b));
@@ -702,31 +850,61 @@ mod tests {
     #[test]
     fn random_fraction_marks_the_rounded_number_of_distinct_links() {
         let mut rng = stream_rng(12, Stream::Links, 0);
-        let mask = NlosLinks::RandomFraction { fraction: 0.15 }.draw(8, 8, &mut rng).unwrap();
+        let mask = NlosLinks::RandomFraction { fraction: 0.15 }
+            .draw(8, 8, &mut rng)
+            .unwrap();
         assert_eq!(mask.bistatic_count(), 10);
         assert_eq!(mask.one_way.iter().filter(|&&b| b).count(), 1);
-        assert_eq!(NlosLinks::RandomFraction { fraction: 1.0 }.draw(2, 3, &mut rng).unwrap().bistatic_count(), 6);
-        assert!(NlosLinks::RandomFraction { fraction: -0.1 }.draw(2, 3, &mut rng).is_err());
+        assert_eq!(
+            NlosLinks::RandomFraction { fraction: 1.0 }
+                .draw(2, 3, &mut rng)
+                .unwrap()
+                .bistatic_count(),
+            6
+        );
+        assert!(
+            NlosLinks::RandomFraction { fraction: -0.1 }
+                .draw(2, 3, &mut rng)
+                .is_err()
+        );
     }
 
     #[test]
     fn listed_links_are_nlos_and_out_of_range_links_are_errors() {
         let mut rng = stream_rng(13, Stream::Links, 0);
-        let l = NlosLinks::List { links: vec![[1, 2]], one_way: vec![0] };
+        let l = NlosLinks::List {
+            links: vec![[1, 2]],
+            one_way: vec![0],
+        };
         let mask = l.draw(2, 3, &mut rng).unwrap();
         assert!(mask.is_nlos(1, 2) && mask.is_one_way_nlos(0));
         assert_eq!(mask.bistatic_count(), 1);
         assert!(!mask.is_nlos(5, 5));
-        let err = NlosLinks::List { links: vec![[2, 0]], one_way: vec![] }.draw(2, 3, &mut rng);
+        let err = NlosLinks::List {
+            links: vec![[2, 0]],
+            one_way: vec![],
+        }
+        .draw(2, 3, &mut rng);
         assert!(matches!(err, Err(NlosError::LinkOutOfRange { m: 2, .. })));
-        let err = NlosLinks::List { links: vec![], one_way: vec![3] }.draw(2, 3, &mut rng);
+        let err = NlosLinks::List {
+            links: vec![],
+            one_way: vec![3],
+        }
+        .draw(2, 3, &mut rng);
         assert!(matches!(err, Err(NlosError::OneWayOutOfRange { n: 3, .. })));
-        assert_eq!(NlosLinks::OneRandomTransmitterOrReceiver {}.draw(0, 0, &mut rng), Err(NlosError::NoNodes));
+        assert_eq!(
+            NlosLinks::OneRandomTransmitterOrReceiver {}.draw(0, 0, &mut rng),
+            Err(NlosError::NoNodes)
+        );
     }
 
     #[test]
     fn same_seed_gives_the_same_draws() {
-        let m = NoiseModel::NlosBernoulliUniform { los_mean: 1.0, p: 0.3, r: 5.0 };
+        let m = NoiseModel::NlosBernoulliUniform {
+            los_mean: 1.0,
+            p: 0.3,
+            r: 5.0,
+        };
         let a: Vec<f64> = {
             let mut r = stream_rng(3, Stream::Measurement, 1);
             (0..16).map(|_| m.sample(0, false, &mut r)).collect()
