@@ -373,12 +373,6 @@ impl Problem {
         self.s.len()
     }
 
-    /// `s_l - ||e - t_l|| - ||e - r_l||`.
-    #[inline]
-    fn residual(&self, e: &Vec2, l: usize) -> f64 {
-        self.s[l] - (e - self.t[l]).norm() - (e - self.r[l]).norm()
-    }
-
     fn step_floor(&self) -> f64 {
         1e-3 * self.spread
     }
@@ -508,8 +502,18 @@ pub fn l0os(
     let mut beta = vec![0.0; n];
     let mut keep = vec![false; n];
     let mut order = Vec::with_capacity(n);
+    // Distances ||e - t_l||, ||e - r_l|| at the current e, shared by the
+    // residuals beta (eq. 19) and the next location update (eq. 14).
+    let mut dist_t = vec![0.0; n];
+    let mut dist_r = vec![0.0; n];
+    let mut f0 = 0.0;
+    for l in 0..n {
+        dist_t[l] = (e - pb.t[l]).norm();
+        dist_r[l] = (e - pb.r[l]).norm();
+        f0 += (pb.s[l] - dist_t[l] - dist_r[l]).powi(2);
+    }
     let mut trace = Vec::with_capacity(cfg.max_iter.min(64) + 1);
-    trace.push((0..n).map(|l| pb.residual(&e, l).powi(2)).sum::<f64>());
+    trace.push(f0);
     let floor = pb.dist_floor;
     let mut converged = false;
     let mut iterations = 0;
@@ -520,18 +524,16 @@ pub fn l0os(
         let mut den = 0.0;
         for l in 0..n {
             let (t, r) = (pb.t[l], pb.r[l]);
-            let (vt, vr) = (e - t, e - r);
-            let dt = vt.norm().max(floor);
-            let dr = vr.norm().max(floor);
+            let (dt, dr) = (dist_t[l].max(floor), dist_r[l].max(floor));
+            let (it, ir) = (1.0 / dt, 1.0 / dr);
             let gamma = pb.s[l] - o[l];
-            let a = dr / dt;
-            let b = dt / dr;
-            let (mut wt, mut wr) = (1.0 + a, 1.0 + b);
+            let (mut wt, mut wr) = (1.0 + dr * it, 1.0 + dt * ir);
             if gamma >= 0.0 {
-                num += (gamma / dt) * vt + (gamma / dr) * vr;
+                // p + q of eq. (11), e^k - t = e - t.
+                num += (gamma * it) * (e - t) + (gamma * ir) * (e - r);
             } else {
-                wt -= gamma / dt;
-                wr -= gamma / dr;
+                wt -= gamma * it;
+                wr -= gamma * ir;
             }
             num += wt * t + wr * r;
             den += wt + wr;
@@ -544,8 +546,10 @@ pub fn l0os(
             });
         }
         // Outlier update, eq. (19)-(20).
-        for (l, b) in beta.iter_mut().enumerate() {
-            *b = pb.residual(&e_new, l);
+        for l in 0..n {
+            dist_t[l] = (e_new - pb.t[l]).norm();
+            dist_r[l] = (e_new - pb.r[l]).norm();
+            beta[l] = pb.s[l] - dist_t[l] - dist_r[l];
         }
         hard_threshold(&beta, cfg.kappa, &mut order, &mut keep);
         let mut f = 0.0;
@@ -556,6 +560,12 @@ pub fn l0os(
                 o[l] = 0.0;
                 f += beta[l] * beta[l];
             }
+        }
+        if !f.is_finite() {
+            return Err(RobustError::NonFinite {
+                estimator: "l0os",
+                iter: k,
+            });
         }
         trace.push(f);
         let rel = (e_new - e).norm() / e.norm().max(pb.step_floor());
@@ -622,8 +632,30 @@ impl Loss {
 /// Step doublings tried after an accepted IRLS step.
 const MAX_DOUBLINGS: usize = 6;
 
-fn objective(pb: &Problem, loss: Loss, e: &Vec2) -> f64 {
-    (0..pb.len()).map(|l| loss.eval(pb.residual(e, l)).0).sum()
+/// Sensor distances `||e - t_l||`, `||e - r_l||` at one point.
+struct Dists {
+    t: Vec<f64>,
+    r: Vec<f64>,
+}
+
+impl Dists {
+    fn new(n: usize) -> Dists {
+        Dists {
+            t: vec![0.0; n],
+            r: vec![0.0; n],
+        }
+    }
+
+    /// Fill the distances at `e` and return the objective `sum_l phi(r_l(e))`.
+    fn eval(&mut self, pb: &Problem, loss: Loss, e: &Vec2) -> f64 {
+        let mut f = 0.0;
+        for l in 0..pb.len() {
+            self.t[l] = (e - pb.t[l]).norm();
+            self.r[l] = (e - pb.r[l]).norm();
+            f += loss.eval(pb.s[l] - self.t[l] - self.r[l]).0;
+        }
+        f
+    }
 }
 
 /// Damped Gauss-Newton on `sum_l phi(r_l(e))` with IRLS weights: at `e^k`
@@ -644,8 +676,13 @@ fn smooth_solve(
     name: &'static str,
 ) -> Result<Estimate, RobustError> {
     check_tol("tol", tol)?;
+    let n = pb.len();
     let mut e = pb.init(init)?;
-    let mut f = objective(pb, loss, &e);
+    // Distances at the current point, at the best candidate, and scratch.
+    let mut cur = Dists::new(n);
+    let mut cand = Dists::new(n);
+    let mut scratch = Dists::new(n);
+    let mut f = cur.eval(pb, loss, &e);
     if !f.is_finite() {
         return Err(RobustError::NonFinite {
             estimator: name,
@@ -661,15 +698,14 @@ fn smooth_solve(
     for k in 0..max_iter {
         iterations = k + 1;
         let (mut h00, mut h01, mut h11, mut g0, mut g1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for l in 0..pb.len() {
-            let (vt, vr) = (e - pb.t[l], e - pb.r[l]);
-            let (dt, dr) = (vt.norm(), vr.norm());
+        for l in 0..n {
+            let (dt, dr) = (cur.t[l], cur.r[l]);
             let mut j = Vec2::zeros();
             if dt > floor {
-                j -= vt / dt;
+                j -= (e - pb.t[l]) / dt;
             }
             if dr > floor {
-                j -= vr / dr;
+                j -= (e - pb.r[l]) / dr;
             }
             let r = pb.s[l] - dt - dr;
             let w = loss.eval(r).1;
@@ -698,8 +734,9 @@ fn smooth_solve(
             if det > 0.0 {
                 let step = Vec2::new(-(a11 * g0 - h01 * g1) / det, -(a00 * g1 - h01 * g0) / det);
                 let e_try = e + step;
-                let f_try = objective(pb, loss, &e_try);
+                let f_try = scratch.eval(pb, loss, &e_try);
                 if f_try < f {
+                    std::mem::swap(&mut cand, &mut scratch);
                     accepted = Some((e_try, f_try, step));
                     break;
                 }
@@ -721,13 +758,16 @@ fn smooth_solve(
             for _ in 0..MAX_DOUBLINGS {
                 let trial = step + step;
                 let e_try = e + trial;
-                let f_try = objective(pb, loss, &e_try);
-                if !(f_try < f_new) {
+                let f_try = scratch.eval(pb, loss, &e_try);
+                if f_try < f_new {
+                    std::mem::swap(&mut cand, &mut scratch);
+                    (e_new, f_new, step) = (e_try, f_try, trial);
+                } else {
                     break;
                 }
-                (e_new, f_new, step) = (e_try, f_try, trial);
             }
         }
+        std::mem::swap(&mut cur, &mut cand);
         lambda = (lambda / 4.0).max(1e-12);
         let rel = step.norm() / e.norm().max(pb.step_floor());
         e = e_new;
@@ -1233,14 +1273,21 @@ mod tests {
             (&g, &negative, Init::Linear),
         ];
         for (i, (g, links, init)) in cases.into_iter().enumerate() {
-            for res in all_estimators(g, links, init) {
-                if let Ok(est) = res {
-                    assert!(
-                        est.position.x.is_finite() && est.position.y.is_finite(),
-                        "case {i}: {est:?}"
-                    );
-                    assert!(est.objective.is_finite(), "case {i}: {est:?}");
-                }
+            let mut ests = all_estimators(g, links, init);
+            ests.push(l0os(
+                g,
+                links,
+                &L0osConfig {
+                    init,
+                    ..L0osConfig::new(0)
+                },
+            ));
+            for est in ests.into_iter().flatten() {
+                assert!(
+                    est.position.x.is_finite() && est.position.y.is_finite(),
+                    "case {i}: {est:?}"
+                );
+                assert!(est.objective.is_finite(), "case {i}: {est:?}");
             }
         }
         // Zero noise, target on a sensor, started elsewhere: still found.
