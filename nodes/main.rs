@@ -104,7 +104,9 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
             return Err("the coordinator is gone".into());
         }
         let timeout = match clock {
-            Some((_, next)) => next.saturating_duration_since(Instant::now()).min(IDLE_CHECK),
+            Some((_, next)) => next
+                .saturating_duration_since(Instant::now())
+                .min(IDLE_CHECK),
             None => IDLE_CHECK,
         };
         frames.clear();
@@ -144,7 +146,10 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
         {
             core.handle(Input::Command(Command::Tick), &mut outputs);
             let wait = core.draw_wait(rate);
-            clock = Some((rate, next.max(Instant::now()) + Duration::from_secs_f64(wait)));
+            clock = Some((
+                rate,
+                next.max(Instant::now()) + Duration::from_secs_f64(wait),
+            ));
         }
         if outputs.is_empty() {
             timing.busy_seconds += busy.elapsed().as_secs_f64();
@@ -190,7 +195,10 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
 fn log_command(id: u32, c: &Command) {
     match c {
         Command::Sample { sample, meas } => {
-            eprintln!("[node {id}] sample {sample}: {} measurements", meas.bistatic.len() + meas.doa.is_some() as usize + meas.range.is_some() as usize)
+            eprintln!(
+                "[node {id}] sample {sample}: {} measurements",
+                meas.bistatic.len() + meas.doa.is_some() as usize + meas.range.is_some() as usize
+            )
         }
         Command::AsyncPlan { sample, steps } => {
             eprintln!("[node {id}] sample {sample}: plan of {} steps", steps.len())

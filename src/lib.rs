@@ -22,6 +22,7 @@ pub mod online;
 pub mod protocol;
 pub mod prox;
 pub mod rng;
+pub mod robust;
 pub mod run;
 pub mod scenario;
 pub mod synth;

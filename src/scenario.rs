@@ -168,6 +168,10 @@ pub struct MeasurementsCfg {
     /// Noise of DOAs (radians).
     #[serde(default)]
     pub doa_noise: Option<NoiseModel>,
+    /// Which links are NLOS (redrawn per run from the seed); the noise
+    /// models' `is_nlos` argument.
+    #[serde(default)]
+    pub nlos_links: crate::noise::NlosLinks,
     /// A recorded trace CSV to use instead of synthesis.
     #[serde(default)]
     pub trace: Option<String>,
@@ -319,6 +323,8 @@ pub struct Realization {
     pub measurements: Vec<SampleMeasurements>,
     /// Nominal noise sigmas per sample (weights of the centralised estimators).
     pub sigmas: Vec<Sigmas>,
+    /// The NLOS links of this run (all LOS for a trace).
+    pub nlos: crate::noise::NlosMask,
 }
 
 fn check_point(path: &Path, key: &str, p: &[f64; 2]) -> Result<Vec2, InputError> {
@@ -427,6 +433,16 @@ impl Scenario {
             n.validate()
                 .map_err(|e| InputError::at(path, "measurements.doa_noise", e))?;
         }
+        m.nlos_links
+            .validate()
+            .map_err(|e| InputError::at(path, "measurements.nlos_links", e))?;
+        m.nlos_links
+            .draw(
+                geometry.transmitters.len(),
+                geometry.receivers.len(),
+                &mut stream_rng(0, Stream::Links, 0),
+            )
+            .map_err(|e| InputError::at(path, "measurements.nlos_links", e.to_string()))?;
 
         // Data source.
         let (source, samples) = match &m.trace {
@@ -711,15 +727,36 @@ impl Scenario {
                 truth: truth.as_ref().map(|t| t[..self.samples].to_vec()),
                 measurements: measurements[..self.samples].to_vec(),
                 sigmas,
+                nlos: crate::noise::NlosMask::all_los(
+                    self.geometry.transmitters.len(),
+                    self.geometry.receivers.len(),
+                ),
             },
             DataSource::Synthetic { motion } => {
                 let truth = motion.track(self.samples, &mut stream_rng(seed, Stream::Motion, 0));
-                let measurements =
-                    crate::synth::synthesize(&self.geometry, &truth, &self.measurements, seed);
+                let (n_tx, n_rx) = (
+                    self.geometry.transmitters.len(),
+                    self.geometry.receivers.len(),
+                );
+                // Validated at load time, so a draw error cannot happen here;
+                // fall back to all-LOS rather than panic.
+                let nlos = self
+                    .measurements
+                    .nlos_links
+                    .draw(n_tx, n_rx, &mut stream_rng(seed, Stream::Links, 0))
+                    .unwrap_or_else(|_| crate::noise::NlosMask::all_los(n_tx, n_rx));
+                let measurements = crate::synth::synthesize(
+                    &self.geometry,
+                    &truth,
+                    &self.measurements,
+                    &nlos,
+                    seed,
+                );
                 Realization {
                     truth: Some(truth),
                     measurements,
                     sigmas,
+                    nlos,
                 }
             }
         }

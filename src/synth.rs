@@ -3,10 +3,12 @@
 //! Receiver `n`'s noise comes from its own stream
 //! `stream_rng(seed, Stream::Measurement, n)`; per sample it draws, in order,
 //! the bistatic ranges `m = 0..M`, then the DOA, then the one-way range.
+//! Whether a link is NLOS comes from the run's [`NlosMask`] (drawn from the
+//! run seed, stream `Links`).
 
 use crate::geometry::Vec2;
 use crate::measure::{self, Geometry, NodeMeasurements, SampleMeasurements};
-use crate::noise::NoiseModel;
+use crate::noise::{NlosMask, NoiseModel};
 use crate::rng::{Stream, stream_rng};
 use crate::scenario::MeasurementsCfg;
 
@@ -18,6 +20,7 @@ pub fn synthesize(
     geometry: &Geometry,
     truth: &[Vec2],
     cfg: &MeasurementsCfg,
+    nlos: &NlosMask,
     seed: u64,
 ) -> Vec<SampleMeasurements> {
     let zero = NoiseModel::gaussian(0.0);
@@ -34,19 +37,24 @@ pub fn synthesize(
                 .receivers
                 .iter()
                 .zip(rngs.iter_mut())
-                .map(|(r, rng)| {
+                .enumerate()
+                .map(|(n, (r, rng))| {
                     let mut nm = NodeMeasurements::default();
                     if cfg.bistatic {
                         for (m, t) in geometry.transmitters.iter().enumerate() {
-                            let rho = measure::bistatic_range(x, t, r) + range_noise.sample(k, rng);
+                            let rho = measure::bistatic_range(x, t, r)
+                                + range_noise.sample(k, nlos.is_nlos(m, n), rng);
                             nm.bistatic.push((m, rho));
                         }
                     }
                     if cfg.doa {
-                        nm.doa = Some(measure::doa(x, r) + doa_noise.sample(k, rng));
+                        nm.doa = Some(measure::doa(x, r) + doa_noise.sample(k, false, rng));
                     }
                     if cfg.range {
-                        nm.range = Some(measure::one_way_range(x, r) + range_noise.sample(k, rng));
+                        nm.range = Some(
+                            measure::one_way_range(x, r)
+                                + range_noise.sample(k, nlos.is_one_way_nlos(n), rng),
+                        );
                     }
                     nm
                 })

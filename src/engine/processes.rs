@@ -53,8 +53,12 @@ pub struct NodeLaunch {
 impl NodeLaunch {
     /// The transport topology this launch describes.
     pub fn run_topology(&self) -> Result<RunTopology, TransportError> {
-        let t = RunTopology::new(self.run_id.clone(), self.topology.clone(), self.inbox_buffer)?
-            .with_send_timeout(Duration::from_millis(self.send_timeout_ms));
+        let t = RunTopology::new(
+            self.run_id.clone(),
+            self.topology.clone(),
+            self.inbox_buffer,
+        )?
+        .with_send_timeout(Duration::from_millis(self.send_timeout_ms));
         match self.broadcast_buffer {
             Some(b) => t.with_broadcast(b),
             None => Ok(t),
@@ -233,7 +237,10 @@ impl Processes {
                 }
             }
         }
-        p.log(format_args!("spawned {n} node processes (run {})", p.run_id));
+        p.log(format_args!(
+            "spawned {n} node processes (run {})",
+            p.run_id
+        ));
         // Wait for READY from everyone.
         let mut ready = vec![false; n];
         let mut count = 0;
@@ -256,7 +263,10 @@ impl Processes {
             }
         }
         p.startup_seconds = start.elapsed().as_secs_f64();
-        p.log(format_args!("all {n} nodes ready after {:.3} s", p.startup_seconds));
+        p.log(format_args!(
+            "all {n} nodes ready after {:.3} s",
+            p.startup_seconds
+        ));
         Ok(p)
     }
 
@@ -305,7 +315,9 @@ impl Processes {
             });
         }
         self.frames.clear();
-        self.tx.recv(&mut self.frames, Some(timeout)).map_err(terr)?;
+        self.tx
+            .recv(&mut self.frames, Some(timeout))
+            .map_err(terr)?;
         let mut out = Vec::new();
         for f in &self.frames {
             match self.decoder.feed(f) {
@@ -393,7 +405,9 @@ impl Processes {
             }
             // Keep draining so no node blocks on a full coordinator inbox.
             self.frames.clear();
-            let _ = self.tx.recv(&mut self.frames, Some(Duration::from_millis(10)));
+            let _ = self
+                .tx
+                .recv(&mut self.frames, Some(Duration::from_millis(10)));
         }
         let killed = self.dead.iter().any(|&d| d);
         if killed {
@@ -508,7 +522,15 @@ pub fn run_realtime(
     rec.startup_seconds = Some(procs.startup_seconds);
     let period = Duration::from_secs_f64(rt.sample_period_ms / 1000.0);
     let start = Instant::now();
-    let result = realtime_loop(sc, real, &mut procs, &mut rec, rt.wake_rate_hz, period, progress);
+    let result = realtime_loop(
+        sc,
+        real,
+        &mut procs,
+        &mut rec,
+        rt.wake_rate_hz,
+        period,
+        progress,
+    );
     rec.wall_seconds = start.elapsed().as_secs_f64();
     rec.timing = procs.timing.clone();
     procs.shutdown();
@@ -556,10 +578,8 @@ fn realtime_loop(
         }
         // Snapshot every live node.
         let alive: Vec<bool> = procs.dead().iter().map(|d| !d).collect();
-        for i in 0..n {
-            if alive[i] {
-                procs.control(i as u32, &Control::Command(Command::Snapshot { sample }))?;
-            }
+        for (i, _) in alive.iter().enumerate().filter(|(_, a)| **a) {
+            procs.control(i as u32, &Control::Command(Command::Snapshot { sample }))?;
         }
         procs.flush_all()?;
         let mut got = vec![false; n];
@@ -639,7 +659,10 @@ fn handle_deaths(
             return Err(EngineError::NodeDied {
                 node,
                 sample,
-                how: format!("{how}; the remaining network is disconnected ({} parts)", comps.len()),
+                how: format!(
+                    "{how}; the remaining network is disconnected ({} parts)",
+                    comps.len()
+                ),
             });
         }
         for i in 0..sc.graph.len() {
