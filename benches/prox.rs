@@ -36,17 +36,17 @@ fn instances() -> Vec<(LocalProblem, Vec3)> {
                     .enumerate()
                     .map(|(m, t)| {
                         let rho = (target - t).norm() + (target - r).norm();
-                        (m, rho + range_noise.sample(k, &mut rng))
+                        (m, rho + range_noise.sample(k, false, &mut rng))
                     })
                     .collect(),
-                doa: Some((target.y - r.y).atan2(target.x - r.x) + doa_noise.sample(k, &mut rng)),
+                doa: Some((target.y - r.y).atan2(target.x - r.x) + doa_noise.sample(k, false, &mut rng)),
                 range: None,
             };
             let p = LocalProblem::build(r, &tx, 1.0, &meas);
             let u = Vec3::new(
-                target.x + u_noise.sample(k, &mut rng),
-                target.y + u_noise.sample(k, &mut rng),
-                (target - r).norm() + u_noise.sample(k, &mut rng),
+                target.x + u_noise.sample(k, false, &mut rng),
+                target.y + u_noise.sample(k, false, &mut rng),
+                (target - r).norm() + u_noise.sample(k, false, &mut rng),
             );
             out.push((p, u));
         }
