@@ -39,7 +39,9 @@ fn instances() -> Vec<(LocalProblem, Vec3)> {
                         (m, rho + range_noise.sample(k, false, &mut rng))
                     })
                     .collect(),
-                doa: Some((target.y - r.y).atan2(target.x - r.x) + doa_noise.sample(k, false, &mut rng)),
+                doa: Some(
+                    (target.y - r.y).atan2(target.x - r.x) + doa_noise.sample(k, false, &mut rng),
+                ),
                 range: None,
             };
             let p = LocalProblem::build(r, &tx, 1.0, &meas);
