@@ -36,7 +36,17 @@ struct Args {
 const IDLE_CHECK: Duration = Duration::from_millis(200);
 
 fn main() -> ExitCode {
-    let args = match Args::try_parse() {
+    node_main(std::env::args_os())
+}
+
+/// The node program, given its command line (program name first). `sonarnet`
+/// also compiles this file in and calls it for `sonarnet __node ...`.
+pub fn node_main<I, T>(argv: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let args = match Args::try_parse_from(argv) {
         Ok(a) => a,
         Err(e) => {
             let _ = e.print();

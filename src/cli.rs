@@ -54,12 +54,18 @@ pub struct RunArgs {
     /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>].
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Which engine runs the nodes.
-    #[arg(long, value_enum, default_value = "inprocess")]
+    /// Which engine runs the nodes: one OS process per receiver over iceoryx2
+    /// shared memory, or all nodes in this process (exact same numbers).
+    #[arg(long, value_enum, default_value = "processes")]
     pub engine: EngineKind,
-    /// Clock of async runs (realtime needs --engine processes).
+    /// Clock of async runs: `logical` (the coordinator draws every pair;
+    /// exact, reproducible) or `realtime` (free-running nodes on Poisson
+    /// clocks, [realtime] table of the scenario; needs --engine processes).
     #[arg(long, value_enum, default_value = "logical")]
     pub clock: Clock,
+    /// Log coordinator and node events (with node ids) to stderr.
+    #[arg(long, short)]
+    pub verbose: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -161,18 +167,30 @@ pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
 fn run_command(args: RunArgs) -> Result<(), CliError> {
     let sc = resolve_scenario(&args)?;
     if args.clock == Clock::Realtime {
-        return Err(crate::error::InputError::at(
-            std::path::Path::new("<command line>"),
-            "--clock",
-            "realtime clocks need --engine processes and async mode",
-        )
-        .into());
+        let cli = std::path::Path::new("<command line>");
+        if args.engine != EngineKind::Processes || sc.algorithm.mode != Mode::Async {
+            return Err(crate::error::InputError::at(
+                cli,
+                "--clock",
+                "realtime clocks need --engine processes and async mode",
+            )
+            .into());
+        }
+        if sc.realtime.is_none() {
+            return Err(crate::error::InputError::at(
+                &sc.path,
+                "realtime",
+                "--clock realtime needs a [realtime] table (sample_period_ms, wake_rate_hz)",
+            )
+            .into());
+        }
     }
     let out_dir = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("results").join(format!(
-            "{}-{}-{}-seed{}",
+            "{}-{}{}-{}-seed{}",
             sc.name,
             sc.algorithm.mode.as_str(),
+            if args.clock == Clock::Realtime { "-realtime" } else { "" },
             args.engine.as_str(),
             sc.seed
         ))
@@ -195,9 +213,19 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     let (record, result) = match args.engine {
         EngineKind::Inprocess => run::run_inprocess(&sc, &real, &mut tick),
         EngineKind::Processes => {
-            return Err(CliError::Run(RunError::Engine(
-                "the multi-process engine is not available in this build yet".into(),
-            )));
+            let popts = crate::engine::processes::ProcessOptions {
+                verbose: args.verbose,
+                ..Default::default()
+            };
+            let (rec, res, _) = match args.clock {
+                Clock::Logical => {
+                    crate::engine::processes::run_logical(&sc, &real, &popts, &mut tick)
+                }
+                Clock::Realtime => {
+                    crate::engine::processes::run_realtime(&sc, &real, &popts, &mut tick)
+                }
+            };
+            (rec, res)
         }
     };
     if let Some(b) = bar {

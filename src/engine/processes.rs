@@ -66,22 +66,53 @@ impl NodeLaunch {
     }
 }
 
-/// Where to find the `sonarnet-node` binary: `$SONARNET_NODE_BIN`, else next
-/// to the current executable (or its parent directory, for test binaries in
-/// `target/*/deps`).
-pub fn default_node_binary() -> PathBuf {
+/// How to start a node process: a program and the arguments that come
+/// before `--launch JSON`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NodeProgram {
+    /// The executable.
+    pub program: PathBuf,
+    /// Leading arguments (`["__node"]` when `sonarnet` runs the node program itself).
+    pub args: Vec<String>,
+}
+
+impl NodeProgram {
+    /// The `sonarnet-node` binary at `path`.
+    pub fn binary(path: impl Into<PathBuf>) -> Self {
+        NodeProgram {
+            program: path.into(),
+            args: Vec::new(),
+        }
+    }
+}
+
+/// Where to find the node program: `$SONARNET_NODE_BIN`; else the
+/// `sonarnet-node` binary next to the current executable (or one directory up,
+/// for test binaries in `target/*/deps`); else, when the current executable
+/// is `sonarnet` itself (e.g. after `cargo run`, which builds only that
+/// binary), `sonarnet __node`, which runs the same node program compiled in.
+pub fn default_node_program() -> NodeProgram {
     if let Some(p) = std::env::var_os("SONARNET_NODE_BIN") {
-        return PathBuf::from(p);
+        return NodeProgram::binary(p);
     }
     let exe = std::env::current_exe().unwrap_or_default();
     let dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
     let here = dir.join("sonarnet-node");
     if here.exists() {
-        return here;
+        return NodeProgram::binary(here);
     }
-    dir.parent()
-        .map(|p| p.join("sonarnet-node"))
-        .unwrap_or(here)
+    if let Some(up) = dir.parent().map(|p| p.join("sonarnet-node"))
+        && up.exists()
+    {
+        return NodeProgram::binary(up);
+    }
+    if exe.file_name().is_some_and(|n| n == "sonarnet") {
+        return NodeProgram {
+            program: exe,
+            args: vec!["__node".into()],
+        };
+    }
+    NodeProgram::binary(here)
 }
 
 /// A flag set by SIGINT/SIGTERM (registered once per process).
@@ -101,8 +132,8 @@ pub fn interrupt_flag() -> Arc<AtomicBool> {
 /// Options of the multi-process engine.
 #[derive(Debug, Clone)]
 pub struct ProcessOptions {
-    /// The node binary.
-    pub node_binary: PathBuf,
+    /// The node program.
+    pub node_program: NodeProgram,
     /// Log with node ids.
     pub verbose: bool,
     /// How long to wait for all nodes to report READY.
@@ -112,7 +143,7 @@ pub struct ProcessOptions {
 impl Default for ProcessOptions {
     fn default() -> Self {
         ProcessOptions {
-            node_binary: default_node_binary(),
+            node_program: default_node_program(),
             verbose: false,
             startup_timeout: Duration::from_secs(60),
         }
@@ -161,10 +192,11 @@ impl Processes {
         broadcast: bool,
         opts: &ProcessOptions,
     ) -> Result<Processes, EngineError> {
-        if !opts.node_binary.exists() {
+        let prog = &opts.node_program;
+        if !prog.program.exists() {
             return Err(EngineError::Transport(format!(
-                "node binary {} not found (build it with `cargo build --release`, or set SONARNET_NODE_BIN)",
-                opts.node_binary.display()
+                "node program {} not found (build it with `cargo build --release`, or set SONARNET_NODE_BIN)",
+                prog.program.display()
             )));
         }
         let interrupt = interrupt_flag();
@@ -207,8 +239,9 @@ impl Processes {
             };
             let json = serde_json::to_string(&launch)
                 .map_err(|e| EngineError::Transport(format!("encode launch of node {id}: {e}")))?;
-            let mut cmd = Proc::new(&opts.node_binary);
-            cmd.arg("--launch")
+            let mut cmd = Proc::new(&prog.program);
+            cmd.args(&prog.args)
+                .arg("--launch")
                 .arg(json)
                 .stdin(Stdio::null())
                 .stdout(Stdio::null())
@@ -232,7 +265,7 @@ impl Processes {
                 Err(e) => {
                     return Err(EngineError::Transport(format!(
                         "cannot start {} for node {id}: {e}",
-                        opts.node_binary.display()
+                        prog.program.display()
                     )));
                 }
             }
