@@ -612,7 +612,13 @@ fn endpoint_index(t: &RunTopology, e: Endpoint) -> usize {
 fn make_node(t: &RunTopology, name: &str) -> Result<Node<Svc>, TransportError> {
     init_logging();
     let prefix = resource_prefix(t.run_id());
-    let cfg = config_for_prefix(&prefix)?;
+    let mut cfg = config_for_prefix(&prefix)?;
+    // A subscriber keeps the unread frames of senders that have exited in its
+    // "expired connections"; beyond this many (default 128) it drops them with only a
+    // log warning. One slot per possible sender (all nodes + coordinator) rules it out.
+    cfg.defaults
+        .publish_subscribe
+        .subscriber_expired_connection_buffer = t.n_nodes() + 1;
     let node_name =
         NodeName::new(name).map_err(|e| TransportError::ipc(format!("naming node {name}"), e))?;
     let node = NodeBuilder::new()
