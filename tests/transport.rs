@@ -164,11 +164,11 @@ impl Children {
         let stdout = child.stdout.take().expect("stdout was piped");
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
+            // keep draining after READY so the child never writes to a closed pipe
             for line in BufReader::new(stdout).lines() {
                 let Ok(line) = line else { break };
                 if line.trim() == READY {
                     let _ = tx.send(());
-                    break;
                 }
             }
         });
@@ -354,6 +354,31 @@ fn child_hold_run(role: &Role) {
     std::thread::sleep(Duration::from_secs(60));
 }
 
+/// Opens node `id`, reports READY, waits for QUIT.
+fn child_idle_node(role: &Role) {
+    let topo = TopoSpec::from_role(role).topology();
+    let id = role.num("id") as u32;
+    let mut t = IoxTransport::node(&topo, id).unwrap_or_else(|e| panic!("node {id}: {e}"));
+    println!("{READY}");
+    wait_for_quit(&mut t);
+}
+
+/// Sends `count` DATA frames to the coordinator, reports READY and exits at once,
+/// either by dropping the transport (`mode=drop`) or after `shutdown` (`mode=shutdown`).
+fn child_send_and_exit(role: &Role) {
+    let topo = TopoSpec::from_role(role).topology();
+    let mut t = IoxTransport::node(&topo, 0).unwrap();
+    for s in 0..role.num("count") {
+        t.send(Endpoint::Coordinator, &frame(DATA, 0, s)).unwrap();
+    }
+    t.flush().unwrap();
+    println!("{READY}");
+    if role.get("mode") == "shutdown" {
+        t.shutdown(WATCHDOG)
+            .unwrap_or_else(|e| panic!("shutdown: {e}"));
+    }
+}
+
 /// Echoes every frame back to the coordinator until QUIT.
 fn child_echo(role: &Role) {
     let topo = TopoSpec::from_role(role).topology();
@@ -388,6 +413,8 @@ fn child_entry() {
         "broadcast-node" => child_broadcast_node(&role),
         "hold" => child_hold_run(&role),
         "echo" => child_echo(&role),
+        "idle-node" => child_idle_node(&role),
+        "send-and-exit" => child_send_and_exit(&role),
         other => panic!("unknown child role {other}"),
     }
 }
@@ -486,6 +513,33 @@ fn broadcast_group_delivers_every_members_frame_to_every_member_each_round() {
         kids.wait_all_ok(WATCHDOG);
     }
     assert_no_leftovers(topo.run_id());
+}
+
+#[test]
+fn the_last_frames_of_an_exiting_process_reach_a_receiver_that_reads_late() {
+    // The receiver has not looked at its inbox since the sender came up; without the
+    // linger on drop / shutdown the frames would vanish with the sender's process.
+    for mode in ["drop", "shutdown"] {
+        let spec = TopoSpec::ring(1, 8);
+        let topo = spec.topology();
+        {
+            let mut c = IoxTransport::coordinator(&topo).unwrap();
+            let mut kids = Children::new();
+            let k = kids.spawn(
+                &Role::new("send-and-exit", &spec)
+                    .with("count", 5)
+                    .with("mode", mode),
+                true,
+            );
+            kids.wait_ready(k, WATCHDOG);
+            std::thread::sleep(Duration::from_millis(300));
+            let mut got = Vec::new();
+            recv_until(&mut c, &mut got, WATCHDOG, "5 frames", |fs| fs.len() >= 5);
+            assert_eq!(check_in_order(&got).get(&0), Some(&5), "mode {mode}");
+            kids.wait_all_ok(WATCHDOG);
+        }
+        assert_no_leftovers(topo.run_id());
+    }
 }
 
 #[test]
@@ -793,6 +847,48 @@ fn footprint_of_the_shared_memory_and_files_per_node() {
             );
             drop(nodes);
             drop(c);
+        }
+        assert_no_leftovers(topo.run_id());
+    }
+}
+
+#[test]
+#[ignore = "measurement: cargo test --test transport -- --ignored --nocapture multi_process_footprint"]
+fn multi_process_footprint_and_startup_time() {
+    for (n, bcast) in [(64usize, 2usize), (256, 0), (256, 2)] {
+        let mut spec = TopoSpec::ring(n, 8);
+        if bcast > 0 {
+            spec = spec.with_broadcast(bcast);
+        }
+        let topo = spec.topology();
+        {
+            let mut c = IoxTransport::coordinator(&topo).unwrap();
+            let t0 = Instant::now();
+            let mut kids = Children::new();
+            for i in 0..n {
+                kids.spawn(&Role::new("idle-node", &spec).with("id", i), true);
+            }
+            for k in 0..n {
+                kids.wait_ready(k, WATCHDOG);
+            }
+            let startup = t0.elapsed();
+            let (f, a, b) = footprint(topo.run_id());
+            println!(
+                "N={n} ring, inbox_buffer=8, broadcast_buffer={bcast}, {n} node processes: \
+                 {f} files, {:.1} MiB apparent, {:.1} MiB allocated; per node {:.1} files, {:.1} KiB apparent, \
+                 {:.1} KiB allocated; all processes up after {startup:?}",
+                a as f64 / 1048576.0,
+                b as f64 / 1048576.0,
+                f as f64 / n as f64,
+                a as f64 / n as f64 / 1024.0,
+                b as f64 / n as f64 / 1024.0,
+            );
+            for i in 0..n as u32 {
+                c.send(Endpoint::Node(i), &frame(QUIT, COORDINATOR_ID, 0))
+                    .unwrap();
+            }
+            c.flush().unwrap();
+            kids.wait_all_ok(WATCHDOG);
         }
         assert_no_leftovers(topo.run_id());
     }

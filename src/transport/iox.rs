@@ -54,6 +54,17 @@
 //!   ahead (2 for lock-step rounds). Before a broadcast that might block, pending
 //!   broadcast wake-ups are flushed.
 //!
+//! # Exiting without losing the last frames
+//!
+//! A frame lives in the *sender's* shared memory until the receiver takes it. A
+//! receiver maps a sender's memory the first time it looks at its inbox after the
+//! sender came up; if the sender's process exits before that, its unread frames are
+//! gone. [`Transport::shutdown`] therefore waits until every frame sent has left the
+//! receivers' buffers (it can loan its whole sample pool; each publisher's pool is
+//! sized exactly `subscribers * (buffer + 1) + 1`), and dropping the transport does
+//! the same for at most [`DROP_LINGER`]. Frames to a receiver that has left are not
+//! waited for.
+//!
 //! # Cleanup
 //!
 //! Dropping an [`IoxTransport`] removes its ports; iceoryx2 removes a service when
@@ -87,7 +98,8 @@ use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::port::{BackpressureAction, BackpressureInfo, SendError};
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::port::{BackpressureAction, BackpressureInfo, LoanError, SendError};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
@@ -455,15 +467,45 @@ fn event_service(
     }
 }
 
+/// Sample pool of a publisher: every subscriber's buffer plus its one borrowed
+/// sample, plus the one sample `send_copy` loans. That is exactly what normal
+/// operation can need; the publisher may also loan the whole pool at once, which is
+/// how [`taken_by_receivers`] tells that no sent frame is still waiting anywhere.
+fn pool_size(subscribers: usize, buffer: usize) -> usize {
+    subscribers * (buffer + 1) + 1
+}
+
 fn inbox_publisher(
     svc: &PubSub,
     to: Endpoint,
+    pool: usize,
 ) -> Result<Publisher<Svc, Frame, ()>, TransportError> {
     svc.publisher_builder()
-        .max_loaned_samples(1)
+        .max_loaned_samples(pool)
+        .override_sample_preallocation(move |_| pool)
         .backpressure_strategy(BackpressureStrategy::DiscardData)
         .create()
         .map_err(|e| TransportError::ipc(format!("creating publisher to {to}"), e))
+}
+
+/// Whether every frame `publisher` sent has left the receivers' buffers (was
+/// received, or its receiver is gone): true iff the whole sample pool can be loaned.
+fn taken_by_receivers(
+    publisher: &Publisher<Svc, Frame, ()>,
+    pool: usize,
+) -> Result<bool, TransportError> {
+    publisher
+        .update_connections()
+        .map_err(|e| TransportError::ipc("updating connections", e))?;
+    let mut loans = Vec::with_capacity(pool);
+    while loans.len() < pool {
+        match publisher.loan_uninit() {
+            Ok(sample) => loans.push(sample),
+            Err(LoanError::OutOfMemory) | Err(LoanError::ExceedsMaxLoans) => break,
+            Err(e) => return Err(TransportError::ipc("probing the sample pool", e)),
+        }
+    }
+    Ok(loans.len() == pool)
 }
 
 fn notifier(svc: &EventSvc, to: &str) -> Result<Notifier<Svc>, TransportError> {
@@ -504,8 +546,11 @@ struct Peer {
     endpoint: Endpoint,
     publisher: Publisher<Svc, Frame, ()>,
     notifier: Notifier<Svc>,
+    pool: usize,
     /// Sent to since the last wake-up.
     pending: bool,
+    /// Sent to since the last successful shutdown check.
+    unconfirmed: bool,
 }
 
 /// A node's membership in the broadcast group.
@@ -515,7 +560,9 @@ struct BroadcastPorts {
     notifier: Notifier<Svc>,
     listener: Listener<Svc>,
     service: PubSub,
+    pool: usize,
     pending: bool,
+    unconfirmed: bool,
 }
 
 /// One endpoint (coordinator or node) of a run, over iceoryx2 shared memory.
@@ -565,7 +612,13 @@ fn endpoint_index(t: &RunTopology, e: Endpoint) -> usize {
 fn make_node(t: &RunTopology, name: &str) -> Result<Node<Svc>, TransportError> {
     init_logging();
     let prefix = resource_prefix(t.run_id());
-    let cfg = config_for_prefix(&prefix)?;
+    let mut cfg = config_for_prefix(&prefix)?;
+    // A subscriber keeps the unread frames of senders that have exited in its
+    // "expired connections"; beyond this many (default 128) it drops them with only a
+    // log warning. One slot per possible sender (all nodes + coordinator) rules it out.
+    cfg.defaults
+        .publish_subscribe
+        .subscriber_expired_connection_buffer = t.n_nodes() + 1;
     let node_name =
         NodeName::new(name).map_err(|e| TransportError::ipc(format!("naming node {name}"), e))?;
     let node = NodeBuilder::new()
@@ -591,6 +644,7 @@ impl IoxTransport {
         let inbox = subscriber(&inbox_svc, "coordinator")?;
         let mut pubsub_services = vec![inbox_svc];
         let mut event_services = vec![wake_svc];
+        let pool = pool_size(1, t.inbox_buffer());
         let mut peers = Vec::with_capacity(t.n_nodes());
         for i in 0..t.n_nodes() as u32 {
             let to = Endpoint::Node(i);
@@ -598,9 +652,11 @@ impl IoxTransport {
             let e = event_service(&node, &node_wake_spec(t, i), true)?;
             peers.push(Peer {
                 endpoint: to,
-                publisher: inbox_publisher(&s, to)?,
+                publisher: inbox_publisher(&s, to, pool)?,
                 notifier: notifier(&e, &to.to_string())?,
+                pool,
                 pending: false,
+                unconfirmed: false,
             });
             pubsub_services.push(s);
             event_services.push(e);
@@ -645,9 +701,11 @@ impl IoxTransport {
             let listener = listener(&ev, "broadcast group")?;
             let subscriber = subscriber(&service, "broadcast group")?;
             let timeout = t.send_timeout();
+            let pool = pool_size(t.n_nodes(), t.broadcast_buffer());
             let publisher = service
                 .publisher_builder()
-                .max_loaned_samples(1)
+                .max_loaned_samples(pool)
+                .override_sample_preallocation(move |_| pool)
                 .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
                 .set_backpressure_handler(move |info: &BackpressureInfo| {
                     if info.elapsed_time < timeout {
@@ -666,12 +724,15 @@ impl IoxTransport {
                 notifier,
                 listener,
                 service,
+                pool,
                 pending: false,
+                unconfirmed: false,
             })
         } else {
             None
         };
 
+        let pool = pool_size(1, t.inbox_buffer());
         let mut peers = Vec::with_capacity(t.neighbours(id).len() + 1);
         {
             let to = Endpoint::Coordinator;
@@ -679,9 +740,11 @@ impl IoxTransport {
             let e = event_service(&node, &coordinator_wake_spec(t), false)?;
             peers.push(Peer {
                 endpoint: to,
-                publisher: inbox_publisher(&s, to)?,
+                publisher: inbox_publisher(&s, to, pool)?,
                 notifier: notifier(&e, "coordinator")?,
+                pool,
                 pending: false,
+                unconfirmed: false,
             });
             pubsub_services.push(s);
             event_services.push(e);
@@ -692,9 +755,11 @@ impl IoxTransport {
             let e = event_service(&node, &node_wake_spec(t, j), false)?;
             peers.push(Peer {
                 endpoint: to,
-                publisher: inbox_publisher(&s, to)?,
+                publisher: inbox_publisher(&s, to, pool)?,
                 notifier: notifier(&e, &to.to_string())?,
+                pool,
                 pending: false,
+                unconfirmed: false,
             });
             pubsub_services.push(s);
             event_services.push(e);
@@ -855,9 +920,75 @@ impl IoxTransport {
     }
 }
 
+impl IoxTransport {
+    /// Endpoints (and the broadcast group) that still hold unread frames from us.
+    fn unconfirmed_receivers(&mut self) -> Result<(Vec<Endpoint>, bool), TransportError> {
+        let mut waiting = Vec::new();
+        for p in self.peers.iter_mut().filter(|p| p.unconfirmed) {
+            if taken_by_receivers(&p.publisher, p.pool)? {
+                p.unconfirmed = false;
+            } else {
+                waiting.push(p.endpoint);
+            }
+        }
+        let mut broadcast = false;
+        if let Some(b) = self.bcast.as_mut().filter(|b| b.unconfirmed) {
+            if taken_by_receivers(&b.publisher, b.pool)? {
+                b.unconfirmed = false;
+            } else {
+                broadcast = true;
+            }
+        }
+        Ok((waiting, broadcast))
+    }
+}
+
+/// How long dropping an [`IoxTransport`] waits for receivers to take frames sent to
+/// them (see [`Transport::shutdown`]; call that to choose the time and see failures).
+pub const DROP_LINGER: Duration = Duration::from_secs(1);
+
+impl Drop for IoxTransport {
+    fn drop(&mut self) {
+        let unconfirmed = self.peers.iter().any(|p| p.unconfirmed)
+            || self.bcast.as_ref().is_some_and(|b| b.unconfirmed);
+        if unconfirmed {
+            let _ = self.shutdown(DROP_LINGER);
+        }
+    }
+}
+
 impl Transport for IoxTransport {
     fn endpoint(&self) -> Endpoint {
         self.me
+    }
+
+    /// iceoryx2 keeps a frame in the sender's shared memory until the receiver takes
+    /// it; a receiver that has not yet looked at its inbox since this sender came up
+    /// would lose the frames when the sender's process exits. So this waits until
+    /// every frame sent is out of the receivers' buffers (received, or the receiver
+    /// has left), draining our own inbox meanwhile (frames stay available to `recv`).
+    /// Dropping the transport does the same for at most [`DROP_LINGER`].
+    fn shutdown(&mut self, timeout: Duration) -> Result<(), TransportError> {
+        self.flush()?;
+        let start = Instant::now();
+        let mut backoff = Backoff(0);
+        loop {
+            let (pending, broadcast) = self.unconfirmed_receivers()?;
+            if pending.is_empty() && !broadcast {
+                return Ok(());
+            }
+            let waited = start.elapsed();
+            if waited >= timeout {
+                return Err(TransportError::ShutdownTimeout {
+                    from: self.me,
+                    pending,
+                    broadcast,
+                    waited,
+                });
+            }
+            self.stash_incoming()?;
+            backoff.wait();
+        }
     }
 
     fn send(&mut self, to: Endpoint, frame: &Frame) -> Result<(), TransportError> {
@@ -871,6 +1002,7 @@ impl Transport for IoxTransport {
                 .map_err(|e| TransportError::ipc(format!("sending to {to}"), e))?;
             if delivered > 0 {
                 let peer = &mut self.peers[slot];
+                peer.unconfirmed = true;
                 if !peer.pending {
                     peer.pending = true;
                     self.pending.push(slot);
@@ -923,6 +1055,7 @@ impl Transport for IoxTransport {
         match b.publisher.send_copy(*frame) {
             Ok(delivered) if delivered >= n => {
                 b.pending = true;
+                b.unconfirmed = true;
                 Ok(())
             }
             Ok(delivered) => Err(TransportError::BroadcastIncomplete {
@@ -1058,10 +1191,21 @@ mod tests {
             assert_eq!(from_c, vec![0, 1]);
             assert!(out.contains(&frame(0, 9)));
             c.send(to1, &frame(u32::MAX, 2)).unwrap();
-            c.flush().unwrap();
+            // node 1 does not read: shutdown names it
+            match c.shutdown(Duration::from_millis(100)) {
+                Err(TransportError::ShutdownTimeout {
+                    pending, broadcast, ..
+                }) => {
+                    assert_eq!(pending, vec![to1]);
+                    assert!(!broadcast);
+                }
+                other => panic!("expected a shutdown timeout, got {other:?}"),
+            }
             out.clear();
             assert_eq!(n1.recv(&mut out, Some(Duration::from_secs(10))).unwrap(), 1);
             assert_eq!(out, vec![frame(u32::MAX, 2)]);
+            c.shutdown(Duration::from_secs(10)).unwrap();
+            n0.shutdown(Duration::from_secs(10)).unwrap();
 
             n1.send(Endpoint::Coordinator, &frame(1, 1)).unwrap();
             n1.flush().unwrap();

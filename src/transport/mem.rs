@@ -159,6 +159,10 @@ impl Transport for MemTransport {
         Ok(())
     }
 
+    fn shutdown(&mut self, _timeout: Duration) -> Result<(), TransportError> {
+        self.shutdown_impl()
+    }
+
     fn recv(
         &mut self,
         out: &mut Vec<Frame>,
@@ -188,6 +192,13 @@ impl Transport for MemTransport {
                 }
             };
         }
+    }
+}
+
+impl MemTransport {
+    /// Frames live in the shared hub, so they survive the sender: nothing to wait for.
+    fn shutdown_impl(&mut self) -> Result<(), TransportError> {
+        self.flush()
     }
 }
 

@@ -34,6 +34,10 @@
 //! * [`Transport::recv`] returns everything available now, and otherwise blocks on
 //!   the wake-up notification(s) until something arrives or the timeout passes. It
 //!   never busy-spins.
+//! * [`Transport::shutdown`] waits until the receivers have taken every frame sent;
+//!   call it before a process exits (with iceoryx2 a frame lives in the sender's
+//!   shared memory, and the last frames of an exiting process are otherwise lost if
+//!   the receiver has not looked at its inbox since the sender came up).
 
 use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -125,6 +129,21 @@ pub enum TransportError {
         /// Group size (`N`).
         expected: usize,
     },
+    /// [`Transport::shutdown`] timed out with frames still unread by these receivers.
+    #[error(
+        "{from} shut down with frames still unread after {waited:?} by {pending:?}{}",
+        if *broadcast { " and the broadcast group" } else { "" }
+    )]
+    ShutdownTimeout {
+        /// The endpoint shutting down.
+        from: Endpoint,
+        /// Receivers that had not taken all frames.
+        pending: Vec<Endpoint>,
+        /// Whether broadcast frames were still unread by some member.
+        broadcast: bool,
+        /// How long it waited.
+        waited: Duration,
+    },
     /// A peer endpoint was closed (in-memory transport only).
     #[error("{0} has been closed")]
     Closed(Endpoint),
@@ -176,6 +195,13 @@ pub trait Transport {
         out: &mut Vec<Frame>,
         timeout: Option<Duration>,
     ) -> Result<usize, TransportError>;
+
+    /// Flushes, then waits until every frame this endpoint sent has been taken by its
+    /// receiver (or the receiver has left), for at most `timeout`; frames arriving
+    /// meanwhile stay available to `recv`. Call it before the process exits so that
+    /// its last frames are not lost; fails with [`TransportError::ShutdownTimeout`]
+    /// naming the receivers that did not read. The endpoint stays usable.
+    fn shutdown(&mut self, timeout: Duration) -> Result<(), TransportError>;
 }
 
 /// Default send timeout, see [`RunTopology::with_send_timeout`].
