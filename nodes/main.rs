@@ -99,6 +99,7 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
     let mut frames: Vec<Frame> = Vec::new();
     let mut outputs: Vec<Output> = Vec::new();
     let mut encoded: Vec<Frame> = Vec::new();
+    let mut iteration_reports: Vec<Frame> = Vec::new();
     let mut timing = Timing::default();
     // Realtime clock: rate and next wake-up.
     let mut clock: Option<(f64, Instant)> = None;
@@ -173,11 +174,17 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
                 Output::Broadcast(msg) => tx
                     .broadcast(&codec::encode_peer(&msg))
                     .map_err(|e| e.to_string())?,
+                Output::Report(r @ sonarnet::protocol::Report::IterationDone { .. }) => {
+                    // Batched: sent with the sample's final report, so the
+                    // coordinator is woken once per sample, not per iteration.
+                    codec::encode_report(&r, &mut iteration_reports);
+                }
                 Output::Report(r) => {
                     if verbose {
                         eprintln!("[node {id}] report {r:?}");
                     }
                     encoded.clear();
+                    encoded.append(&mut iteration_reports);
                     if matches!(
                         r,
                         sonarnet::protocol::Report::SampleDone { .. }

@@ -190,7 +190,11 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
             "{}-{}{}-{}-seed{}",
             sc.name,
             sc.algorithm.mode.as_str(),
-            if args.clock == Clock::Realtime { "-realtime" } else { "" },
+            if args.clock == Clock::Realtime {
+                "-realtime"
+            } else {
+                ""
+            },
             args.engine.as_str(),
             sc.seed
         ))
