@@ -201,7 +201,7 @@ pub fn flat_metrics(m: &Map<String, Value>) -> Vec<(String, f64)> {
             .position(|k| *k == c)
             .unwrap_or(TRACK_KEYS.len() + usize::from(c.contains('.')))
     };
-    out.sort_by(|a, b| rank(&a.0).cmp(&rank(&b.0)));
+    out.sort_by_key(|a| rank(&a.0));
     out
 }
 
@@ -308,9 +308,10 @@ const SELFTEST_TAIL: &str = r#"<pre id="selftest" hidden></pre>
     var figs = document.querySelectorAll('figure.plot');
     for (var i = 0; i < figs.length; i++) {
       var s = figs[i].querySelector('svg');
-      var r = s ? s.getBoundingClientRect() : { width: 0, height: 0 };
+      // Content box (without the border), so an empty svg measures 0.
+      var w = s ? s.clientWidth : 0, h = s ? s.clientHeight : 0;
       var n = s ? s.querySelectorAll('*').length : 0;
-      out.plots.push({ id: figs[i].id, width: r.width, height: r.height, elements: n });
+      out.plots.push({ id: figs[i].id, width: w, height: h, elements: n });
     }
     document.getElementById('selftest').textContent = JSON.stringify(out);
   }
