@@ -485,7 +485,11 @@ fn track_metrics_html(d: &RunData) -> String {
     }
     let mut s = String::from("<table id=\"track-metrics\">\n<tr><th>track</th>");
     for c in &tm.columns {
-        let unit = if c == "regret" { "" } else { " (m)" };
+        let unit = if TRACK_KEYS[..5].contains(&c.as_str()) {
+            " (m)"
+        } else {
+            ""
+        };
         let _ = write!(s, "<th>{}{unit}</th>", esc(c));
     }
     s.push_str("</tr>\n");
@@ -598,7 +602,8 @@ fn objects_table(id: &str, first: &str, rows: &[(String, Map<String, Value>)]) -
         for c in &cols {
             match o.get(c) {
                 Some(v @ Value::Number(_)) => {
-                    let _ = write!(s, "<td class=\"num\">{}</td>", esc(&show(v)));
+                    let text = num(v).map_or_else(|| show(v), fmt_num);
+                    let _ = write!(s, "<td class=\"num\">{}</td>", esc(&text));
                 }
                 Some(Value::Null) | None => s.push_str("<td>–</td>"),
                 Some(v) => {
@@ -781,7 +786,11 @@ pub fn report_html(d: &RunData, figs: &[(Figure, String)]) -> String {
     }
     s.push_str("<h2 id=\"scenario\">Scenario</h2>\n");
     s.push_str(&kv_table(&scenario_summary(d)));
-    s.push_str("<h2 id=\"metrics\">Metrics</h2>\n<h3>Tracks</h3>\n");
+    s.push_str(if d.monte_carlo.is_some() {
+        "<h2 id=\"metrics\">Metrics</h2>\n<h3>Tracks (the trial in metrics.json and track.csv)</h3>\n"
+    } else {
+        "<h2 id=\"metrics\">Metrics</h2>\n<h3>Tracks</h3>\n"
+    });
     s.push_str(&track_metrics_html(d));
     s.push_str(&monte_carlo_html(d));
     s.push_str(&bounds_html(d));
