@@ -993,3 +993,119 @@ pub fn write_comparison(
     })?;
     Ok(path)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plot::data::{RunInfo, Track, TrackKind, TrackTable};
+    use approx::assert_abs_diff_eq;
+    use serde_json::json;
+
+    fn data() -> RunData {
+        let errs = [Some(10.0), Some(4.0), Some(2.0), Some(3.0)];
+        let track = |name: &str, kind, e: &[Option<f64>]| Track {
+            name: name.into(),
+            kind,
+            pos: vec![Some([0.0, 0.0]); 4],
+            error: e.to_vec(),
+            ctte: vec![None; 4],
+            regret: None,
+        };
+        RunData {
+            info: RunInfo {
+                burn_in: Some(1),
+                ..RunInfo::default()
+            },
+            metrics: json!({"rmse": 5.5, "ml_rmse": 1.25, "iterations": 10,
+                "baselines": {"ogd": {"rmse": 7.0, "dynamic_regret": 3.0}},
+                "bounds": {"minball": {"coverage": 1.0}},
+                "realtime": {"declines": 4}})
+            .as_object()
+            .unwrap()
+            .clone(),
+            track: TrackTable {
+                sample: vec![0.0, 1.0, 2.0, 3.0],
+                truth: vec![Some([0.0, 0.0]); 4],
+                tracks: vec![
+                    track(THETA_BAR, TrackKind::Distributed, &errs),
+                    track(ML, TrackKind::Reference, &errs),
+                    track(
+                        "ogd",
+                        TrackKind::Baseline,
+                        &[Some(1.0), None, Some(1.0), Some(1.0)],
+                    ),
+                ],
+                ..TrackTable::default()
+            },
+            ..RunData::default()
+        }
+    }
+
+    #[test]
+    fn track_metrics_prefer_metrics_json_and_compute_the_rest_from_track_csv() {
+        let d = data();
+        let tm = track_metrics(&d);
+        assert_eq!(
+            tm.columns,
+            [
+                "rmse",
+                "rmse_after_burn_in",
+                "median_error",
+                "final_error",
+                "ctte",
+                "dynamic_regret"
+            ]
+        );
+        let row = |n: &str| &tm.rows.iter().find(|r| r.0 == n).unwrap().2;
+        let col = |c: &str| tm.columns.iter().position(|x| x == c).unwrap();
+        // theta_bar: rmse from metrics.json, the rest computed like metrics::score.
+        let tb = row(THETA_BAR);
+        assert_eq!(
+            tb[col("rmse")],
+            Some(Cell {
+                value: 5.5,
+                computed: false
+            })
+        );
+        let s = crate::metrics::score(&[10.0, 4.0, 2.0, 3.0], 1).unwrap();
+        let c = tb[col("rmse_after_burn_in")].unwrap();
+        assert!(c.computed);
+        assert_abs_diff_eq!(c.value, s.rmse_after_burn_in, epsilon = 1e-12);
+        assert_abs_diff_eq!(tb[col("ctte")].unwrap().value, 19.0, epsilon = 1e-12);
+        // ML: rmse is ml_rmse.
+        assert_abs_diff_eq!(row(ML)[col("rmse")].unwrap().value, 1.25);
+        // ogd: given values kept; a gap in its errors means nothing is computed.
+        let ogd = row("ogd");
+        assert_abs_diff_eq!(ogd[col("dynamic_regret")].unwrap().value, 3.0);
+        assert_eq!(ogd[col("ctte")], None);
+    }
+
+    #[test]
+    fn flat_metrics_include_baselines_bounds_and_realtime() {
+        let f = flat_metrics(&data().metrics);
+        let keys: Vec<&str> = f.iter().map(|x| x.0.as_str()).collect();
+        assert_eq!(keys[0], "rmse");
+        for k in [
+            "baselines.ogd.rmse",
+            "baselines.ogd.dynamic_regret",
+            "bounds.minball.coverage",
+            "realtime.declines",
+            "iterations",
+        ] {
+            assert!(keys.contains(&k), "{k} missing from {keys:?}");
+        }
+    }
+
+    #[test]
+    fn html_text_is_escaped_and_numbers_are_compact() {
+        assert_eq!(
+            esc("<a href=\"x\">&'"),
+            "&lt;a href=&quot;x&quot;&gt;&amp;&#39;"
+        );
+        assert_eq!(fmt_num(5000.0), "5000");
+        assert_eq!(fmt_num(2.50050041), "2.501");
+        assert_eq!(fmt_num(0.0022714), "0.002271");
+        assert_eq!(shell_quote("a b"), "'a b'");
+        assert_eq!(shell_quote("--seed"), "--seed");
+    }
+}

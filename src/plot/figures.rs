@@ -917,6 +917,24 @@ pub fn network_figure(data: &RunData) -> Figure {
         .collect();
     let lo = prox.iter().flatten().copied().min().unwrap_or(0) as f64;
     let hi = prox.iter().flatten().copied().max().unwrap_or(0) as f64;
+    // Four-line counter labels need room: with many or crowded nodes, one
+    // line (id and prox solves) each.
+    let span = {
+        let pts = geometry_points(data);
+        let x = linear_range(pts.iter().map(|p| p.0), 0.0);
+        let y = linear_range(pts.iter().map(|p| p.1), 0.0);
+        (x.1 - x.0).max(y.1 - y.0)
+    };
+    let closest = rx
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| {
+            rx[i + 1..]
+                .iter()
+                .map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
+        })
+        .fold(f64::INFINITY, f64::min);
+    let compact = rx.len() > 10 || closest < 0.15 * span;
     for (i, p) in rx.iter().enumerate() {
         let c = counters
             .iter()
@@ -934,9 +952,13 @@ pub fn network_figure(data: &RunData) -> Figure {
         let mut lines = vec![format!("R{i}")];
         if let Some(c) = c {
             let g = |k| counter(c, k).map_or("-".into(), |v| v.to_string());
-            lines.push(format!("prox {}", g("prox_solves")));
-            lines.push(format!("msg {}↑ {}↓", g("messages_out"), g("messages_in")));
-            lines.push(format!("declines {}", g("declines")));
+            if compact {
+                lines[0] = format!("R{i} · {}", g("prox_solves"));
+            } else {
+                lines.push(format!("prox {}", g("prox_solves")));
+                lines.push(format!("msg {}↑ {}↓", g("messages_out"), g("messages_in")));
+                lines.push(format!("declines {}", g("declines")));
+            }
         }
         panel.labels.push(Label {
             at: (p[0], p[1]),
@@ -953,6 +975,12 @@ pub fn network_figure(data: &RunData) -> Figure {
         },
         swatch: Swatch::Line(Style::markers(heat(0.6), Marker::Circle, 6)),
     });
+    if compact && !counters.is_empty() {
+        legend.push(LegendItem {
+            label: "label: R<node> · prox solves (all counters in the report's table)".into(),
+            swatch: Swatch::Line(Style::line(Rgb(255, 255, 255), 0)),
+        });
+    }
     let pts = geometry_points(data);
     // Room on the right for the counter labels.
     let x = linear_range(pts.iter().map(|p| p.0), 0.08);
