@@ -169,7 +169,15 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Report(args) => {
             let path = match args.dirs.as_slice() {
                 [a, b] => crate::report::write_comparison(a, b, args.out.as_deref(), args.png)?,
-                [a] => crate::report::write_report(a, args.png)?,
+                [a] if args.out.is_none() => crate::report::write_report(a, args.png)?,
+                [_] => {
+                    return Err(crate::error::InputError::at(
+                        std::path::Path::new("<command line>"),
+                        "--out",
+                        "only applies when comparing two results directories",
+                    )
+                    .into());
+                }
                 _ => unreachable!("clap enforces 1..=2 directories"),
             };
             println!("report written to {}", path.display());
