@@ -29,6 +29,23 @@ pub enum Command {
         #[arg(required = true)]
         scenarios: Vec<PathBuf>,
     },
+    /// Write the plots and a self-contained HTML report of a results
+    /// directory (DIR/report.html), or compare two runs (DIR DIR2).
+    Report(ReportArgs),
+}
+
+/// `sonarnet report`.
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// Results directory (and a second one to compare against).
+    #[arg(required = true, num_args = 1..=2, value_name = "DIR")]
+    pub dirs: Vec<PathBuf>,
+    /// Also write every plot as PNG.
+    #[arg(long)]
+    pub png: bool,
+    /// Where to write the comparison page [default: DIR/compare-<DIR2 name>.html].
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
 }
 
 /// `sonarnet run`.
@@ -69,6 +86,9 @@ pub struct RunArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Also write report.html into the results directory.
+    #[arg(long)]
+    pub report: bool,
 }
 
 /// Parse a `--local-solver` value with the scenario file's spelling.
@@ -96,6 +116,18 @@ pub enum CliError {
     /// Anything else that stops a run (exit 1).
     #[error(transparent)]
     Run(RunError),
+    /// Plots or report could not be written (exit 1).
+    #[error(transparent)]
+    Plot(crate::plot::PlotError),
+}
+
+impl From<crate::plot::PlotError> for CliError {
+    fn from(e: crate::plot::PlotError) -> Self {
+        match e {
+            crate::plot::PlotError::Input(i) => CliError::Input(i),
+            other => CliError::Plot(other),
+        }
+    }
 }
 
 impl CliError {
@@ -140,6 +172,23 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Run(args) => run_command(args),
+        Command::Report(args) => {
+            let path = match args.dirs.as_slice() {
+                [a, b] => crate::report::write_comparison(a, b, args.out.as_deref(), args.png)?,
+                [a] if args.out.is_none() => crate::report::write_report(a, args.png)?,
+                [_] => {
+                    return Err(crate::error::InputError::at(
+                        std::path::Path::new("<command line>"),
+                        "--out",
+                        "only applies when comparing two results directories",
+                    )
+                    .into());
+                }
+                _ => unreachable!("clap enforces 1..=2 directories"),
+            };
+            println!("report written to {}", path.display());
+            Ok(())
+        }
     }
 }
 
@@ -236,13 +285,23 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
         b.finish_and_clear();
     }
     let outcome = run::finish(&sc, &real, record, result.err(), &opts)?;
+    let plots = if args.report {
+        crate::report::write_report(&outcome.out_dir, false).map(drop)
+    } else {
+        crate::plot::write_run_plots(&outcome.out_dir).map(drop)
+    };
     print_summary(&outcome);
     match outcome.error {
-        Some(error) => Err(CliError::RunFailed {
-            error,
-            dir: outcome.out_dir,
-        }),
-        None => Ok(()),
+        Some(error) => {
+            if let Err(e) = plots {
+                eprintln!("warning: plots were not written: {e}");
+            }
+            Err(CliError::RunFailed {
+                error,
+                dir: outcome.out_dir,
+            })
+        }
+        None => plots.map_err(CliError::from),
     }
 }
 

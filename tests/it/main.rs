@@ -5,5 +5,6 @@ mod bad_input;
 mod engine;
 mod paper;
 mod replay;
+mod report;
 mod scenarios;
 mod util;

@@ -98,3 +98,224 @@ pub fn read_rows(path: &Path) -> Vec<Vec<String>> {
         .map(|r| r.expect("csv row").iter().map(str::to_owned).collect())
         .collect()
 }
+
+/// A headless Chromium found on this machine, or why there is none.
+///
+/// Looks at `$SONARNET_CHROMIUM`, then `chromium`, `chromium-browser` and
+/// `google-chrome` on `PATH`, and checks that `--version` runs.
+pub fn find_chromium() -> Result<PathBuf, String> {
+    let mut candidates: Vec<PathBuf> = Vec::new();
+    if let Some(p) = std::env::var_os("SONARNET_CHROMIUM") {
+        candidates.push(PathBuf::from(p));
+    }
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    for name in ["chromium", "chromium-browser", "google-chrome"] {
+        for dir in std::env::split_paths(&path) {
+            let p = dir.join(name);
+            if p.is_file() {
+                candidates.push(p);
+            }
+        }
+    }
+    if candidates.is_empty() {
+        return Err("no chromium, chromium-browser or google-chrome on PATH".into());
+    }
+    let mut why = Vec::new();
+    for c in candidates {
+        match Command::new(&c).arg("--version").output() {
+            Ok(o) if o.status.success() => return Ok(c),
+            Ok(o) => why.push(format!(
+                "{} --version failed: {}",
+                c.display(),
+                String::from_utf8_lossy(&o.stderr).trim()
+            )),
+            Err(e) => why.push(format!("{}: {e}", c.display())),
+        }
+    }
+    Err(why.join("; "))
+}
+
+/// Chromium for a test, or `None` after printing a SKIPPED line. When
+/// `SONARNET_REQUIRE_CHROMIUM=1` (set by .ci/run after installing it), a
+/// missing browser fails the test instead.
+pub fn chromium_or_skip(test: &str) -> Option<PathBuf> {
+    match find_chromium() {
+        Ok(p) => Some(p),
+        Err(reason) => {
+            if std::env::var("SONARNET_REQUIRE_CHROMIUM").as_deref() == Ok("1") {
+                panic!("{test}: chromium is required (SONARNET_REQUIRE_CHROMIUM=1) but {reason}");
+            }
+            // Written to the process' stderr directly, past the test
+            // harness' output capture, so the line shows in every run.
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "SKIPPED: chromium not installed ({reason}) [{test}]"
+            );
+            None
+        }
+    }
+}
+
+/// Run headless Chromium on `url` with `extra` flags and a fresh profile;
+/// kills it after `limit`. Returns (stdout, stderr).
+pub fn chromium_run(bin: &Path, extra: &[String], url: &str, limit: Duration) -> (String, String) {
+    let profile = TempDir::new("chromium-profile");
+    let mut args: Vec<String> = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--hide-scrollbars",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    args.push(format!("--user-data-dir={}", profile.path().display()));
+    args.extend(extra.iter().cloned());
+    args.push(url.to_string());
+    // Output goes to files: a pipe would fill up (the dumped DOM is large)
+    // and block chromium before it exits.
+    let out_path = profile.path().join("stdout.txt");
+    let err_path = profile.path().join("stderr.txt");
+    let mut child = Command::new(bin)
+        .args(&args)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::fs::File::create(&out_path).expect("create stdout file"))
+        .stderr(std::fs::File::create(&err_path).expect("create stderr file"))
+        .spawn()
+        .expect("spawn chromium");
+    let start = Instant::now();
+    loop {
+        match child.try_wait().expect("wait chromium") {
+            Some(_) => break,
+            None if start.elapsed() > limit => {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!(
+                    "watchdog: chromium did not finish within {limit:?} on {url}\nstderr:\n{}",
+                    std::fs::read_to_string(&err_path).unwrap_or_default()
+                );
+            }
+            None => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
+    let read =
+        |p: &Path| String::from_utf8_lossy(&std::fs::read(p).unwrap_or_default()).into_owned();
+    (read(&out_path), read(&err_path))
+}
+
+/// A `file://` URL for a local path.
+pub fn file_url(p: &Path) -> String {
+    let abs = p.canonicalize().expect("canonicalize page path");
+    format!("file://{}", abs.display())
+}
+
+/// Load `page` with `?selftest` in Chromium and return the JSON the page's
+/// self-test wrote into `<pre id="selftest">`.
+pub fn page_selftest(bin: &Path, page: &Path) -> Result<serde_json::Value, String> {
+    let url = format!("{}?selftest", file_url(page));
+    let (dom, stderr) = chromium_run(
+        bin,
+        &["--dump-dom".to_string()],
+        &url,
+        Duration::from_secs(90),
+    );
+    let start = dom.find("id=\"selftest\"").ok_or_else(|| {
+        format!("no selftest element in the dumped DOM; chromium stderr:\n{stderr}")
+    })?;
+    let rest = &dom[start..];
+    let open = rest.find('>').ok_or("malformed selftest element")? + 1;
+    let close = rest.find("</pre>").ok_or("unterminated selftest element")?;
+    let text = rest[open..close]
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&");
+    if text.trim().is_empty() {
+        return Err(format!(
+            "the page's self-test did not run (empty result); chromium stderr:\n{stderr}"
+        ));
+    }
+    serde_json::from_str(&text).map_err(|e| format!("selftest JSON `{text}`: {e}"))
+}
+
+/// Check a self-test result: no errors, the expected number of plots, and
+/// every plot has a non-zero rendered size and drawn content.
+pub fn check_selftest(v: &serde_json::Value) -> Result<(), String> {
+    let errors = v["errors"].as_array().ok_or("no `errors` in selftest")?;
+    if !errors.is_empty() {
+        return Err(format!("the page raised errors: {errors:?}"));
+    }
+    let plots = v["plots"].as_array().ok_or("no `plots` in selftest")?;
+    let expected = v["expected"].as_i64().unwrap_or(-1);
+    if expected < 1 || plots.len() as i64 != expected {
+        return Err(format!(
+            "expected {expected} plot elements, found {}",
+            plots.len()
+        ));
+    }
+    for p in plots {
+        let (w, h) = (
+            p["width"].as_f64().unwrap_or(0.0),
+            p["height"].as_f64().unwrap_or(0.0),
+        );
+        let n = p["elements"].as_u64().unwrap_or(0);
+        if w < 1.0 || h < 1.0 {
+            return Err(format!("plot {} has zero size ({w} x {h})", p["id"]));
+        }
+        if n < 10 {
+            return Err(format!(
+                "plot {} draws almost nothing ({n} elements)",
+                p["id"]
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Screenshot `page` in Chromium (1400 x 3000) into `out`.
+pub fn screenshot(bin: &Path, page: &Path, out: &Path) {
+    let (_, stderr) = chromium_run(
+        bin,
+        &[
+            format!("--screenshot={}", out.display()),
+            "--window-size=1400,3000".to_string(),
+        ],
+        &file_url(page),
+        Duration::from_secs(90),
+    );
+    assert!(
+        out.is_file(),
+        "chromium wrote no screenshot; stderr:\n{stderr}"
+    );
+}
+
+/// Whether a PNG is blank: fewer than 0.5% of its pixels differ from its most
+/// common colour, or it has fewer than 8 distinct colours.
+pub fn png_is_blank(path: &Path) -> bool {
+    let f = std::fs::File::open(path).expect("open png");
+    let mut reader = png::Decoder::new(std::io::BufReader::new(f))
+        .read_info()
+        .expect("png header");
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).expect("png frame");
+    let bpp = info.color_type.samples()
+        * if info.bit_depth == png::BitDepth::Sixteen {
+            2
+        } else {
+            1
+        };
+    let pixels = &buf[..info.buffer_size()];
+    let mut counts: std::collections::HashMap<&[u8], usize> = std::collections::HashMap::new();
+    for px in pixels.chunks_exact(bpp) {
+        *counts.entry(px).or_default() += 1;
+    }
+    let total = pixels.len() / bpp;
+    let top = counts.values().copied().max().unwrap_or(0);
+    let other = total - top;
+    counts.len() < 8 || (other as f64) < 0.005 * total as f64
+}

@@ -1,0 +1,502 @@
+//! Drawing a [`Figure`] with plotters (SVG string or PNG file).
+
+use super::{Disc, Figure, LegendItem, Marker, Panel, PlotError, Rgb, Style, Swatch};
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Height of the title strip (px).
+pub(crate) const TITLE_H: u32 = 46;
+/// Width of the legend column (px).
+pub(crate) const LEGEND_W: u32 = 270;
+const Y_LABEL_AREA: u32 = 84;
+const X_LABEL_AREA: u32 = 52;
+const M_TOP: u32 = 14;
+const M_RIGHT: u32 = 22;
+const M_LEFT: u32 = 10;
+const M_BOTTOM: u32 = 6;
+
+/// Font family: the bundled DejaVu Sans lays text out; browsers use it when
+/// installed, else their sans-serif.
+const FONT: &str = "DejaVu Sans, Arial, sans-serif";
+/// DejaVu Sans (Bitstream Vera licence, see assets/fonts/LICENSE-DejaVu.txt):
+/// text metrics for every backend and glyphs for PNG, without system fonts.
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
+/// Plot-area size (px) of a panel `height` high in a figure `width` wide.
+pub(crate) fn plot_area(width: u32, height: u32) -> (f64, f64) {
+    (
+        width.saturating_sub(LEGEND_W + Y_LABEL_AREA + M_LEFT + M_RIGHT) as f64,
+        height.saturating_sub(X_LABEL_AREA + M_TOP + M_BOTTOM) as f64,
+    )
+}
+
+fn ensure_font() -> Result<(), PlotError> {
+    static DONE: OnceLock<bool> = OnceLock::new();
+    let ok = *DONE.get_or_init(|| {
+        plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(PlotError::Render {
+            figure: "font".into(),
+            reason: "the bundled DejaVu Sans font could not be parsed".into(),
+        })
+    }
+}
+
+fn rgb(c: Rgb) -> RGBColor {
+    RGBColor(c.0, c.1, c.2)
+}
+
+fn err<E: std::fmt::Display>(fig: &Figure) -> impl Fn(E) -> PlotError + '_ {
+    move |e| PlotError::Render {
+        figure: fig.name.clone(),
+        reason: e.to_string(),
+    }
+}
+
+/// Draw `fig` as an SVG document.
+pub fn render_svg(fig: &Figure) -> Result<String, PlotError> {
+    ensure_font()?;
+    let mut buf = String::new();
+    {
+        let root = SVGBackend::with_string(&mut buf, (fig.width, fig.height())).into_drawing_area();
+        draw_figure(&root, fig).map_err(err(fig))?;
+        root.present().map_err(err(fig))?;
+    }
+    Ok(buf)
+}
+
+/// Draw `fig` into the PNG file `path`.
+pub fn render_png(fig: &Figure, path: &Path) -> Result<(), PlotError> {
+    ensure_font()?;
+    let root = BitMapBackend::new(path, (fig.width, fig.height())).into_drawing_area();
+    draw_figure(&root, fig).map_err(err(fig))?;
+    root.present().map_err(|e| PlotError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    })
+}
+
+type DResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> DResult<DB> {
+    root.fill(&WHITE)?;
+    let (title, body) = root.split_vertically(TITLE_H);
+    // Shrink long titles to fit (DejaVu Sans averages ~0.6 em per glyph).
+    let chars = fig.title.chars().count().max(1) as f64;
+    let size = (25.0f64)
+        .min((fig.width as f64 - 40.0) / (0.6 * 0.8 * chars))
+        .max(12.0);
+    title.draw_text(
+        &fig.title,
+        &(FONT, size).into_font().color(&RGBColor(25, 25, 25)),
+        ((M_LEFT + 8) as i32, 13),
+    )?;
+    let (plots, legend) = body.split_horizontally(fig.width.saturating_sub(LEGEND_W));
+    let mut rest = plots;
+    for p in &fig.panels {
+        let (area, r) = rest.split_vertically(p.height);
+        draw_panel(&area, p)?;
+        rest = r;
+    }
+    draw_legend(&legend, &fig.legend)?;
+    Ok(())
+}
+
+/// Compact tick labels: no trailing zeros, exponents for extremes.
+pub(crate) fn tick(v: f64) -> String {
+    let a = v.abs();
+    if a < 1e-12 {
+        return "0".into();
+    }
+    if !(1e-3..1e6).contains(&a) {
+        return format!("{v:.1e}");
+    }
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
+fn chart_builder<'a, 'b, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut cb = ChartBuilder::on(area);
+    cb.margin_top(M_TOP)
+        .margin_bottom(M_BOTTOM)
+        .margin_left(M_LEFT)
+        .margin_right(M_RIGHT)
+        .x_label_area_size(X_LABEL_AREA)
+        .y_label_area_size(Y_LABEL_AREA);
+    cb
+}
+
+fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> DResult<DB> {
+    let mut cb = chart_builder(area);
+    let xr = p.x_range.0..p.x_range.1;
+    if p.log_y {
+        let mut chart = cb.build_cartesian_2d(xr, (p.y_range.0..p.y_range.1).log_scale())?;
+        contents(&mut chart, p)
+    } else {
+        let mut chart = cb.build_cartesian_2d(xr, p.y_range.0..p.y_range.1)?;
+        contents(&mut chart, p)
+    }
+}
+
+fn shape(s: &Style) -> ShapeStyle {
+    rgb(s.color).mix(s.opacity).stroke_width(s.width.max(1))
+}
+
+/// Polygon approximation of a disc, clipped to the rectangle (convex clip,
+/// Sutherland-Hodgman).
+fn disc_polygon(d: &Disc, x: (f64, f64), y: (f64, f64)) -> Vec<(f64, f64)> {
+    let n = 72;
+    let mut poly: Vec<(f64, f64)> = (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            (
+                d.center.0 + d.radius * a.cos(),
+                d.center.1 + d.radius * a.sin(),
+            )
+        })
+        .collect();
+    type Edge = (
+        fn(&(f64, f64), f64) -> bool,
+        fn(&(f64, f64), &(f64, f64), f64) -> (f64, f64),
+    );
+    let lerp_x = |a: &(f64, f64), b: &(f64, f64), c: f64| {
+        let t = (c - a.0) / (b.0 - a.0);
+        (c, a.1 + t * (b.1 - a.1))
+    };
+    let lerp_y = |a: &(f64, f64), b: &(f64, f64), c: f64| {
+        let t = (c - a.1) / (b.1 - a.1);
+        (a.0 + t * (b.0 - a.0), c)
+    };
+    let edges: [(Edge, f64); 4] = [
+        ((|p, c| p.0 >= c, lerp_x), x.0),
+        ((|p, c| p.0 <= c, lerp_x), x.1),
+        ((|p, c| p.1 >= c, lerp_y), y.0),
+        ((|p, c| p.1 <= c, lerp_y), y.1),
+    ];
+    for ((inside, cut), c) in edges {
+        if poly.is_empty() {
+            break;
+        }
+        let mut out = Vec::with_capacity(poly.len() + 4);
+        for i in 0..poly.len() {
+            let a = poly[i];
+            let b = poly[(i + 1) % poly.len()];
+            match (inside(&a, c), inside(&b, c)) {
+                (true, true) => out.push(b),
+                (true, false) => out.push(cut(&a, &b, c)),
+                (false, true) => {
+                    out.push(cut(&a, &b, c));
+                    out.push(b);
+                }
+                (false, false) => {}
+            }
+        }
+        poly = out;
+    }
+    poly
+}
+
+fn contents<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let (y0, y1) = p.y_range;
+    // Shaded regions first.
+    for v in &p.vlines {
+        if v.shade_left && v.x > p.x_range.0 {
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(p.x_range.0, y0), (v.x.min(p.x_range.1), y1)],
+                RGBColor(120, 120, 120).mix(0.10).filled(),
+            )))?;
+        }
+    }
+    let fmt = |v: &f64| tick(*v);
+    chart
+        .configure_mesh()
+        .x_desc(p.x_label.as_str())
+        .y_desc(p.y_label.as_str())
+        .label_style((FONT, 17).into_font().color(&RGBColor(55, 55, 55)))
+        .axis_desc_style((FONT, 19).into_font().color(&RGBColor(25, 25, 25)))
+        .bold_line_style(RGBColor(215, 215, 215).stroke_width(1))
+        .light_line_style(TRANSPARENT)
+        .axis_style(RGBColor(80, 80, 80).stroke_width(1))
+        .x_labels(10)
+        .y_labels(8)
+        .x_label_formatter(&fmt)
+        .y_label_formatter(&fmt)
+        .draw()?;
+    for b in &p.bands {
+        for seg in &b.segments {
+            let mut poly: Vec<(f64, f64)> = seg.iter().map(|q| (q.0, q.2)).collect();
+            poly.extend(seg.iter().rev().map(|q| (q.0, q.1)));
+            chart.draw_series(std::iter::once(Polygon::new(
+                poly,
+                rgb(b.color).mix(0.18).filled(),
+            )))?;
+        }
+    }
+    for d in &p.discs {
+        let poly = disc_polygon(d, p.x_range, p.y_range);
+        if poly.len() < 3 {
+            continue;
+        }
+        chart.draw_series(std::iter::once(Polygon::new(
+            poly.clone(),
+            rgb(d.color).mix(0.07).filled(),
+        )))?;
+        let mut ring = poly;
+        ring.push(ring[0]);
+        chart.draw_series(std::iter::once(PathElement::new(
+            ring,
+            rgb(d.color).mix(0.75).stroke_width(1),
+        )))?;
+    }
+    for v in &p.vlines {
+        chart.draw_series(DashedLineSeries::new(
+            vec![(v.x, y0), (v.x, y1)],
+            6,
+            4,
+            RGBColor(90, 90, 90).stroke_width(1),
+        ))?;
+        chart.draw_series(std::iter::once(
+            EmptyElement::at((v.x, y1))
+                + Text::new(
+                    v.caption.clone(),
+                    (5, 5),
+                    (FONT, 16).into_font().color(&RGBColor(70, 70, 70)),
+                ),
+        ))?;
+    }
+    for s in &p.series {
+        let st = shape(&s.style);
+        for seg in &s.segments {
+            if s.style.width > 0 && seg.len() > 1 {
+                if s.style.dashed {
+                    chart.draw_series(DashedLineSeries::new(seg.iter().copied(), 9, 5, st))?;
+                } else {
+                    chart.draw_series(LineSeries::new(seg.iter().copied(), st))?;
+                }
+            }
+            if let Some(m) = s.style.marker {
+                draw_markers(chart, seg, m, &s.style)?;
+            }
+        }
+    }
+    for l in &p.labels {
+        let font = (FONT, l.size).into_font().color(&RGBColor(30, 30, 30));
+        let lh = (l.size as f64 * 1.25).round() as i32;
+        chart.draw_series(l.lines.iter().enumerate().map(|(i, line)| {
+            EmptyElement::at(l.at)
+                + Text::new(
+                    line.clone(),
+                    (l.offset.0, l.offset.1 + i as i32 * lh),
+                    font.clone(),
+                )
+        }))?;
+    }
+    if let Some(c) = &p.caption {
+        let area = chart.plotting_area().strip_coord_spec();
+        area.draw_text(
+            c,
+            &(FONT, 17).into_font().color(&RGBColor(80, 80, 80)),
+            (10, 8),
+        )?;
+    }
+    if let Some(note) = &p.note {
+        let area = chart.plotting_area();
+        let (w, h) = area.dim_in_pixel();
+        let style = (FONT, 22)
+            .into_font()
+            .color(&RGBColor(120, 120, 120))
+            .pos(Pos::new(HPos::Center, VPos::Center));
+        area.strip_coord_spec()
+            .draw_text(note, &style, (w as i32 / 2, h as i32 / 2))?;
+    }
+    Ok(())
+}
+
+fn draw_markers<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    seg: &[(f64, f64)],
+    m: Marker,
+    s: &Style,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let fill = rgb(s.color).mix(s.opacity).filled();
+    let size = s.marker_size.max(1);
+    let outline = RGBColor(40, 40, 40).mix(0.8).stroke_width(1);
+    match m {
+        Marker::Circle => {
+            chart.draw_series(seg.iter().map(|p| Circle::new(*p, size, fill)))?;
+            if size >= 5 {
+                chart.draw_series(seg.iter().map(|p| Circle::new(*p, size, outline)))?;
+            }
+        }
+        Marker::Triangle => {
+            chart.draw_series(seg.iter().map(|p| TriangleMarker::new(*p, size, fill)))?;
+        }
+        Marker::Square => {
+            let h = size as i32;
+            chart.draw_series(
+                seg.iter()
+                    .map(|p| EmptyElement::at(*p) + Rectangle::new([(-h, -h), (h, h)], fill)),
+            )?;
+        }
+        Marker::Cross => {
+            chart.draw_series(
+                seg.iter()
+                    .map(|p| Cross::new(*p, size, rgb(s.color).stroke_width(2))),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// Word-wrap `s` to lines of at most `n` characters.
+fn wrap(s: &str, n: usize) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    for w in s.split_whitespace() {
+        if !cur.is_empty() && cur.chars().count() + 1 + w.chars().count() > n {
+            out.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(w);
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    out
+}
+
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    items: &[LegendItem],
+) -> DResult<DB> {
+    if items.is_empty() {
+        return Ok(());
+    }
+    let font = (FONT, 17).into_font().color(&RGBColor(30, 30, 30));
+    let (x0, sw, tx) = (6, 40, 56);
+    let mut y = M_TOP as i32 + 14;
+    let top = y - 12;
+    let mut rows = Vec::new();
+    for it in items {
+        let lines = wrap(&it.label, 24);
+        let h = 9 + 18 * lines.len().max(1) as i32;
+        rows.push((it, lines, y));
+        y += h;
+    }
+    let bottom = y - 2;
+    area.draw(&Rectangle::new(
+        [(x0 - 4, top), (LEGEND_W as i32 - 12, bottom)],
+        RGBColor(190, 190, 190).stroke_width(1),
+    ))?;
+    for (it, lines, y) in rows {
+        let cy = y + 7;
+        match &it.swatch {
+            Swatch::Line(s) => {
+                let st = shape(s);
+                if s.width > 0 {
+                    if s.dashed {
+                        area.draw(&PathElement::new(vec![(x0 + 2, cy), (x0 + 16, cy)], st))?;
+                        area.draw(&PathElement::new(
+                            vec![(x0 + 24, cy), (x0 + sw - 2, cy)],
+                            st,
+                        ))?;
+                    } else {
+                        area.draw(&PathElement::new(vec![(x0 + 2, cy), (x0 + sw - 2, cy)], st))?;
+                    }
+                }
+                if let Some(m) = s.marker {
+                    let c = (x0 + sw / 2, cy);
+                    let size = s.marker_size.clamp(2, 8);
+                    let fill = rgb(s.color).mix(s.opacity).filled();
+                    match m {
+                        Marker::Circle => {
+                            area.draw(&Circle::new(c, size, fill))?;
+                            if size >= 5 {
+                                area.draw(&Circle::new(
+                                    c,
+                                    size,
+                                    RGBColor(40, 40, 40).mix(0.8).stroke_width(1),
+                                ))?;
+                            }
+                        }
+                        Marker::Triangle => area.draw(&TriangleMarker::new(c, size, fill))?,
+                        Marker::Square => {
+                            let h = size as i32;
+                            area.draw(&Rectangle::new(
+                                [(c.0 - h, c.1 - h), (c.0 + h, c.1 + h)],
+                                fill,
+                            ))?
+                        }
+                        Marker::Cross => {
+                            area.draw(&Cross::new(c, size, rgb(s.color).stroke_width(2)))?
+                        }
+                    }
+                }
+            }
+            Swatch::Area(c) => area.draw(&Rectangle::new(
+                [(x0 + 2, cy - 7), (x0 + sw - 2, cy + 7)],
+                rgb(*c).mix(0.22).filled(),
+            ))?,
+            Swatch::Disc(c) => {
+                area.draw(&Circle::new(
+                    (x0 + sw / 2, cy),
+                    8,
+                    rgb(*c).mix(0.1).filled(),
+                ))?;
+                area.draw(&Circle::new(
+                    (x0 + sw / 2, cy),
+                    8,
+                    rgb(*c).mix(0.75).stroke_width(1),
+                ))?;
+            }
+        }
+        for (i, l) in lines.iter().enumerate() {
+            area.draw_text(l, &font, (tx, y + i as i32 * 18))?;
+        }
+    }
+    Ok(())
+}
+
+/// The plot-area size plotters really lays out for a panel `height` high in a
+/// figure `width` wide (checks [`plot_area`]).
+#[cfg(test)]
+pub(crate) fn measured_plot_area(width: u32, height: u32) -> (u32, u32) {
+    let mut buf = String::new();
+    let root = SVGBackend::with_string(&mut buf, (width, height + TITLE_H)).into_drawing_area();
+    let (_, body) = root.split_vertically(TITLE_H);
+    let (plots, _) = body.split_horizontally(width - LEGEND_W);
+    let (area, _) = plots.split_vertically(height);
+    let chart = chart_builder(&area)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)
+        .expect("build chart");
+    chart.plotting_area().dim_in_pixel()
+}
+
+#[cfg(test)]
+pub(crate) fn disc_polygon_for_test(d: &Disc, x: (f64, f64), y: (f64, f64)) -> Vec<(f64, f64)> {
+    disc_polygon(d, x, y)
+}

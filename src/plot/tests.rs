@@ -1,0 +1,433 @@
+//! Unit tests on the plot data: axis ranges include every point, every track
+//! of the outputs appears in the plots, the loader reads the generic column
+//! conventions and rejects bad input with clear messages.
+
+use super::data::*;
+use super::figures::*;
+use super::*;
+use approx::assert_abs_diff_eq;
+use serde_json::json;
+use std::path::Path;
+
+/// A track.csv with truth, theta_bar, ML, two baselines (one with its own
+/// error/ctte/regret columns, one without) and two bounds.
+const TRACK: &str = "\
+sample,true_x,true_y,est_x,est_y,error,ml_x,ml_y,crlb,ctte,ogd_x,ogd_y,ogd_error,ogd_ctte,ogd_regret,onm_x,onm_y,bound_minball,bound_bbox,seed
+0,500,500,0,0,707.1067811865476,505,498,3.2,707.1067811865476,480,510,22.360679774997898,22.360679774997898,5,490,490,800,,7
+1,502,501,300,320,271.39,503,500,3.1,978.4967811865476,500,505,4.47213595499958,26.83281572999748,6,500,500,300,420,7
+2,505,504,499,503,6.08276253029822,505,503,3.0,984.5795437168458,504,503,1.4142135623730951,28.24703,6.5,,,12,15,7
+3,509,508,507,509,2.23606797749979,509,509,3.0,986.8156116943456,508,508,1,29.24703,7,510,509,9,,7
+";
+
+fn csv_of(text: &str) -> Csv {
+    let mut rdr = csv::Reader::from_reader(text.as_bytes());
+    Csv {
+        header: rdr.headers().unwrap().iter().map(str::to_owned).collect(),
+        rows: rdr
+            .records()
+            .map(|r| r.unwrap().iter().map(str::to_owned).collect())
+            .collect(),
+    }
+}
+
+fn info() -> RunInfo {
+    RunInfo {
+        name: "unit".into(),
+        seed: Some(7),
+        engine: Some("inprocess".into()),
+        mode: Some("async".into()),
+        transmitters: vec![[0.0, 0.0], [2000.0, 2000.0]],
+        receivers: vec![[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0]],
+        edges: vec![(0, 1), (0, 2)],
+        burn_in: Some(1),
+        ..RunInfo::default()
+    }
+}
+
+fn nodes() -> Vec<NodePoint> {
+    let mut v = Vec::new();
+    for s in 0..4 {
+        for n in 0..3 {
+            v.push(NodePoint {
+                sample: s,
+                iteration: None,
+                node: n,
+                pos: [500.0 + s as f64 + n as f64 * 3.0, 490.0 - n as f64],
+            });
+        }
+    }
+    v
+}
+
+fn data() -> RunData {
+    let metrics = json!({
+        "rmse": 400.0, "ctte": 986.8, "iterations": 200, "prox_solves": 400,
+        "nodes": [
+            {"node": 0, "prox_solves": 100, "messages_out": 50, "messages_in": 50, "declines": 0},
+            {"node": 1, "prox_solves": 200, "messages_out": 80, "messages_in": 70, "declines": 2},
+            {"node": 2, "prox_solves": 100, "messages_out": 40, "messages_in": 50, "declines": 1}
+        ],
+        "baselines": {"ogd": {"rmse": 11.0, "dynamic_regret": 7.0}}
+    });
+    RunData {
+        dir: "unit".into(),
+        info: info(),
+        metrics: metrics.as_object().unwrap().clone(),
+        track: parse_track_csv(Path::new("track.csv"), &csv_of(TRACK)).unwrap(),
+        nodes: nodes(),
+        iterations: None,
+        monte_carlo: None,
+    }
+}
+
+fn mc_data() -> RunData {
+    let mut d = data();
+    let band = |base: f64| json!({"mean": [base, base / 2.0, null], "p5": [base / 2.0, 0.0, null], "p95": [base * 2.0, base, null]});
+    let summary = json!({
+        "trials": 50,
+        "sample": [0, 1, 2],
+        "curves": {
+            "ogd": {"error": band(30.0), "ctte": band(30.0)},
+            "theta_bar": {"error": band(500.0), "ctte": band(500.0), "regret": band(3.0)},
+            "ml": {"error": band(4.0)}
+        },
+        "crlb": band(3.0)
+    });
+    let mut mc = parse_summary(Path::new("summary.json"), &summary).unwrap();
+    mc.trial_columns = vec!["trial".into(), "seed".into(), "rmse".into()];
+    mc.trial_rows = vec![
+        vec![Some(0.0), Some(1.0), Some(10.0)],
+        vec![Some(1.0), Some(2.0), Some(12.0)],
+    ];
+    d.monte_carlo = Some(mc);
+    d
+}
+
+fn assert_ranges_cover(fig: &Figure) {
+    for (i, p) in fig.panels.iter().enumerate() {
+        assert!(
+            p.x_range.0 < p.x_range.1,
+            "{} panel {i}: empty x range",
+            fig.name
+        );
+        assert!(
+            p.y_range.0 < p.y_range.1,
+            "{} panel {i}: empty y range",
+            fig.name
+        );
+        if p.log_y {
+            assert!(
+                p.y_range.0 > 0.0,
+                "{} panel {i}: log axis must start above 0",
+                fig.name
+            );
+        }
+        for q in p.points() {
+            assert!(
+                p.contains(q),
+                "{} panel {i}: point {q:?} outside x {:?} y {:?}",
+                fig.name,
+                p.x_range,
+                p.y_range
+            );
+        }
+    }
+}
+
+#[test]
+fn track_csv_columns_become_generic_tracks() {
+    let d = data();
+    let names: Vec<&str> = d.track.tracks.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, ["theta_bar", "ml", "ogd", "onm"]);
+    let b: Vec<&str> = d.track.bounds.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(b, ["minball", "bbox"]);
+    assert_eq!(
+        d.track.bounds[1].radius,
+        vec![None, Some(420.0), Some(15.0), None]
+    );
+    // ML has no error column: computed from the truth.
+    let ml = d.track.track("ml").unwrap();
+    assert_abs_diff_eq!(ml.error[0].unwrap(), 5.0f64.hypot(2.0), epsilon = 1e-12);
+    // onm has neither error nor ctte columns: error from truth, ctte the running sum,
+    // and the missing row is a gap.
+    let onm = d.track.track("onm").unwrap();
+    assert_eq!(onm.pos[2], None);
+    assert_eq!(onm.error[2], None);
+    let e0 = 10.0f64.hypot(10.0);
+    let e1 = 2.0f64.hypot(1.0);
+    assert_abs_diff_eq!(onm.ctte[1].unwrap(), e0 + e1, epsilon = 1e-12);
+    // ogd's own columns are used as written.
+    let ogd = d.track.track("ogd").unwrap();
+    assert_abs_diff_eq!(ogd.ctte[2].unwrap(), 28.24703, epsilon = 1e-12);
+    assert_eq!(ogd.regret.as_ref().unwrap()[3], Some(7.0));
+    assert!(d.track.track("theta_bar").unwrap().regret.is_none());
+}
+
+#[test]
+fn every_track_appears_in_the_tracks_error_and_ctte_plots() {
+    let d = data();
+    for fig in [tracks_figure(&d), error_figure(&d), ctte_figure(&d)] {
+        let drawn = fig.drawn_names();
+        for t in &d.track.tracks {
+            assert!(
+                drawn.contains(&t.name.as_str()),
+                "{} lacks track {}",
+                fig.name,
+                t.name
+            );
+            assert!(
+                fig.legend.iter().any(|l| l.label == t.label()),
+                "{} legend lacks {}",
+                fig.name,
+                t.label()
+            );
+        }
+    }
+    assert!(tracks_figure(&d).drawn_names().contains(&"truth"));
+    assert!(error_figure(&d).drawn_names().contains(&"crlb"));
+}
+
+#[test]
+fn axis_ranges_include_every_point_of_every_figure() {
+    for d in [data(), mc_data()] {
+        for fig in run_figures(&d) {
+            assert_ranges_cover(&fig);
+        }
+    }
+    for fig in comparison_figures(&data(), &mc_data(), "A", "B") {
+        assert_ranges_cover(&fig);
+    }
+}
+
+#[test]
+fn tracks_and_network_maps_have_equal_aspect_and_show_the_geometry() {
+    let d = data();
+    for fig in [tracks_figure(&d), network_figure(&d)] {
+        let p = &fig.panels[0];
+        assert!(p.equal_aspect);
+        let (w, h) = super::render::plot_area(fig.width, p.height);
+        let sx = (p.x_range.1 - p.x_range.0) / w;
+        let sy = (p.y_range.1 - p.y_range.0) / h;
+        assert_abs_diff_eq!(sx / sy, 1.0, epsilon = 1e-9);
+        for r in &d.info.receivers {
+            assert!(p.contains((r[0], r[1])));
+        }
+        for t in &d.info.transmitters {
+            assert!(p.contains((t[0], t[1])));
+        }
+        let edges = p.series.iter().filter(|s| s.name == "edge").count();
+        assert_eq!(edges, d.info.edges.len(), "{}", fig.name);
+    }
+}
+
+#[test]
+fn the_equal_aspect_layout_matches_what_plotters_draws() {
+    for (w, h) in [(1000, 700), (1000, 420), (1200, 900)] {
+        let (pw, ph) = super::render::plot_area(w, h);
+        let (mw, mh) = super::render::measured_plot_area(w, h);
+        assert!((pw - mw as f64).abs() <= 1.0, "width {pw} vs {mw}");
+        assert!((ph - mh as f64).abs() <= 1.0, "height {ph} vs {mh}");
+    }
+}
+
+#[test]
+fn bound_discs_surround_theta_bar_where_the_bound_exists() {
+    let d = data();
+    let fig = tracks_figure(&d);
+    let discs = &fig.panels[0].discs;
+    let est = d.track.track(THETA_BAR).unwrap();
+    // 4 samples: every sample gets a disc where the radius is given.
+    let minball: Vec<&Disc> = discs.iter().filter(|x| x.name == "bound_minball").collect();
+    let bbox: Vec<&Disc> = discs.iter().filter(|x| x.name == "bound_bbox").collect();
+    assert_eq!(minball.len(), 4);
+    assert_eq!(bbox.len(), 2);
+    let p = est.pos[1].unwrap();
+    assert_eq!(bbox[0].center, (p[0], p[1]));
+    assert_abs_diff_eq!(bbox[0].radius, 420.0);
+}
+
+#[test]
+fn error_plot_marks_the_burn_in_and_uses_a_log_axis_for_wide_ranges() {
+    let fig = error_figure(&data());
+    let p = &fig.panels[0];
+    assert_eq!(p.vlines.len(), 1);
+    assert_abs_diff_eq!(p.vlines[0].x, 1.0);
+    // Errors span 1 .. 707 m: log scale.
+    assert!(p.log_y);
+}
+
+#[test]
+fn monte_carlo_runs_draw_mean_curves_with_percentile_bands() {
+    let d = mc_data();
+    for fig in [error_figure(&d), ctte_figure(&d)] {
+        let p = &fig.panels[0];
+        let bands: Vec<&str> = p.bands.iter().map(|b| b.name.as_str()).collect();
+        assert!(
+            bands.contains(&"theta_bar") && bands.contains(&"ogd"),
+            "{}: {bands:?}",
+            fig.name
+        );
+        // Order: theta_bar, ml, then the others.
+        let mc = d.monte_carlo.as_ref().unwrap();
+        assert_eq!(mc.curves[0].name, "theta_bar");
+        assert_eq!(mc.curves[1].name, "ml");
+        // The null at sample 2 ends every curve at sample 1.
+        for s in &p.series {
+            for seg in &s.segments {
+                assert!(seg.iter().all(|q| q.0 <= 1.0));
+            }
+        }
+    }
+    // theta_bar has regret curves: a second panel.
+    assert_eq!(ctte_figure(&d).panels.len(), 2);
+}
+
+#[test]
+fn consensus_plot_uses_iterations_when_traced() {
+    let mut d = data();
+    let by_sample = consensus_figure(&d);
+    assert_eq!(by_sample.panels[0].x_label, "sample k");
+    assert_eq!(by_sample.panels.len(), 3);
+    let nodes: Vec<&str> = by_sample.panels[0]
+        .series
+        .iter()
+        .map(|s| s.name.as_str())
+        .filter(|n| n.starts_with("node "))
+        .collect();
+    assert_eq!(nodes, ["node 0", "node 1", "node 2"]);
+    // Two samples x 3 iterations x 3 nodes, iteration counted per sample.
+    let mut it = Vec::new();
+    for s in 0..2 {
+        for i in 0..3u64 {
+            for n in 0..3 {
+                it.push(NodePoint {
+                    sample: s,
+                    iteration: Some(i),
+                    node: n,
+                    pos: [i as f64, n as f64],
+                });
+            }
+        }
+    }
+    d.iterations = Some(it);
+    let fig = consensus_figure(&d);
+    assert!(fig.panels[0].x_label.starts_with("iteration"));
+    // 6 distinct (sample, iteration) keys -> x in 0..=5.
+    let xs: Vec<f64> = fig.panels[0].series[0].segments[0]
+        .iter()
+        .map(|q| q.0)
+        .collect();
+    assert_eq!(xs, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+    assert_ranges_cover(&fig);
+}
+
+#[test]
+fn a_run_without_samples_still_renders_every_figure_with_a_note() {
+    let mut d = data();
+    d.track = parse_track_csv(
+        Path::new("track.csv"),
+        &csv_of("sample,true_x,true_y,est_x,est_y,error,ml_x,ml_y,crlb,ctte,seed\n"),
+    )
+    .unwrap();
+    d.nodes.clear();
+    d.metrics.clear();
+    for fig in run_figures(&d) {
+        assert_ranges_cover(&fig);
+        let svg = render_svg(&fig).unwrap();
+        assert!(svg.contains("<svg"), "{}", fig.name);
+        if fig.name != "tracks" {
+            assert!(
+                fig.panels.iter().any(|p| p.note.is_some()),
+                "{} has no note",
+                fig.name
+            );
+        }
+    }
+}
+
+#[test]
+fn svg_and_png_rendering_produce_images_with_titles_and_axis_labels() {
+    let d = data();
+    let dir = std::env::temp_dir().join(format!("sonarnet-plot-unit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for fig in run_figures(&d) {
+        let svg = render_svg(&fig).unwrap();
+        assert!(svg.trim_start().starts_with("<svg"), "{}", fig.name);
+        assert!(svg.contains(&format!("width=\"{}\"", fig.width)));
+        for p in &fig.panels {
+            assert!(
+                svg.contains(&super::super::report::esc(&p.x_label)),
+                "{}: {}",
+                fig.name,
+                p.x_label
+            );
+        }
+        let png = dir.join(format!("{}.png", fig.name));
+        render_png(&fig, &png).unwrap();
+        let bytes = std::fs::read(&png).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn summary_json_with_a_curve_of_the_wrong_length_is_rejected_naming_the_key() {
+    let v = json!({"sample": [0, 1], "curves": {"ogd": {"error": {"mean": [1], "p5": [1, 2], "p95": [1, 2]}}}});
+    let e = parse_summary(Path::new("summary.json"), &v).unwrap_err();
+    assert_eq!(e.location.as_deref(), Some("curves.ogd.error.mean"));
+    assert!(e.reason.contains("has 1 entries but `sample` has 2"), "{e}");
+}
+
+#[test]
+fn track_csv_with_a_bad_number_names_line_and_column() {
+    let e = parse_track_csv(
+        Path::new("track.csv"),
+        &csv_of("sample,est_x,est_y\n0,1,2\n1,abc,2\n"),
+    )
+    .unwrap_err();
+    assert_eq!(e.location.as_deref(), Some("line 3, column est_x"));
+    assert!(e.reason.contains("`abc`"));
+}
+
+#[test]
+fn load_run_rejects_a_directory_that_is_not_a_run_and_names_missing_files() {
+    let dir = std::env::temp_dir().join(format!("sonarnet-plot-load-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let e = load_run(&dir).unwrap_err();
+    assert!(e.reason.contains("no run.json"), "{e}");
+    std::fs::write(dir.join("run.json"), r#"{"scenario": {"name": "x"}}"#).unwrap();
+    std::fs::write(dir.join("metrics.json"), "{}").unwrap();
+    let e = load_run(&dir).unwrap_err();
+    assert_eq!(e.file, dir.join("track.csv"));
+    assert!(e.reason.contains("missing file"), "{e}");
+    let e = load_run(&dir.join("nope")).unwrap_err();
+    assert!(e.reason.contains("no such directory"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn discs_are_clipped_to_the_drawn_ranges() {
+    let d = Disc {
+        name: "b".into(),
+        center: (0.0, 0.0),
+        radius: 10.0,
+        color: Rgb(0, 0, 0),
+    };
+    let poly = super::render::disc_polygon_for_test(&d, (-5.0, 20.0), (-20.0, 3.0));
+    assert!(!poly.is_empty());
+    for (x, y) in poly {
+        assert!((-5.0 - 1e-9..=20.0 + 1e-9).contains(&x));
+        assert!((-20.0 - 1e-9..=3.0 + 1e-9).contains(&y));
+        assert!(x.hypot(y) <= 10.0 + 1e-9);
+    }
+}
+
+#[test]
+fn tick_labels_are_compact() {
+    use super::render::tick;
+    assert_eq!(tick(1500.0), "1500");
+    assert_eq!(tick(2.5), "2.5");
+    assert_eq!(tick(-0.0), "0");
+    assert_eq!(tick(1e7), "1.0e7");
+}
