@@ -311,7 +311,14 @@ pub fn finish(
         path: dir.clone(),
         source: e,
     })?;
-    write_run_json(dir, sc, opts, status, error.as_ref())?;
+    write_run_json(
+        dir,
+        sc,
+        opts,
+        status,
+        error.as_ref(),
+        record.run_id.as_deref(),
+    )?;
     // track.csv
     let ctte = errs.as_ref().map(|e| metrics::running_ctte(e));
     write_csv(
@@ -510,6 +517,7 @@ fn write_run_json(
     opts: &RunOptions,
     status: &str,
     error: Option<&EngineError>,
+    run_id: Option<&str>,
 ) -> Result<(), RunError> {
     let mut resolved = sc.file.clone();
     resolved.seed = sc.seed;
@@ -533,6 +541,7 @@ fn write_run_json(
         "command_line": opts.command_line,
         "status": status,
         "error": error.map(|e| e.to_string()),
+        "run_id": run_id,
     });
     write_json(&dir.join("run.json"), &v)
 }

@@ -89,6 +89,8 @@ pub struct RunRecord {
     pub timing: Vec<crate::codec::Timing>,
     /// Multi-process: seconds from spawning to all nodes ready.
     pub startup_seconds: Option<f64>,
+    /// Multi-process: the run's IPC namespace.
+    pub run_id: Option<String>,
 }
 
 impl RunRecord {

@@ -152,7 +152,8 @@ impl Default for ProcessOptions {
 
 /// The coordinator side of a multi-process run.
 pub struct Processes {
-    tx: IoxTransport,
+    /// `None` only while dropping.
+    tx: Option<IoxTransport>,
     children: Vec<Option<Child>>,
     dead: Vec<bool>,
     decoder: ReportDecoder,
@@ -166,7 +167,9 @@ pub struct Processes {
     /// Sample currently being driven (for error messages).
     pub sample: u32,
     verbose: bool,
-    run_id: String,
+    /// The run's IPC namespace.
+    pub run_id: String,
+    stopped: bool,
 }
 
 fn status_text(s: &ExitStatus) -> String {
@@ -210,7 +213,7 @@ impl Processes {
             topology: graph_neighbours,
             inbox_buffer,
             broadcast_buffer,
-            send_timeout_ms: 30_000,
+            send_timeout_ms: 10_000,
             node: configs[0].clone(),
             verbose: opts.verbose,
         };
@@ -218,7 +221,7 @@ impl Processes {
         let tx = IoxTransport::coordinator(&topo).map_err(terr)?;
         let start = Instant::now();
         let mut p = Processes {
-            tx,
+            tx: Some(tx),
             children: Vec::with_capacity(n),
             dead: vec![false; n],
             decoder: ReportDecoder::default(),
@@ -230,6 +233,7 @@ impl Processes {
             sample: 0,
             verbose: opts.verbose,
             run_id,
+            stopped: false,
         };
         for cfg in configs {
             let id = cfg.id;
@@ -348,9 +352,11 @@ impl Processes {
             });
         }
         self.frames.clear();
-        self.tx
-            .recv(&mut self.frames, Some(timeout))
-            .map_err(terr)?;
+        let tx = self
+            .tx
+            .as_mut()
+            .ok_or_else(|| EngineError::Transport("transport closed".into()))?;
+        tx.recv(&mut self.frames, Some(timeout)).map_err(terr)?;
         let mut out = Vec::new();
         for f in &self.frames {
             match self.decoder.feed(f) {
@@ -376,13 +382,17 @@ impl Processes {
 
     /// Send a control message to one node.
     pub fn control(&mut self, node: u32, c: &Control) -> Result<(), EngineError> {
-        if self.dead.get(node as usize).copied().unwrap_or(true) {
+        if self.stopped || self.dead.get(node as usize).copied().unwrap_or(true) {
             return Ok(());
         }
         self.encoded.clear();
         codec::encode_control(c, &mut self.encoded);
+        let tx = self
+            .tx
+            .as_mut()
+            .ok_or_else(|| EngineError::Transport("transport closed".into()))?;
         for f in &self.encoded {
-            self.tx.send(Endpoint::Node(node), f).map_err(terr)?;
+            tx.send(Endpoint::Node(node), f).map_err(terr)?;
         }
         Ok(())
     }
@@ -402,18 +412,30 @@ impl Processes {
 
     /// Flush queued frames.
     pub fn flush_all(&mut self) -> Result<(), EngineError> {
-        self.tx.flush().map_err(terr)
+        self.tx()?.flush().map_err(terr)
+    }
+
+    fn tx(&mut self) -> Result<&mut IoxTransport, EngineError> {
+        self.tx
+            .as_mut()
+            .ok_or_else(|| EngineError::Transport("transport closed".into()))
     }
 
     /// Stop every node and reap it (idempotent; also done on drop).
     pub fn shutdown(&mut self) {
+        if self.stopped {
+            return;
+        }
         let n = self.children.len();
         for i in 0..n {
-            if !self.dead[i] {
+            if !self.dead[i] && self.children[i].is_some() {
                 let _ = self.control(i as u32, &Control::Stop);
             }
         }
-        let _ = self.tx.flush();
+        self.stopped = true;
+        if let Some(tx) = self.tx.as_mut() {
+            let _ = tx.flush();
+        }
         let deadline = Instant::now() + Duration::from_secs(5);
         loop {
             let mut alive = 0;
@@ -429,22 +451,24 @@ impl Processes {
                 break;
             }
             if Instant::now() > deadline {
-                for c in self.children.iter_mut().flatten() {
-                    let _ = c.kill();
-                    let _ = c.wait();
+                for (i, c) in self.children.iter_mut().enumerate() {
+                    if let Some(child) = c {
+                        let _ = child.kill();
+                        let _ = child.wait();
+                        self.dead[i] = true;
+                    }
+                    *c = None;
                 }
-                self.children.iter_mut().for_each(|c| *c = None);
                 break;
             }
             // Keep draining so no node blocks on a full coordinator inbox.
             self.frames.clear();
-            let _ = self
-                .tx
-                .recv(&mut self.frames, Some(Duration::from_millis(10)));
-        }
-        let killed = self.dead.iter().any(|&d| d);
-        if killed {
-            let _ = crate::transport::cleanup_stale_resources();
+            match self.tx.as_mut() {
+                Some(tx) => {
+                    let _ = tx.recv(&mut self.frames, Some(Duration::from_millis(10)));
+                }
+                None => std::thread::sleep(Duration::from_millis(10)),
+            }
         }
     }
 }
@@ -452,6 +476,12 @@ impl Processes {
 impl Drop for Processes {
     fn drop(&mut self) {
         self.shutdown();
+        // Close our own ports first: with no live process left in the run,
+        // the cleanup also removes what killed children left behind.
+        self.tx = None;
+        if self.dead.iter().any(|&d| d) {
+            let _ = crate::transport::cleanup_stale_resources();
+        }
     }
 }
 
@@ -511,7 +541,10 @@ pub fn run_logical(
             );
         }
     };
-    let (rec, res) = super::drive(sc, sc.seed, real, &mut procs, progress);
+    let (mut rec, res) = super::drive(sc, sc.seed, real, &mut procs, progress);
+    rec.startup_seconds = Some(procs.startup_seconds);
+    rec.run_id = Some(procs.run_id.clone());
+    rec.timing = procs.timing.clone();
     procs.shutdown();
     (rec, res, Some(procs))
 }
@@ -553,6 +586,7 @@ pub fn run_realtime(
         Err(e) => return (rec, Err(e), None),
     };
     rec.startup_seconds = Some(procs.startup_seconds);
+    rec.run_id = Some(procs.run_id.clone());
     let period = Duration::from_secs_f64(rt.sample_period_ms / 1000.0);
     let start = Instant::now();
     let result = realtime_loop(

@@ -4,6 +4,7 @@
 mod bad_input;
 mod engine;
 mod paper;
+mod processes;
 mod replay;
 mod report;
 mod scenarios;

@@ -319,3 +319,109 @@ pub fn png_is_blank(path: &Path) -> bool {
     let other = total - top;
     counts.len() < 8 || (other as f64) < 0.005 * total as f64
 }
+
+/// Start the `sonarnet` binary (output piped); pair with [`wait_watchdog`].
+pub fn spawn_sonarnet(args: &[&str]) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_sonarnet"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn sonarnet")
+}
+
+/// Wait for a child; kill it and panic with its output after `limit`.
+pub fn wait_watchdog(mut child: std::process::Child, what: &str, limit: Duration) -> Output {
+    let start = Instant::now();
+    loop {
+        match child.try_wait().expect("wait") {
+            Some(_) => return child.wait_with_output().expect("collect output"),
+            None if start.elapsed() > limit => {
+                let _ = child.kill();
+                let out = child.wait_with_output().expect("collect output");
+                panic!(
+                    "watchdog: {what} did not finish within {limit:?}\nstdout:\n{}\nstderr:\n{}",
+                    String::from_utf8_lossy(&out.stdout),
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
+            None => std::thread::sleep(Duration::from_millis(10)),
+        }
+    }
+}
+
+/// Pids of live processes whose parent is `parent`.
+pub fn children_of(parent: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    let Ok(dir) = std::fs::read_dir("/proc") else {
+        return out;
+    };
+    for e in dir.flatten() {
+        let Some(pid) = e.file_name().to_str().and_then(|s| s.parse::<u32>().ok()) else {
+            continue;
+        };
+        if let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+            // pid (comm) state ppid ...
+            if let Some(rest) = stat.rsplit_once(')').map(|x| x.1) {
+                let f: Vec<&str> = rest.split_whitespace().collect();
+                if f.len() > 1 && f[0] != "Z" && f[1].parse::<u32>().ok() == Some(parent) {
+                    out.push(pid);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Processes whose command line mentions `needle` (e.g. a run id).
+pub fn processes_mentioning(needle: &str) -> Vec<u32> {
+    let mut out = Vec::new();
+    let me = std::process::id();
+    let Ok(dir) = std::fs::read_dir("/proc") else {
+        return out;
+    };
+    for e in dir.flatten() {
+        let Some(pid) = e.file_name().to_str().and_then(|s| s.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid == me {
+            continue;
+        }
+        if let Ok(cmd) = std::fs::read(format!("/proc/{pid}/cmdline"))
+            && String::from_utf8_lossy(&cmd).contains(needle)
+        {
+            out.push(pid);
+        }
+    }
+    out
+}
+
+/// The run id a processes run recorded in its `run.json`.
+pub fn run_id_of(dir: &Path) -> String {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("run.json")).expect("run.json"))
+            .expect("run.json parses");
+    v["run_id"].as_str().expect("run_id recorded").to_string()
+}
+
+/// Assert that a run left no process and no IPC resource behind.
+pub fn assert_nothing_left(run_id: &str) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let procs = processes_mentioning(run_id);
+        let files = sonarnet::transport::run_resources(run_id);
+        if procs.is_empty() && files.is_empty() {
+            return;
+        }
+        if Instant::now() > deadline {
+            panic!("run {run_id} left processes {procs:?} and files {files:?}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Read `metrics.json`.
+pub fn metrics(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).expect("metrics.json"))
+        .expect("metrics.json parses")
+}

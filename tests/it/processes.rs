@@ -1,0 +1,401 @@
+//! The multi-process engine: real `sonarnet-node` processes over iceoryx2.
+//! Every wait has a watchdog; every test checks that the run left no process
+//! and no IPC resource behind.
+
+use crate::util::{
+    TempDir, assert_nothing_left, children_of, metrics, read_rows, run_id_of, scenario,
+    spawn_sonarnet, wait_watchdog,
+};
+use std::time::{Duration, Instant};
+
+const LIMIT: Duration = Duration::from_secs(300);
+
+fn run(args: &[&str]) -> std::process::Output {
+    wait_watchdog(
+        spawn_sonarnet(args),
+        &format!("sonarnet {}", args.join(" ")),
+        LIMIT,
+    )
+}
+
+fn nodes_csv_equal(a: &std::path::Path, b: &std::path::Path) {
+    let ra = read_rows(&a.join("nodes.csv"));
+    let rb = read_rows(&b.join("nodes.csv"));
+    assert_eq!(ra.len(), rb.len(), "nodes.csv lengths differ");
+    for (x, y) in ra.iter().zip(&rb) {
+        assert_eq!(x[..2], y[..2]);
+        for c in 2..5 {
+            let (p, q): (f64, f64) = (x[c].parse().unwrap(), y[c].parse().unwrap());
+            assert!(
+                (p - q).abs() <= 1e-9,
+                "sample {} node {}: column {c} differs: {p} vs {q}",
+                x[0],
+                x[1]
+            );
+        }
+    }
+}
+
+fn equivalence(file: &str, mode: &str, samples: &str) {
+    let tmp = TempDir::new("equiv");
+    let sc = scenario(file);
+    let (p, i) = (tmp.path().join("p"), tmp.path().join("i"));
+    for (engine, out) in [("processes", &p), ("inprocess", &i)] {
+        let o = run(&[
+            "run",
+            sc.to_str().unwrap(),
+            "--engine",
+            engine,
+            "--mode",
+            mode,
+            "--samples",
+            samples,
+            "--seed",
+            "5",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            o.status.success(),
+            "{engine} {mode} run of {file} failed:\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    nodes_csv_equal(&p, &i);
+    assert_eq!(metrics(&p)["engine"], "processes");
+    assert_eq!(metrics(&p)["clock"], "logical");
+    assert_nothing_left(&run_id_of(&p));
+}
+
+#[test]
+fn async_processes_reproduce_the_inprocess_engine_on_the_spiral() {
+    equivalence("mourya2017-spiral.toml", "async", "100");
+}
+
+#[test]
+fn sync_processes_reproduce_the_inprocess_engine_on_the_spiral() {
+    equivalence("mourya2017-spiral.toml", "sync", "30");
+}
+
+#[test]
+fn async_processes_reproduce_the_inprocess_engine_on_16_nodes() {
+    equivalence("rgg16-waypoints.toml", "async", "60");
+}
+
+#[test]
+fn sync_processes_reproduce_the_inprocess_engine_on_16_nodes() {
+    equivalence("rgg16-waypoints.toml", "sync", "12");
+}
+
+#[test]
+fn a_replayed_trace_and_schedule_give_the_same_nodes_over_processes() {
+    let tmp = TempDir::new("replay-proc");
+    let first = tmp.path().join("first");
+    let sc = scenario("mourya2017-spiral.toml");
+    let o = run(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--engine",
+        "inprocess",
+        "--samples",
+        "20",
+        "--quiet",
+        "--out",
+        first.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let text = format!(
+        r#"name = "replay"
+seed = 123
+[geometry]
+transmitters = [[0.0, 0.0], [2000.0, 2000.0]]
+receivers = [[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0], [1500.0, 1000.0], [1500.0, 2500.0], [2500.0, 1500.0]]
+[network]
+edges = [[0, 1], [0, 2], [1, 3], [2, 3], [3, 4], [3, 5]]
+[measurements]
+range_noise = {{ model = "gaussian", sigma = 5.0 }}
+doa_noise = {{ model = "gaussian", sigma = 0.5 }}
+trace = "{}"
+truth = "{}"
+[algorithm]
+mode = "async"
+gamma = 2e-8
+iterations_per_sample = 50
+schedule = "{}"
+"#,
+        first.join("measurements.csv").display(),
+        first.join("truth.csv").display(),
+        first.join("schedule.csv").display()
+    );
+    let p = tmp.write("replay.toml", &text);
+    let second = tmp.path().join("second");
+    let o = run(&[
+        "run",
+        p.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        second.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    nodes_csv_equal(&first, &second);
+    assert_nothing_left(&run_id_of(&second));
+}
+
+#[test]
+fn a_64_node_ring_completes_over_processes() {
+    let tmp = TempDir::new("ring64");
+    let receivers: Vec<String> = (0..64)
+        .map(|i| {
+            let a = i as f64 / 64.0 * std::f64::consts::TAU;
+            format!("[{:.3}, {:.3}]", 3000.0 * a.cos(), 3000.0 * a.sin())
+        })
+        .collect();
+    let text = format!(
+        r#"name = "ring64"
+seed = 2
+[geometry]
+transmitters = [[0.0, 0.0], [1000.0, 500.0]]
+receivers = [{}]
+[network]
+generator = {{ kind = "ring" }}
+[target]
+samples = 5
+motion = {{ model = "constant_velocity", start = [100.0, 200.0], velocity = [3.0, 1.0] }}
+[measurements]
+doa = true
+range_noise = {{ model = "gaussian", sigma = 5.0 }}
+doa_noise = {{ model = "gaussian", sigma = 0.5 }}
+[algorithm]
+mode = "async"
+gamma = 2e-8
+iterations_per_sample = 40
+"#,
+        receivers.join(", ")
+    );
+    let p = tmp.write("ring64.toml", &text);
+    let out = tmp.path().join("out");
+    let o = run(&[
+        "run",
+        p.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = metrics(&out);
+    assert_eq!(m["samples_completed"], 5);
+    assert_eq!(m["nodes"].as_array().unwrap().len(), 64);
+    assert_nothing_left(&run_id_of(&out));
+}
+
+#[test]
+fn two_concurrent_runs_on_one_host_both_succeed() {
+    let tmp = TempDir::new("concurrent");
+    let sc = scenario("mourya2017-spiral.toml");
+    let outs = [tmp.path().join("a"), tmp.path().join("b")];
+    let children: Vec<_> = outs
+        .iter()
+        .map(|o| {
+            spawn_sonarnet(&[
+                "run",
+                sc.to_str().unwrap(),
+                "--quiet",
+                "--out",
+                o.to_str().unwrap(),
+            ])
+        })
+        .collect();
+    for c in children {
+        let o = wait_watchdog(c, "concurrent run", LIMIT);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    nodes_csv_equal(&outs[0], &outs[1]);
+    assert_ne!(run_id_of(&outs[0]), run_id_of(&outs[1]));
+    for o in &outs {
+        assert_nothing_left(&run_id_of(o));
+    }
+}
+
+/// Wait until `pid` has `n` children (the node processes), or panic.
+fn wait_for_children(pid: u32, n: usize) -> Vec<u32> {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let c = children_of(pid);
+        if c.len() >= n {
+            return c;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "watchdog: only {} of {n} nodes appeared",
+            c.len()
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
+    let tmp = TempDir::new("sigint");
+    let out = tmp.path().join("out");
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = spawn_sonarnet(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--iterations-per-sample",
+        "3000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let pid = child.id();
+    wait_for_children(pid, 6);
+    std::thread::sleep(Duration::from_millis(1500));
+    // SAFETY: plain kill(2) on our own child.
+    unsafe { libc::kill(pid as i32, libc::SIGINT) };
+    let o = wait_watchdog(child, "interrupted run", LIMIT);
+    assert!(!o.status.success(), "an interrupted run must exit non-zero");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert!(
+        stderr.contains(out.to_str().unwrap()),
+        "must say where: {stderr}"
+    );
+    let m = metrics(&out);
+    assert_eq!(m["status"], "interrupted");
+    assert!(m["samples_completed"].as_u64().unwrap() < 100);
+    assert_nothing_left(&run_id_of(&out));
+}
+
+#[test]
+fn a_killed_node_ends_a_logical_run_with_a_clear_error_naming_it() {
+    let tmp = TempDir::new("kill-logical");
+    let out = tmp.path().join("out");
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = spawn_sonarnet(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--iterations-per-sample",
+        "3000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let pid = child.id();
+    let nodes = wait_for_children(pid, 6);
+    std::thread::sleep(Duration::from_millis(1000));
+    let victim = nodes[3];
+    // Which node id is it? Its --launch JSON names it.
+    let cmd = String::from_utf8_lossy(&std::fs::read(format!("/proc/{victim}/cmdline")).unwrap())
+        .to_string();
+    let id = cmd
+        .split("\"id\":")
+        .nth(1)
+        .and_then(|s| s.split(|c: char| !c.is_ascii_digit()).next())
+        .unwrap()
+        .to_string();
+    let killed = Instant::now();
+    // SAFETY: plain kill(2) on a grandchild we identified by its parent.
+    unsafe { libc::kill(victim as i32, libc::SIGKILL) };
+    let o = wait_watchdog(child, "run with a killed node", LIMIT);
+    let took = killed.elapsed();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!("node {id} died")),
+        "must name node {id}: {stderr}"
+    );
+    assert!(stderr.contains("signal 9"), "{stderr}");
+    let m = metrics(&out);
+    assert_eq!(m["status"], "failed");
+    assert!(m["error"].as_str().unwrap().contains(&format!("node {id}")));
+    eprintln!("run ended {took:?} after the kill");
+    assert_nothing_left(&run_id_of(&out));
+}
+
+#[test]
+fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() {
+    let tmp = TempDir::new("kill-realtime");
+    let out = tmp.path().join("out");
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = spawn_sonarnet(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--clock",
+        "realtime",
+        "--samples",
+        "60",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let pid = child.id();
+    let nodes = wait_for_children(pid, 6);
+    std::thread::sleep(Duration::from_millis(400));
+    // Node 5 is a leaf (only joined to node 3): the rest stays connected.
+    let victim = nodes
+        .iter()
+        .copied()
+        .find(|p| {
+            String::from_utf8_lossy(
+                &std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default(),
+            )
+            .contains("\"id\":5,")
+        })
+        .expect("node 5 process");
+    // SAFETY: plain kill(2).
+    unsafe { libc::kill(victim as i32, libc::SIGKILL) };
+    let o = wait_watchdog(child, "realtime run with a killed node", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "the run must continue: {stderr}");
+    let m = metrics(&out);
+    assert_eq!(m["samples_completed"], 60);
+    let deaths = m["deaths"].as_array().unwrap();
+    assert_eq!(deaths.len(), 1, "{deaths:?}");
+    assert_eq!(deaths[0]["node"], 5);
+    assert_nothing_left(&run_id_of(&out));
+}
+
+#[test]
+fn realtime_gossip_with_enough_iterations_meets_the_async_accuracy_bound() {
+    let tmp = TempDir::new("realtime");
+    let out = tmp.path().join("out");
+    let sc = scenario("mourya2017-spiral.toml");
+    let o = run(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--clock",
+        "realtime",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = metrics(&out);
+    let rt = &m["realtime"];
+    let median = rt["iterations_per_sample_median"].as_f64().unwrap();
+    eprintln!("realtime: {rt}");
+    assert!(
+        median >= 50.0,
+        "precondition: the configured rate gave only {median} iterations per sample (need 50)"
+    );
+    let rmse = m["rmse_after_burn_in"].as_f64().unwrap();
+    assert!(
+        rmse <= 20.0,
+        "realtime rmse_after_burn_in {rmse:.2} m > 20 m"
+    );
+    assert_eq!(m["clock"], "realtime");
+    assert_nothing_left(&run_id_of(&out));
+}
+
+#[test]
+fn the_node_program_rejects_bad_arguments_with_exit_code_2() {
+    for args in [vec![], vec!["--launch", "{not json"], vec!["--bogus"]] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_sonarnet-node"))
+            .args(&args)
+            .output()
+            .expect("run sonarnet-node");
+        assert_eq!(o.status.code(), Some(2), "args {args:?}");
+        assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
+    }
+}
