@@ -32,6 +32,9 @@ pub enum Command {
     /// Write the plots and a self-contained HTML report of a results
     /// directory (DIR/report.html), or compare two runs (DIR DIR2).
     Report(ReportArgs),
+    /// Measure the multi-process engine: overhead over in-process, start-up,
+    /// throughput and memory at scale, realtime throughput.
+    Bench(BenchArgs),
 }
 
 /// `sonarnet report`.
@@ -46,6 +49,23 @@ pub struct ReportArgs {
     /// Where to write the comparison page [default: DIR/compare-<DIR2 name>.html].
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+}
+
+/// `sonarnet bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Directory holding mourya2017-spiral.toml.
+    #[arg(long, default_value = "scenarios")]
+    pub scenarios: PathBuf,
+    /// Node counts of the scale runs (comma separated).
+    #[arg(long, value_delimiter = ',', default_value = "64,256")]
+    pub nodes: Vec<usize>,
+    /// Repeats of each overhead figure (the best is kept).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Where bench.json goes.
+    #[arg(long, default_value = "results/bench")]
+    pub out: PathBuf,
 }
 
 /// `sonarnet run`.
@@ -172,6 +192,10 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Run(args) => run_command(args),
+        Command::Bench(args) => {
+            crate::bench::run_bench(&args.scenarios, &args.nodes, args.repeats, &args.out)?;
+            Ok(())
+        }
         Command::Report(args) => {
             let path = match args.dirs.as_slice() {
                 [a, b] => crate::report::write_comparison(a, b, args.out.as_deref(), args.png)?,
@@ -260,7 +284,8 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     let mut tick = |k: usize, it: u64| {
         if let Some(b) = &bar {
             b.set_position(k as u64);
-            b.set_message(format!("{it} iterations"));
+            let secs = b.elapsed().as_secs_f64().max(1e-9);
+            b.set_message(format!("{it} iterations, {:.0} it/s", it as f64 / secs));
         }
     };
     let (record, result) = match args.engine {
@@ -311,7 +336,7 @@ fn progress_bar(opts: &RunOptions, samples: u64) -> Option<indicatif::ProgressBa
     }
     let b = indicatif::ProgressBar::new(samples);
     if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} samples, {msg} ({per_sec})",
+        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} samples, {msg}",
     ) {
         b.set_style(style);
     }

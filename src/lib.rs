@@ -5,6 +5,7 @@
 //! generalized trust-region subproblem (GTRS) solve.
 #![deny(clippy::float_cmp)]
 
+pub mod bench;
 pub mod bounds;
 pub mod central;
 pub mod cli;

@@ -78,6 +78,8 @@ pub struct NodeCounters {
     pub busy_seconds: Option<f64>,
     /// Multi-process: seconds spent blocked waiting for messages.
     pub wait_seconds: Option<f64>,
+    /// Multi-process: peak resident set size of the node process (KiB).
+    pub peak_rss_kib: Option<u64>,
 }
 
 /// Free-running (realtime) statistics.
@@ -303,6 +305,7 @@ pub fn finish(
                 counters: *c,
                 busy_seconds: record.timing.get(node).map(|t| t.busy_seconds),
                 wait_seconds: record.timing.get(node).map(|t| t.wait_seconds),
+                peak_rss_kib: record.peak_rss_kib.get(node).copied().flatten(),
             })
             .collect(),
     };

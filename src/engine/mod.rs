@@ -91,6 +91,8 @@ pub struct RunRecord {
     pub startup_seconds: Option<f64>,
     /// Multi-process: the run's IPC namespace.
     pub run_id: Option<String>,
+    /// Multi-process: peak RSS (KiB) of every node process at the end of the run.
+    pub peak_rss_kib: Vec<Option<u64>>,
 }
 
 impl RunRecord {

@@ -410,6 +410,24 @@ impl Processes {
             .collect())
     }
 
+    /// Peak resident set size (`VmHWM`, KiB) of every live node process.
+    pub fn peak_rss_kib(&self) -> Vec<Option<u64>> {
+        self.children
+            .iter()
+            .map(|c| {
+                let pid = c.as_ref()?.id();
+                let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+                status
+                    .lines()
+                    .find(|l| l.starts_with("VmHWM:"))?
+                    .split_whitespace()
+                    .nth(1)?
+                    .parse()
+                    .ok()
+            })
+            .collect()
+    }
+
     /// Flush queued frames.
     pub fn flush_all(&mut self) -> Result<(), EngineError> {
         self.tx()?.flush().map_err(terr)
@@ -545,6 +563,7 @@ pub fn run_logical(
     rec.startup_seconds = Some(procs.startup_seconds);
     rec.run_id = Some(procs.run_id.clone());
     rec.timing = procs.timing.clone();
+    rec.peak_rss_kib = procs.peak_rss_kib();
     procs.shutdown();
     (rec, res, Some(procs))
 }
@@ -600,6 +619,7 @@ pub fn run_realtime(
     );
     rec.wall_seconds = start.elapsed().as_secs_f64();
     rec.timing = procs.timing.clone();
+    rec.peak_rss_kib = procs.peak_rss_kib();
     procs.shutdown();
     (rec, result, Some(procs))
 }

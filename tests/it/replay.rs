@@ -58,3 +58,38 @@ fn a_trace_and_schedule_replay_reproduces_the_synthesized_run_exactly() {
         max_relative = 0.0
     );
 }
+
+#[test]
+fn a_trace_without_truth_still_gives_estimates_and_says_why_errors_are_missing() {
+    let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+        .unwrap()
+        .with_samples(12)
+        .unwrap();
+    let first = TempDir::new("notruth-a");
+    run_inprocess(&sc, first.path());
+    let text = format!(
+        r#"name = "no-truth"
+[geometry]
+transmitters = [[0.0, 0.0], [2000.0, 2000.0]]
+receivers = [[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0], [1500.0, 1000.0], [1500.0, 2500.0], [2500.0, 1500.0]]
+[network]
+edges = [[0, 1], [0, 2], [1, 3], [2, 3], [3, 4], [3, 5]]
+[measurements]
+trace = "{}"
+[algorithm]
+mode = "sync"
+gamma = 2e-8
+"#,
+        first.path().join("measurements.csv").display()
+    );
+    let second = TempDir::new("notruth-b");
+    let p = second.write("s.toml", &text);
+    let out = run_inprocess(&Scenario::load(&p).unwrap(), second.path());
+    assert!(out.error.is_none());
+    assert_eq!(out.metrics.samples_completed, 12);
+    assert!(out.metrics.rmse.is_none() && out.metrics.ml_rmse.is_none());
+    assert!(out.metrics.note.as_deref().unwrap_or("").contains("no truth"));
+    let rows = read_rows(&second.path().join("track.csv"));
+    assert_eq!(rows.len(), 12);
+    assert!(rows.iter().all(|r| r[1].is_empty() && !r[3].is_empty()));
+}
