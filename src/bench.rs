@@ -163,7 +163,11 @@ pub fn run_bench(
     let (rec, res, _) = processes::run_realtime(&sc, &real, &popts, &mut |_, _| {});
     let (rt_ips, rt_med) = match res {
         Ok(()) => {
-            let v: Vec<f64> = rec.iterations_per_sample.iter().map(|&x| x as f64).collect();
+            let v: Vec<f64> = rec
+                .iterations_per_sample
+                .iter()
+                .map(|&x| x as f64)
+                .collect();
             (
                 Some(rec.iterations as f64 / rec.wall_seconds.max(1e-9)),
                 crate::metrics::median(&v),
@@ -199,7 +203,10 @@ fn run_failed(e: crate::engine::EngineError, out: &Path) -> crate::cli::CliError
 }
 
 fn print_report(r: &BenchReport, out: &Path) {
-    println!("sonarnet bench (figures also in {})", out.join("bench.json").display());
+    println!(
+        "sonarnet bench (figures also in {})",
+        out.join("bench.json").display()
+    );
     println!("engine overhead on mourya2017-spiral (best run, start-up excluded):");
     for o in &r.overhead {
         println!(

@@ -88,7 +88,13 @@ gamma = 2e-8
     assert!(out.error.is_none());
     assert_eq!(out.metrics.samples_completed, 12);
     assert!(out.metrics.rmse.is_none() && out.metrics.ml_rmse.is_none());
-    assert!(out.metrics.note.as_deref().unwrap_or("").contains("no truth"));
+    assert!(
+        out.metrics
+            .note
+            .as_deref()
+            .unwrap_or("")
+            .contains("no truth")
+    );
     let rows = read_rows(&second.path().join("track.csv"));
     assert_eq!(rows.len(), 12);
     assert!(rows.iter().all(|r| r[1].is_empty() && !r[3].is_empty()));
