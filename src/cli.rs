@@ -100,6 +100,10 @@ pub struct RunArgs {
     /// clocks, [realtime] table of the scenario; needs --engine processes).
     #[arg(long, value_enum, default_value = "logical")]
     pub clock: Clock,
+    /// Record every node's theta after every iteration into iterations.csv
+    /// (used by consensus.svg).
+    #[arg(long)]
+    pub trace_iterations: bool,
     /// Log coordinator and node events (with node ids) to stderr.
     #[arg(long, short)]
     pub verbose: bool,
@@ -234,7 +238,7 @@ pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
     if let Some(n) = args.samples {
         sc = sc.with_samples(n)?;
     }
-    Ok(sc)
+    Ok(sc.with_trace_iterations(args.trace_iterations))
 }
 
 fn run_command(args: RunArgs) -> Result<(), CliError> {

@@ -227,9 +227,18 @@ pub fn encode_report(r: &Report, out: &mut Vec<Frame>) {
                 theta.as_slice(),
             ));
         }
-        Report::IterationDone { node, iteration } => {
-            out.push(frame(kind::ITER_DONE, *node, 0, 0, *iteration, &[]))
-        }
+        Report::IterationDone {
+            node,
+            iteration,
+            theta,
+        } => out.push(frame(
+            kind::ITER_DONE,
+            *node,
+            0,
+            0,
+            *iteration,
+            theta.as_slice(),
+        )),
         Report::Failed {
             node,
             sample,
@@ -453,6 +462,7 @@ impl ReportDecoder {
             ITER_DONE => Ok(Some(CoordinatorInput::Report(Report::IterationDone {
                 node: f.from,
                 iteration: f.seq,
+                theta: v3(&f.data),
             }))),
             FAILED => Ok(Some(CoordinatorInput::Report(Report::Failed {
                 node: f.from,

@@ -49,6 +49,10 @@ pub struct NodeConfig {
     pub seed: u64,
     /// How the run is clocked.
     pub mode: NodeMode,
+    /// Sync mode: report `theta` after every round (`--trace-iterations`);
+    /// async nodes always report each iteration.
+    #[serde(default)]
+    pub trace_iterations: bool,
 }
 
 /// How a run is clocked, as far as a node is concerned.
@@ -193,8 +197,10 @@ pub enum Report {
     IterationDone {
         /// Node id.
         node: u32,
-        /// Global iteration.
+        /// Global iteration (sync: round).
         iteration: u64,
+        /// The node's `theta` after the iteration.
+        theta: Vec3,
     },
     /// Answer to [`Command::Snapshot`].
     Snapshot {
@@ -593,6 +599,13 @@ impl NodeCore {
             dr_update(&mut self.u, &theta, &r, a);
             self.theta = theta;
             self.counters.updates += 1;
+            if self.cfg.trace_iterations {
+                out.push(Output::Report(Report::IterationDone {
+                    node: self.cfg.id,
+                    iteration: st.round,
+                    theta,
+                }));
+            }
             if st.round == st.last_round {
                 let sample = st.sample;
                 self.sync = None;
@@ -654,6 +667,7 @@ impl NodeCore {
             out.push(Output::Report(Report::IterationDone {
                 node: self.cfg.id,
                 iteration: iter,
+                theta,
             }));
         }
     }

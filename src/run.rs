@@ -7,6 +7,7 @@
 //! * `nodes.csv`: `sample,node,x,y,d,seed`;
 //! * `schedule.csv`: `iteration,v,w,seed` (async runs);
 //! * `measurements.csv`: every measurement in the trace format (replayable);
+//! * `iterations.csv`: `iteration,sample,node,x,y,d,seed` with `--trace-iterations`;
 //! * `truth.csv`: `sample,x,y,seed` when the truth is known;
 //! * `metrics.json`: the metrics, see [`RunMetrics`].
 
@@ -372,6 +373,23 @@ pub fn finish(
                     it.to_string(),
                     v.to_string(),
                     w.to_string(),
+                    sc.seed.to_string(),
+                ]
+            }),
+        )?;
+    }
+    if !record.iteration_trace.is_empty() {
+        write_csv(
+            &dir.join("iterations.csv"),
+            &["iteration", "sample", "node", "x", "y", "d", "seed"],
+            record.iteration_trace.iter().map(|(it, k, i, t)| {
+                vec![
+                    it.to_string(),
+                    k.to_string(),
+                    i.to_string(),
+                    num(t[0]),
+                    num(t[1]),
+                    num(t[2]),
                     sc.seed.to_string(),
                 ]
             }),

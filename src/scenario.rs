@@ -312,6 +312,9 @@ pub struct Scenario {
     pub realtime: Option<RealtimeCfg>,
     /// Test thresholds.
     pub expect: ExpectCfg,
+    /// Record every node's `theta` after every iteration (`iterations.csv`);
+    /// a run option (`--trace-iterations`), not part of the file.
+    pub trace_iterations: bool,
 }
 
 /// The measurements and truth of one run (one seed).
@@ -620,6 +623,7 @@ impl Scenario {
             algorithm,
             realtime: file.realtime.clone(),
             expect: file.expect.clone(),
+            trace_iterations: false,
             file,
         };
         sc.check_schedule_length()?;
@@ -652,6 +656,12 @@ impl Scenario {
     /// Override the run seed.
     pub fn with_seed(mut self, seed: u64) -> Self {
         self.seed = seed;
+        self
+    }
+
+    /// Record every node's `theta` after every iteration into `iterations.csv`.
+    pub fn with_trace_iterations(mut self, on: bool) -> Self {
+        self.trace_iterations = on;
         self
     }
 

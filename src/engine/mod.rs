@@ -93,6 +93,9 @@ pub struct RunRecord {
     pub run_id: Option<String>,
     /// Multi-process: peak RSS (KiB) of every node process at the end of the run.
     pub peak_rss_kib: Vec<Option<u64>>,
+    /// `--trace-iterations`: `(iteration, sample, node, theta)` for every node
+    /// updated by every iteration (sync: every node every round), in order.
+    pub iteration_trace: Vec<(u64, u32, u32, Vec3)>,
 }
 
 impl RunRecord {
@@ -129,6 +132,7 @@ pub fn node_config(sc: &Scenario, seed: u64, id: usize, mode: NodeMode) -> NodeC
         init_u: sc.algorithm.init_u,
         seed,
         mode,
+        trace_iterations: sc.trace_iterations,
     }
 }
 
@@ -255,6 +259,13 @@ pub fn drive(
                                 done += 1;
                             }
                         }
+                        Report::IterationDone {
+                            node,
+                            iteration,
+                            theta,
+                        } if sc.trace_iterations => {
+                            rec.iteration_trace.push((iteration, sample, node, theta))
+                        }
                         Report::Failed {
                             node,
                             sample,
@@ -272,6 +283,15 @@ pub fn drive(
             }
             rec.thetas
                 .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
+            if sc.trace_iterations {
+                // Arrival order differs between engines; the file is ordered.
+                let first = rec
+                    .iteration_trace
+                    .iter()
+                    .rposition(|e| e.1 != sample)
+                    .map_or(0, |i| i + 1);
+                rec.iteration_trace[first..].sort_by_key(|e| (e.0, e.2));
+            }
             rec.iterations += ips as u64;
             progress(k + 1, rec.iterations);
         }

@@ -399,3 +399,39 @@ fn the_node_program_rejects_bad_arguments_with_exit_code_2() {
         assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
     }
 }
+
+#[test]
+fn trace_iterations_records_every_update_identically_in_both_engines() {
+    let tmp = TempDir::new("trace-it");
+    let sc = scenario("mourya2017-spiral.toml");
+    for mode in ["async", "sync"] {
+        let mut dirs = Vec::new();
+        for engine in ["processes", "inprocess"] {
+            let out = tmp.path().join(format!("{mode}-{engine}"));
+            let o = run(&[
+                "run",
+                sc.to_str().unwrap(),
+                "--engine",
+                engine,
+                "--mode",
+                mode,
+                "--samples",
+                "12",
+                "--trace-iterations",
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ]);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            dirs.push(out);
+        }
+        let a = read_rows(&dirs[0].join("iterations.csv"));
+        let b = read_rows(&dirs[1].join("iterations.csv"));
+        // async: two updated nodes per iteration; sync: all six per round.
+        let per = if mode == "async" { 2 } else { 6 };
+        assert_eq!(a.len(), 12 * 50 * per, "{mode}: rows of iterations.csv");
+        assert_eq!(a, b, "{mode}: iterations.csv differs between engines");
+        assert!(dirs[0].join("consensus.svg").is_file());
+        assert_nothing_left(&run_id_of(&dirs[0]));
+    }
+}
