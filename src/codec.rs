@@ -572,6 +572,7 @@ mod tests {
             Report::IterationDone {
                 node: 1,
                 iteration: 99,
+                theta: r,
             },
         ];
         let mut frames = Vec::new();
