@@ -3,6 +3,25 @@
 //! Receivers track a moving target with asynchronous randomized Douglas-Rachford
 //! gossip (Mourya et al., CAMSAP 2017, "seed 002"), each local step an exact
 //! generalized trust-region subproblem (GTRS) solve.
+//!
+//! # Example: run a scenario in-process and score it
+//!
+//! ```
+//! use sonarnet::scenario::Scenario;
+//! use std::path::Path;
+//!
+//! let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml"));
+//! let sc = Scenario::load(path)?.with_samples(20)?;
+//! let real = sc.realize(sc.seed);
+//! let (record, result) = sonarnet::run::run_inprocess(&sc, &real, &mut |_, _| {});
+//! result?;
+//! assert_eq!(record.thetas.len(), 20);
+//! // theta_bar of the last sample is within 50 m of the truth.
+//! let est = sonarnet::metrics::theta_bar(&record.thetas[19]);
+//! let truth = real.truth.as_ref().unwrap()[19];
+//! assert!((est - truth).norm() < 50.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![deny(clippy::float_cmp)]
 
 pub mod bench;
