@@ -67,15 +67,17 @@ fn spiral(dir: &Path) -> Result<Scenario, crate::error::InputError> {
     Scenario::load(&dir.join("mourya2017-spiral.toml"))
 }
 
-fn ring(n: usize) -> Result<Scenario, crate::error::InputError> {
+/// A scenario with `n` receivers on a 3 km circle joined in a ring, two
+/// transmitters, a target at constant velocity, async gossip (TOML text).
+pub fn ring_toml(n: usize, samples: usize, iterations_per_sample: usize) -> String {
     let receivers: Vec<String> = (0..n)
         .map(|i| {
             let a = i as f64 / n as f64 * std::f64::consts::TAU;
             format!("[{:.3}, {:.3}]", 3000.0 * a.cos(), 3000.0 * a.sin())
         })
         .collect();
-    let text = format!(
-        r#"name = "bench-ring{n}"
+    format!(
+        r#"name = "ring{n}"
 seed = 1
 [geometry]
 transmitters = [[0.0, 0.0], [1000.0, 500.0]]
@@ -83,7 +85,7 @@ receivers = [{}]
 [network]
 generator = {{ kind = "ring" }}
 [target]
-samples = 10
+samples = {samples}
 motion = {{ model = "constant_velocity", start = [100.0, 200.0], velocity = [3.0, 1.0] }}
 [measurements]
 doa = true
@@ -92,11 +94,14 @@ doa_noise = {{ model = "gaussian", sigma = 0.5 }}
 [algorithm]
 mode = "async"
 gamma = 2e-8
-iterations_per_sample = 200
+iterations_per_sample = {iterations_per_sample}
 "#,
         receivers.join(", ")
-    );
-    Scenario::from_toml_str(&text, Path::new("<bench ring>"))
+    )
+}
+
+fn ring(n: usize) -> Result<Scenario, crate::error::InputError> {
+    Scenario::from_toml_str(&ring_toml(n, 10, 200), Path::new("<bench ring>"))
 }
 
 /// Run the benchmarks. `scenarios` is the directory holding

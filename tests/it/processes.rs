@@ -145,34 +145,7 @@ schedule = "{}"
 #[test]
 fn a_64_node_ring_completes_over_processes() {
     let tmp = TempDir::new("ring64");
-    let receivers: Vec<String> = (0..64)
-        .map(|i| {
-            let a = i as f64 / 64.0 * std::f64::consts::TAU;
-            format!("[{:.3}, {:.3}]", 3000.0 * a.cos(), 3000.0 * a.sin())
-        })
-        .collect();
-    let text = format!(
-        r#"name = "ring64"
-seed = 2
-[geometry]
-transmitters = [[0.0, 0.0], [1000.0, 500.0]]
-receivers = [{}]
-[network]
-generator = {{ kind = "ring" }}
-[target]
-samples = 5
-motion = {{ model = "constant_velocity", start = [100.0, 200.0], velocity = [3.0, 1.0] }}
-[measurements]
-doa = true
-range_noise = {{ model = "gaussian", sigma = 5.0 }}
-doa_noise = {{ model = "gaussian", sigma = 0.5 }}
-[algorithm]
-mode = "async"
-gamma = 2e-8
-iterations_per_sample = 40
-"#,
-        receivers.join(", ")
-    );
+    let text = sonarnet::bench::ring_toml(64, 5, 40);
     let p = tmp.write("ring64.toml", &text);
     let out = tmp.path().join("out");
     let o = run(&[
