@@ -8,4 +8,5 @@ mod processes;
 mod replay;
 mod report;
 mod scenarios;
+mod transport;
 mod util;

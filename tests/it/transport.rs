@@ -137,7 +137,7 @@ impl Children {
         let exe = std::env::current_exe().expect("test binary path");
         let child = Command::new(exe)
             .args([
-                "child_entry",
+                "transport::child_entry",
                 "--exact",
                 "--ignored",
                 "--nocapture",
@@ -758,7 +758,7 @@ fn iceoryx2_leaves_sigint_and_sigterm_to_the_default_handler() {
 // ---------------------------------------------------------------- measurements
 
 #[test]
-#[ignore = "measurement: cargo test --test transport -- --ignored --nocapture latency"]
+#[ignore = "measurement: cargo test --release --test it transport -- --ignored --nocapture latency"]
 fn latency_of_a_frame_and_wake_up_between_two_processes() {
     const WARMUP: usize = 1_000;
     const ROUNDS: usize = 20_000;
@@ -815,7 +815,7 @@ fn footprint(run_id: &str) -> (usize, u64, u64) {
 }
 
 #[test]
-#[ignore = "measurement: cargo test --test transport -- --ignored --nocapture footprint"]
+#[ignore = "measurement: cargo test --release --test it transport -- --ignored --nocapture footprint"]
 fn footprint_of_the_shared_memory_and_files_per_node() {
     for (n, bcast) in [(64, 0), (256, 0), (64, 2)] {
         let mut spec = TopoSpec::ring(n, 8);
@@ -853,7 +853,7 @@ fn footprint_of_the_shared_memory_and_files_per_node() {
 }
 
 #[test]
-#[ignore = "measurement: cargo test --test transport -- --ignored --nocapture multi_process_footprint"]
+#[ignore = "measurement: cargo test --release --test it transport -- --ignored --nocapture multi_process_footprint"]
 fn multi_process_footprint_and_startup_time() {
     for (n, bcast) in [(64usize, 2usize), (256, 0), (256, 2)] {
         let mut spec = TopoSpec::ring(n, 8);
