@@ -92,9 +92,27 @@ pub struct RunArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Which engine runs the nodes: one OS process per receiver over iceoryx2
-    /// shared memory, or all nodes in this process (exact same numbers).
-    #[arg(long, value_enum, default_value = "processes")]
-    pub engine: EngineKind,
+    /// shared memory, or all nodes in this process (exact same numbers)
+    /// [default: processes; inprocess for Monte Carlo runs].
+    #[arg(long, value_enum)]
+    pub engine: Option<EngineKind>,
+    /// Run only this variant of a scenario with [[variants]] (repeatable;
+    /// default: every variant, one results directory each).
+    #[arg(long, value_name = "NAME")]
+    pub variant: Vec<String>,
+    /// Monte Carlo: repeat the run with seeds seed..seed+N in parallel
+    /// (in-process); overrides [monte_carlo] trials. 1 = a single run.
+    #[arg(long, value_name = "N")]
+    pub trials: Option<usize>,
+    /// Centralised baselines to score next to the distributed track, with
+    /// default parameters, replacing the scenario's [[baselines]]
+    /// (comma separated: ogd, onm, ml, ls, l0os, lq_irls, lad, pocs, lls,
+    /// distributed; l0os needs p or kappa, so give it in the file).
+    #[arg(long, value_delimiter = ',', value_name = "KINDS")]
+    pub baselines: Option<Vec<String>>,
+    /// Exit with code 1 when an [expect] check of the scenario fails.
+    #[arg(long)]
+    pub check: bool,
     /// Clock of async runs: `logical` (the coordinator draws every pair;
     /// exact, reproducible) or `realtime` (free-running nodes on Poisson
     /// clocks, [realtime] table of the scenario; needs --engine processes).
@@ -120,7 +138,7 @@ fn parse_solver(s: &str) -> Result<LocalSolver, String> {
     serde::Deserialize::deserialize(
         serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
     )
-    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs or relaxed)"))
+    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs, relaxed or gtrs_l0)"))
 }
 
 /// How a command failed; decides the exit code.
@@ -140,6 +158,14 @@ pub enum CliError {
     /// Anything else that stops a run (exit 1).
     #[error(transparent)]
     Run(RunError),
+    /// `--check`: an `[expect]` check failed (exit 1).
+    #[error("{failed} [expect] check(s) failed:\n{list}")]
+    ExpectFailed {
+        /// How many.
+        failed: usize,
+        /// One line per failed check, with the results directory.
+        list: String,
+    },
     /// Plots or report could not be written (exit 1).
     #[error(transparent)]
     Plot(crate::plot::PlotError),
@@ -178,20 +204,34 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Validate { scenarios } => {
             for p in &scenarios {
-                let sc = Scenario::load(p)?;
-                println!(
-                    "{}: ok ({} receivers, {} transmitters, {} edges, {} samples, {} {})",
-                    p.display(),
-                    sc.graph.len(),
-                    sc.geometry.transmitters.len(),
-                    sc.graph.edges().len(),
-                    sc.samples,
-                    sc.algorithm.mode.as_str(),
-                    serde_json::to_value(sc.algorithm.local_solver)
-                        .ok()
-                        .and_then(|v| v.as_str().map(str::to_owned))
-                        .unwrap_or_default()
-                );
+                for sc in Scenario::load_all(p)? {
+                    println!(
+                        "{}{}: ok ({} receivers, {} transmitters, {} edges, {} samples, {} {}{}{})",
+                        p.display(),
+                        sc.variant
+                            .as_ref()
+                            .map_or(String::new(), |v| format!(" [{v}]")),
+                        sc.graph.len(),
+                        sc.geometry.transmitters.len(),
+                        sc.graph.edges().len(),
+                        sc.samples,
+                        sc.algorithm.mode.as_str(),
+                        crate::baselines::solver_name(sc.algorithm.local_solver),
+                        if sc.baselines.is_empty() {
+                            String::new()
+                        } else {
+                            format!(
+                                ", baselines {}",
+                                sc.baselines
+                                    .iter()
+                                    .map(|b| b.name())
+                                    .collect::<Vec<_>>()
+                                    .join(" ")
+                            )
+                        },
+                        sc.trials.map_or(String::new(), |n| format!(", {n} trials"))
+                    );
+                }
             }
             Ok(())
         }
@@ -220,32 +260,236 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
     }
 }
 
-/// Load the scenario and apply the command-line overrides.
+/// Load the scenario (every selected variant) and apply the command-line overrides.
+pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
+    let all = Scenario::load_all(&args.scenario)?;
+    let cli = std::path::Path::new("<command line>");
+    for v in &args.variant {
+        if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
+            let names: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+            return Err(crate::error::InputError::at(
+                cli,
+                "--variant",
+                if names.is_empty() {
+                    format!("{} has no [[variants]]", args.scenario.display())
+                } else {
+                    format!("no variant {v:?} (the file has: {})", names.join(", "))
+                },
+            )
+            .into());
+        }
+    }
+    let baselines = match &args.baselines {
+        None => None,
+        Some(kinds) => Some(
+            kinds
+                .iter()
+                .filter(|k| !k.trim().is_empty())
+                .map(|k| {
+                    crate::baselines::BaselineCfg::default_of(k.trim()).ok_or_else(|| {
+                        crate::error::InputError::at(
+                            cli,
+                            "--baselines",
+                            format!(
+                                "unknown baseline {k:?} (expected one of {})",
+                                crate::baselines::KINDS.join(", ")
+                            ),
+                        )
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+        ),
+    };
+    let mut out = Vec::new();
+    for mut sc in all {
+        if !args.variant.is_empty()
+            && !args
+                .variant
+                .iter()
+                .any(|v| sc.variant.as_deref() == Some(v.as_str()))
+        {
+            continue;
+        }
+        if let Some(s) = args.seed {
+            sc = sc.with_seed(s);
+        }
+        if let Some(m) = args.mode {
+            sc = sc.with_mode(m)?;
+        }
+        if let Some(s) = args.local_solver {
+            sc = sc.with_local_solver(s);
+        }
+        if let Some(n) = args.iterations_per_sample {
+            sc = sc.with_iterations_per_sample(n)?;
+        }
+        if let Some(n) = args.samples {
+            sc = sc.with_samples(n)?;
+        }
+        if let Some(b) = &baselines {
+            sc = sc.with_baselines(b.clone())?;
+        }
+        sc = sc.with_trials(args.trials)?;
+        out.push(sc.with_trace_iterations(args.trace_iterations));
+    }
+    Ok(out)
+}
+
+/// Load the scenario and apply the command-line overrides; a file with
+/// several variants needs `--variant`.
 pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
-    let mut sc = Scenario::load(&args.scenario)?;
-    if let Some(s) = args.seed {
-        sc = sc.with_seed(s);
+    let mut all = resolve_scenarios(args)?;
+    if all.len() != 1 {
+        let names: Vec<String> = all.iter().filter_map(|s| s.variant.clone()).collect();
+        return Err(crate::error::InputError::at(
+            std::path::Path::new("<command line>"),
+            "--variant",
+            format!("pick one variant of {}", names.join(", ")),
+        )
+        .into());
     }
-    if let Some(m) = args.mode {
-        sc = sc.with_mode(m)?;
-    }
-    if let Some(s) = args.local_solver {
-        sc = sc.with_local_solver(s);
-    }
-    if let Some(n) = args.iterations_per_sample {
-        sc = sc.with_iterations_per_sample(n)?;
-    }
-    if let Some(n) = args.samples {
-        sc = sc.with_samples(n)?;
-    }
-    Ok(sc.with_trace_iterations(args.trace_iterations))
+    Ok(all.remove(0))
 }
 
 fn run_command(args: RunArgs) -> Result<(), CliError> {
-    let sc = resolve_scenario(&args)?;
+    let scenarios = resolve_scenarios(&args)?;
+    let many = scenarios.len() > 1;
+    let mut failed_checks = Vec::new();
+    let mut first_error = None;
+    for sc in scenarios {
+        let label = sc.variant.clone();
+        if many {
+            println!("== variant {}", label.as_deref().unwrap_or("(base)"));
+        }
+        let trials = sc.trials.unwrap_or(1);
+        let res = if trials > 1 {
+            run_monte_carlo_command(&args, &sc, trials, many)
+        } else {
+            run_single(&args, &sc, many)
+        };
+        match res {
+            Ok((dir, checks)) => {
+                for c in checks.iter().filter(|c| !c.holds) {
+                    failed_checks.push(format!(
+                        "  {}{}  ({})",
+                        label.as_ref().map_or(String::new(), |v| format!("[{v}] ")),
+                        c.expect,
+                        dir.display()
+                    ));
+                }
+            }
+            Err(e) => {
+                // Input errors stop at once; a failed run lets the other
+                // variants run and is reported at the end.
+                if e.exit_code() == 2 {
+                    return Err(e);
+                }
+                eprintln!("error: {e}");
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    if let Some(e) = first_error {
+        return Err(e);
+    }
+    if args.check && !failed_checks.is_empty() {
+        return Err(CliError::ExpectFailed {
+            failed: failed_checks.len(),
+            list: failed_checks.join("\n"),
+        });
+    }
+    Ok(())
+}
+
+fn default_dir(args: &RunArgs, sc: &Scenario, many: bool, tail: &str) -> PathBuf {
+    match &args.out {
+        Some(o) if many => o.join(sc.variant.as_deref().unwrap_or("base")),
+        Some(o) => o.clone(),
+        None => PathBuf::from("results").join(format!(
+            "{}{}-{tail}-seed{}",
+            sc.name,
+            sc.variant
+                .as_ref()
+                .map_or(String::new(), |v| format!("-{v}")),
+            sc.seed
+        )),
+    }
+}
+
+fn run_monte_carlo_command(
+    args: &RunArgs,
+    sc: &Scenario,
+    trials: usize,
+    many: bool,
+) -> Result<(PathBuf, Vec<run::ExpectResult>), CliError> {
+    let cli = std::path::Path::new("<command line>");
+    if args.engine == Some(EngineKind::Processes) || args.clock == Clock::Realtime {
+        return Err(crate::error::InputError::at(
+            cli,
+            if args.clock == Clock::Realtime {
+                "--clock"
+            } else {
+                "--engine"
+            },
+            "Monte Carlo trials run in-process with logical clocks (the engines give \
+             identical numbers); drop --engine processes / --clock realtime or use --trials 1",
+        )
+        .into());
+    }
+    let out_dir = default_dir(
+        args,
+        sc,
+        many,
+        &format!("mc{trials}-{}", sc.algorithm.mode.as_str()),
+    );
+    let opts = RunOptions {
+        engine: EngineKind::Inprocess,
+        clock: Clock::Logical,
+        out_dir,
+        command_line: std::env::args().collect(),
+        progress: !args.quiet && std::io::stdout().is_terminal(),
+        check_expect: false,
+    };
+    std::fs::create_dir_all(&opts.out_dir).map_err(|e| RunError::Output {
+        path: opts.out_dir.clone(),
+        source: e,
+    })?;
+    let bar = opts.progress.then(|| {
+        let b = indicatif::ProgressBar::new(trials as u64);
+        if let Ok(style) = indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} trials ({per_sec}, eta {eta})",
+        ) {
+            b.set_style(style);
+        }
+        b
+    });
+    let tick = |done: usize| {
+        if let Some(b) = &bar {
+            b.set_position(done as u64);
+        }
+    };
+    let mc = crate::montecarlo::run_monte_carlo(sc, trials, &opts, &tick)?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let plots = if args.report {
+        crate::report::write_report(&mc.out_dir, false).map(drop)
+    } else {
+        crate::plot::write_run_plots(&mc.out_dir).map(drop)
+    };
+    print_mc_summary(sc, &mc);
+    plots.map_err(CliError::from)?;
+    Ok((mc.out_dir, mc.expect))
+}
+
+fn run_single(
+    args: &RunArgs,
+    sc: &Scenario,
+    many: bool,
+) -> Result<(PathBuf, Vec<run::ExpectResult>), CliError> {
+    let engine = args.engine.unwrap_or(EngineKind::Processes);
     if args.clock == Clock::Realtime {
         let cli = std::path::Path::new("<command line>");
-        if args.engine != EngineKind::Processes || sc.algorithm.mode != Mode::Async {
+        if engine != EngineKind::Processes || sc.algorithm.mode != Mode::Async {
             return Err(crate::error::InputError::at(
                 cli,
                 "--clock",
@@ -262,26 +506,28 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
             .into());
         }
     }
-    let out_dir = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from("results").join(format!(
-            "{}-{}{}-{}-seed{}",
-            sc.name,
+    let out_dir = default_dir(
+        args,
+        sc,
+        many,
+        &format!(
+            "{}{}-{}",
             sc.algorithm.mode.as_str(),
             if args.clock == Clock::Realtime {
                 "-realtime"
             } else {
                 ""
             },
-            args.engine.as_str(),
-            sc.seed
-        ))
-    });
+            engine.as_str()
+        ),
+    );
     let opts = RunOptions {
-        engine: args.engine,
+        engine,
         clock: args.clock,
         out_dir,
         command_line: std::env::args().collect(),
         progress: !args.quiet && std::io::stdout().is_terminal(),
+        check_expect: true,
     };
     let real = sc.realize(sc.seed);
     let bar = progress_bar(&opts, sc.samples as u64);
@@ -292,8 +538,8 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
             b.set_message(format!("{it} iterations, {:.0} it/s", it as f64 / secs));
         }
     };
-    let (record, result) = match args.engine {
-        EngineKind::Inprocess => run::run_inprocess(&sc, &real, &mut tick),
+    let (record, result) = match engine {
+        EngineKind::Inprocess => run::run_inprocess(sc, &real, &mut tick),
         EngineKind::Processes => {
             let popts = crate::engine::processes::ProcessOptions {
                 verbose: args.verbose,
@@ -301,10 +547,10 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
             };
             let (rec, res, _) = match args.clock {
                 Clock::Logical => {
-                    crate::engine::processes::run_logical(&sc, &real, &popts, &mut tick)
+                    crate::engine::processes::run_logical(sc, &real, &popts, &mut tick)
                 }
                 Clock::Realtime => {
-                    crate::engine::processes::run_realtime(&sc, &real, &popts, &mut tick)
+                    crate::engine::processes::run_realtime(sc, &real, &popts, &mut tick)
                 }
             };
             (rec, res)
@@ -313,7 +559,7 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let outcome = run::finish(&sc, &real, record, result.err(), &opts)?;
+    let outcome = run::finish(sc, &real, record, result.err(), &opts)?;
     let plots = if args.report {
         crate::report::write_report(&outcome.out_dir, false).map(drop)
     } else {
@@ -330,7 +576,10 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
                 dir: outcome.out_dir,
             })
         }
-        None => plots.map_err(CliError::from),
+        None => {
+            plots.map_err(CliError::from)?;
+            Ok((outcome.out_dir, outcome.metrics.expect))
+        }
     }
 }
 
@@ -372,5 +621,107 @@ fn print_summary(o: &run::RunOutcome) {
     if let Some(n) = &m.note {
         println!("  note: {n}");
     }
+    print_tracks(&o.scored);
+    print_expect(&m.expect);
     println!("  results in {}", o.out_dir.display());
+}
+
+fn print_tracks(s: &crate::score::Scored) {
+    if s.tracks.len() <= 2 && s.tracks.iter().all(|t| t.bounds.is_empty()) {
+        return;
+    }
+    println!(
+        "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>10}",
+        "track", "rmse", "median", "ctte", "regret", "failures"
+    );
+    for t in &s.tracks {
+        let m = &t.metrics;
+        println!(
+            "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>10}",
+            t.name,
+            fmt_opt(m.rmse),
+            fmt_opt(m.median_error),
+            fmt_opt(m.ctte),
+            fmt_opt(m.regret),
+            m.failures
+        );
+        for (b, bm) in &m.bounds {
+            println!(
+                "    bound {b:<12} coverage {:.3}, empty {:.3}, mean tightness {} m",
+                bm.coverage,
+                bm.empty_fraction,
+                fmt_opt(bm.mean_tightness)
+            );
+        }
+    }
+}
+
+fn print_expect(checks: &[run::ExpectResult]) {
+    if checks.is_empty() {
+        return;
+    }
+    let ok = checks.iter().filter(|c| c.holds).count();
+    println!("  expect             {ok}/{} hold", checks.len());
+    for c in checks.iter().filter(|c| !c.holds) {
+        println!(
+            "    FAILS: {} ({} vs {})",
+            c.expect,
+            fmt_opt(c.lhs),
+            fmt_opt(c.rhs)
+        );
+    }
+}
+
+fn print_mc_summary(sc: &Scenario, mc: &crate::montecarlo::MonteCarloOutcome) {
+    println!(
+        "sonarnet run: Monte Carlo, {} trials (seeds {}..{}), in-process / {}{}, {:.2} s",
+        mc.trials.len(),
+        sc.seed,
+        sc.seed.wrapping_add(mc.trials.len() as u64),
+        sc.algorithm.mode.as_str(),
+        sc.variant
+            .as_ref()
+            .map_or(String::new(), |v| format!(", variant {v}")),
+        mc.wall_seconds
+    );
+    if mc.failed > 0 {
+        println!("  failed trials      {}", mc.failed);
+    }
+    let mean = |k: &str| mc.stats.get(k).and_then(|s| s.get("mean").copied());
+    let mut names: Vec<String> = vec!["theta_bar".into(), "ml".into()];
+    names.extend(sc.baselines.iter().map(|b| b.name()));
+    println!(
+        "  {:<14} {:>12} {:>12} {:>12} {:>12}   (means over trials)",
+        "track", "rmse", "median", "ctte", "regret"
+    );
+    for n in &names {
+        println!(
+            "  {:<14} {:>12} {:>12} {:>12} {:>12}",
+            n,
+            fmt_opt(mean(&format!("{n}.rmse"))),
+            fmt_opt(mean(&format!("{n}.median_error"))),
+            fmt_opt(mean(&format!("{n}.ctte"))),
+            fmt_opt(mean(&format!("{n}.regret")))
+        );
+        if let Some(b) = &sc.bounds {
+            for k in &b.names {
+                let p = format!("{n}.bounds.{}", k.as_str());
+                if let Some(c) = mean(&format!("{p}.coverage")) {
+                    println!(
+                        "    bound {:<12} coverage {:.3}, empty {:.3}, rel. tightness median {}",
+                        k.as_str(),
+                        c,
+                        mean(&format!("{p}.empty_fraction")).unwrap_or(0.0),
+                        fmt_opt(
+                            mc.stats
+                                .get(&format!("{p}.rel_tightness_median"))
+                                .and_then(|s| s.get("median").copied())
+                        )
+                    );
+                }
+            }
+        }
+    }
+    print_expect(&mc.expect);
+    println!("  results in {}", mc.out_dir.display());
 }

@@ -24,6 +24,7 @@
 //! ```
 #![deny(clippy::float_cmp)]
 
+pub mod baselines;
 pub mod bench;
 pub mod bounds;
 pub mod central;
@@ -31,11 +32,13 @@ pub mod cli;
 pub mod codec;
 pub mod engine;
 pub mod error;
+pub mod expect;
 pub mod geometry;
 pub mod graph;
 pub mod local;
 pub mod measure;
 pub mod metrics;
+pub mod montecarlo;
 pub mod motion;
 pub mod noise;
 pub mod online;
@@ -47,6 +50,7 @@ pub mod rng;
 pub mod robust;
 pub mod run;
 pub mod scenario;
+pub mod score;
 pub mod synth;
 pub mod transport;
 pub mod wire;

@@ -46,10 +46,42 @@ pub enum Motion {
         /// Step scale `c`.
         c: f64,
     },
+    /// Seed 001 Examples 1-2: `x_{t+1} = x_t + (-1)^{b_t} c / sqrt(2t) [1, 1]`,
+    /// `b_t ~ Bernoulli(1/2)` (sample `k` steps with `t = k + 1`).
+    DiagonalWalk {
+        /// Position at sample 0.
+        start: [f64; 2],
+        /// Step scale `c` (seed 001: 0.0025).
+        c: f64,
+    },
+    /// Seed 001 Example 3: `x_{t+1} = x_t + d_t`, `d_t` uniform on `[-h, h]^2`.
+    UniformBoxWalk {
+        /// Position at sample 0.
+        start: [f64; 2],
+        /// Half width `h` (seed 001: 0.0025).
+        half_width: f64,
+    },
+    /// Seed 003 Fig. 11: `x_k = x0 + k dx`, `y_k = a x_k^2 + b x_k + c`.
+    QuadraticPath {
+        /// `x` at sample 0.
+        x0: f64,
+        /// `x` increment per sample.
+        dx: f64,
+        /// `[a, b, c]` (seed 003: `[-0.0004, 0.3, 10]`).
+        coefficients: [f64; 3],
+    },
     /// A target that does not move.
     Static {
         /// Its position.
         position: [f64; 2],
+    },
+    /// A static target at a position drawn uniformly in the box `[min, max]`
+    /// from the run seed (a new position for every Monte Carlo trial).
+    UniformStatic {
+        /// Lower corner.
+        min: [f64; 2],
+        /// Upper corner.
+        max: [f64; 2],
     },
 }
 
@@ -97,8 +129,56 @@ impl Motion {
                 }
                 Ok(())
             }
+            Motion::DiagonalWalk { start, c } => {
+                finite("start", start)?;
+                if !(c.is_finite() && *c >= 0.0) {
+                    return Err(format!("c must be finite and >= 0, got {c}"));
+                }
+                Ok(())
+            }
+            Motion::UniformBoxWalk { start, half_width } => {
+                finite("start", start)?;
+                if !(half_width.is_finite() && *half_width >= 0.0) {
+                    return Err(format!(
+                        "half_width must be finite and >= 0, got {half_width}"
+                    ));
+                }
+                Ok(())
+            }
+            Motion::QuadraticPath {
+                x0,
+                dx,
+                coefficients,
+            } => {
+                finite("x0/dx", &[*x0, *dx])?;
+                finite("coefficients", coefficients)
+            }
             Motion::Static { position } => finite("position", position),
+            Motion::UniformStatic { min, max } => {
+                finite("min", min)?;
+                finite("max", max)?;
+                if min[0] <= max[0] && min[1] <= max[1] {
+                    Ok(())
+                } else {
+                    Err(format!("min {min:?} must be below max {max:?}"))
+                }
+            }
         }
+    }
+
+    fn walk(
+        start: &[f64; 2],
+        m: crate::online::Motion,
+        samples: usize,
+        rng: &mut SonarRng,
+    ) -> Vec<Vec2> {
+        let mut x = v2(*start);
+        let mut out = Vec::with_capacity(samples);
+        for k in 0..samples {
+            out.push(x);
+            x += m.displacement(k, rng);
+        }
+        out
     }
 
     /// The true positions at samples `0..samples`. `rng` drives random motion
@@ -148,16 +228,48 @@ impl Motion {
                     })
                     .collect()
             }
-            Motion::RandomWalk { start, c } => {
-                let mut x = v2(*start);
-                let mut out = Vec::with_capacity(samples);
-                for k in 0..samples {
-                    out.push(x);
-                    let t = (k + 1) as f64;
-                    let phi = rng.random_range(0.0..std::f64::consts::TAU);
-                    x += Vec2::new(phi.cos(), phi.sin()) * (c / (2.0 * (t + 1.0)).sqrt());
-                }
-                out
+            // The displacements are the library's one implementation of seed
+            // 000 eq. (19) and seed 001 Sec. V (`online::Motion`).
+            Motion::RandomWalk { start, c } => Self::walk(
+                start,
+                crate::online::Motion::SqrtDecayCircle { c: *c },
+                samples,
+                rng,
+            ),
+            Motion::DiagonalWalk { start, c } => Self::walk(
+                start,
+                crate::online::Motion::SqrtDecayDiagonal { c: *c },
+                samples,
+                rng,
+            ),
+            Motion::UniformBoxWalk { start, half_width } => Self::walk(
+                start,
+                crate::online::Motion::UniformBox {
+                    half_width: *half_width,
+                },
+                samples,
+                rng,
+            ),
+            Motion::QuadraticPath {
+                x0,
+                dx,
+                coefficients: [a, b, c],
+            } => (0..samples)
+                .map(|k| {
+                    let x = x0 + k as f64 * dx;
+                    Vec2::new(x, a * x * x + b * x + c)
+                })
+                .collect(),
+            Motion::UniformStatic { min, max } => {
+                let mut draw = |lo: f64, hi: f64| {
+                    if hi > lo {
+                        rng.random_range(lo..hi)
+                    } else {
+                        lo
+                    }
+                };
+                let p = Vec2::new(draw(min[0], max[0]), draw(min[1], max[1]));
+                vec![p; samples]
             }
             Motion::Static { position } => vec![v2(*position); samples],
         }
@@ -215,6 +327,50 @@ mod tests {
                 epsilon = 1e-15
             );
         }
+    }
+
+    #[test]
+    fn seed_001_walks_take_diagonal_and_boxed_steps() {
+        let m = Motion::DiagonalWalk {
+            start: [2.0, 1.0],
+            c: 0.0025,
+        };
+        let tr = m.track(20, &mut stream_rng(1, Stream::Motion, 0));
+        for k in 0..19 {
+            let d = tr[k + 1] - tr[k];
+            assert_relative_eq!(d.x, d.y);
+            assert_relative_eq!(
+                d.x.abs(),
+                0.0025 / (2.0 * (k + 1) as f64).sqrt(),
+                epsilon = 1e-15
+            );
+        }
+        let m = Motion::UniformBoxWalk {
+            start: [2.0, 1.0],
+            half_width: 0.0025,
+        };
+        let tr = m.track(200, &mut stream_rng(1, Stream::Motion, 0));
+        assert!(tr.windows(2).all(|w| (w[1] - w[0]).amax() <= 0.0025));
+    }
+
+    #[test]
+    fn the_quadratic_path_and_uniform_static_target_follow_their_definitions() {
+        let m = Motion::QuadraticPath {
+            x0: 0.0,
+            dx: 10.0,
+            coefficients: [-0.0004, 0.3, 10.0],
+        };
+        let tr = m.track(3, &mut stream_rng(0, Stream::Motion, 0));
+        assert_relative_eq!(tr[2], Vec2::new(20.0, -0.0004 * 400.0 + 6.0 + 10.0));
+        let u = Motion::UniformStatic {
+            min: [0.0, 0.0],
+            max: [100.0, 50.0],
+        };
+        let a = u.track(4, &mut stream_rng(0, Stream::Motion, 0));
+        let b = u.track(4, &mut stream_rng(1, Stream::Motion, 0));
+        assert!(a.iter().all(|p| *p == a[0]));
+        assert!(a[0].x >= 0.0 && a[0].x < 100.0 && a[0].y >= 0.0 && a[0].y < 50.0);
+        assert!((a[0] - b[0]).norm() > 0.0);
     }
 
     #[test]

@@ -11,14 +11,15 @@
 //! * `truth.csv`: `sample,x,y,seed` when the truth is known;
 //! * `metrics.json`: the metrics, see [`RunMetrics`].
 
-use crate::central;
 use crate::engine::{self, EngineError, RunRecord};
 use crate::error::InputError;
 use crate::geometry::Vec2;
 use crate::metrics;
 use crate::protocol::Counters;
 use crate::scenario::{Realization, Scenario};
+use crate::score::{self, BoundMetrics, Scored, TrackMetrics};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -65,6 +66,10 @@ pub struct RunOptions {
     pub command_line: Vec<String>,
     /// Show a progress bar (only when stderr is a terminal).
     pub progress: bool,
+    /// Check the scenario's `[expect]` block and record it in
+    /// `metrics.json` (off for the representative trial of a Monte Carlo
+    /// run, whose expectations are checked on the trial means).
+    pub check_expect: bool,
 }
 
 /// Per-node counters as written to `metrics.json`.
@@ -122,6 +127,8 @@ pub struct RunMetrics {
     pub final_error: Option<f64>,
     /// Cumulative target tracking error.
     pub ctte: Option<f64>,
+    /// Dynamic regret of `theta_bar` (seed 001), see [`crate::score`].
+    pub regret: Option<f64>,
     /// Largest consensus disagreement over all samples.
     pub max_disagreement: f64,
     /// RMSE of the centralised ML estimate.
@@ -142,6 +149,8 @@ pub struct RunMetrics {
     pub clock: String,
     /// Run seed.
     pub seed: u64,
+    /// The scenario variant, if the file has `[[variants]]`.
+    pub variant: Option<String>,
     /// Samples completed.
     pub samples_completed: usize,
     /// Samples asked for.
@@ -160,6 +169,28 @@ pub struct RunMetrics {
     pub deaths: Vec<Death>,
     /// Per-node counters.
     pub nodes: Vec<NodeCounters>,
+    /// Certified bounds on `theta_bar` (`[bounds]`), by bound name.
+    pub bounds: BTreeMap<String, BoundMetrics>,
+    /// Every baseline's metrics, by track name.
+    pub baselines: BTreeMap<String, TrackMetrics>,
+    /// `x_hat_t` solves (regret) that stopped at 5000 iterations.
+    pub x_hat_not_converged: usize,
+    /// The scenario's `[expect]` checks on this run.
+    pub expect: Vec<ExpectResult>,
+}
+
+/// One `[expect]` check as recorded in `metrics.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExpectResult {
+    /// The relation (thresholds as `theta_bar.rmse <= 5.0`), or why it
+    /// could not be evaluated.
+    pub expect: String,
+    /// Left value (`None` when it could not be evaluated).
+    pub lhs: Option<f64>,
+    /// Right value.
+    pub rhs: Option<f64>,
+    /// Whether it holds.
+    pub holds: bool,
 }
 
 /// A finished (or stopped) run.
@@ -169,6 +200,8 @@ pub struct RunOutcome {
     pub metrics: RunMetrics,
     /// The record.
     pub record: RunRecord,
+    /// Every track, scored.
+    pub scored: Scored,
     /// Where the results are.
     pub out_dir: PathBuf,
     /// Why it stopped early.
@@ -208,53 +241,40 @@ pub fn run_inprocess(
     engine::drive(sc, sc.seed, real, &mut net, progress)
 }
 
-/// Score a record and write the results directory. Always writes what there
-/// is, even for a run that stopped early.
-pub fn finish(
+/// Run the baselines and score every track of a record (no I/O).
+pub fn evaluate(
     sc: &Scenario,
     real: &Realization,
-    record: RunRecord,
-    error: Option<EngineError>,
+    record: &RunRecord,
+    error: Option<&EngineError>,
     opts: &RunOptions,
-) -> Result<RunOutcome, RunError> {
+) -> (RunMetrics, Scored) {
     let done = record.thetas.len();
     let est: Vec<Vec2> = record
         .thetas
         .iter()
         .map(|t| metrics::theta_bar(t))
         .collect();
-    let ml = central::ml_track(
-        &sc.geometry,
-        &real.measurements[..done],
-        &real.sigmas[..done],
-    );
-    let truth = real.truth.as_ref().map(|t| &t[..done]);
-    let crlb: Vec<Option<f64>> = match truth {
-        Some(t) => (0..done)
-            .map(|k| {
-                let obs = central::observations(&sc.geometry, &real.measurements[k]);
-                central::crlb(&obs, &real.sigmas[k], &t[k])
-            })
-            .collect(),
-        None => vec![None; done],
-    };
-    let errs = truth.map(|t| metrics::errors(&est, t));
-    let score = errs
-        .as_ref()
-        .and_then(|e| metrics::score(e, sc.algorithm.burn_in.min(done.saturating_sub(1))));
-    let ml_rmse = truth.and_then(|t| metrics::rms(&metrics::errors(&ml, t)));
-    let crlbs: Vec<f64> = crlb.iter().flatten().copied().collect();
+    let baselines: Vec<_> = sc
+        .baselines
+        .iter()
+        .map(|b| crate::baselines::run_baseline(b, sc, real, done))
+        .collect();
+    let scored = score::score(sc, real, &est, baselines, done);
+    let tb = &scored.tracks[0].metrics;
+    let ml = &scored.tracks[1].metrics;
+    let crlbs: Vec<f64> = scored.crlb.iter().flatten().copied().collect();
     let max_dis = (0..done)
         .map(|k| metrics::disagreement(&record.alive_thetas(k)))
         .fold(0.0, f64::max);
-    let status = match &error {
+    let status = match error {
         None => "ok",
         Some(EngineError::Interrupted { .. }) => "interrupted",
         Some(_) => "failed",
     };
     let note = if real.truth.is_none() {
         Some(
-            "no truth file was given: error metrics (rmse, ctte, ml_rmse, crlb) are not computed"
+            "no truth file was given: error metrics (rmse, ctte, regret, ml_rmse, crlb, bound coverage) are not computed"
                 .to_string(),
         )
     } else if done == 0 {
@@ -263,13 +283,14 @@ pub fn finish(
         None
     };
     let m = RunMetrics {
-        rmse: score.map(|s| s.rmse),
-        rmse_after_burn_in: score.map(|s| s.rmse_after_burn_in),
-        median_error: score.map(|s| s.median_error),
-        final_error: score.map(|s| s.final_error),
-        ctte: score.map(|s| s.ctte),
+        rmse: tb.rmse,
+        rmse_after_burn_in: tb.rmse_after_burn_in,
+        median_error: tb.median_error,
+        final_error: tb.final_error,
+        ctte: tb.ctte,
+        regret: tb.regret,
         max_disagreement: max_dis,
-        ml_rmse,
+        ml_rmse: ml.rmse,
         crlb_rms: metrics::rms(&crlbs),
         iterations: record.iterations,
         prox_solves: record.prox_solves(),
@@ -281,13 +302,14 @@ pub fn finish(
             Clock::Realtime => "realtime".into(),
         },
         seed: sc.seed,
+        variant: sc.variant.clone(),
         samples_completed: done,
         samples: sc.samples,
         status: status.into(),
-        error: error.as_ref().map(|e| e.to_string()),
+        error: error.map(|e| e.to_string()),
         note,
         startup_seconds: record.startup_seconds,
-        realtime: realtime_stats(&record, opts),
+        realtime: realtime_stats(record, opts),
         deaths: record
             .deaths
             .iter()
@@ -309,7 +331,96 @@ pub fn finish(
                 peak_rss_kib: record.peak_rss_kib.get(node).copied().flatten(),
             })
             .collect(),
+        bounds: tb.bounds.clone(),
+        baselines: scored.tracks[2..]
+            .iter()
+            .map(|t| (t.name.clone(), t.metrics.clone()))
+            .collect(),
+        x_hat_not_converged: scored.x_hat_not_converged,
+        expect: Vec::new(),
     };
+    (m, scored)
+}
+
+/// The flat metric namespace of a run (`theta_bar.rmse`, `ogd.ctte`,
+/// `pocs.bounds.upp_maxdis.coverage`, ...): what `[expect] holds` and
+/// `trials.csv` use.
+pub fn flat_metrics(m: &RunMetrics, scored: &Scored) -> std::collections::BTreeMap<String, f64> {
+    let mut f = scored.flat();
+    f.insert("theta_bar.max_disagreement".into(), m.max_disagreement);
+    f.insert("theta_bar.iterations".into(), m.iterations as f64);
+    f.insert("theta_bar.prox_solves".into(), m.prox_solves as f64);
+    if let Some(c) = m.crlb_rms {
+        f.insert("crlb_rms".into(), c);
+    }
+    f
+}
+
+/// Check the scenario's `[expect]` block against one run's metrics.
+pub fn check_expect(
+    sc: &Scenario,
+    flat: &std::collections::BTreeMap<String, f64>,
+) -> Result<Vec<crate::expect::Check>, String> {
+    crate::expect::check(&sc.expect, &|name: &str| {
+        flat.get(name)
+            .copied()
+            .ok_or_else(|| unknown_metric(name, flat.keys()))
+    })
+}
+
+/// "no metric X" with the closest names, for expectation errors.
+pub fn unknown_metric<'a>(name: &str, keys: impl Iterator<Item = &'a String>) -> String {
+    let prefix = name.split('.').next().unwrap_or("");
+    let near: Vec<&String> = keys
+        .filter(|k| k.split('.').next() == Some(prefix))
+        .take(12)
+        .collect();
+    if near.is_empty() {
+        format!("no metric {name:?} (no track {prefix:?})")
+    } else {
+        format!(
+            "no metric {name:?} (metrics of {prefix}: {})",
+            near.iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
+}
+
+/// Score a record and write the results directory. Always writes what there
+/// is, even for a run that stopped early.
+pub fn finish(
+    sc: &Scenario,
+    real: &Realization,
+    record: RunRecord,
+    error: Option<EngineError>,
+    opts: &RunOptions,
+) -> Result<RunOutcome, RunError> {
+    let (mut m, scored) = evaluate(sc, real, &record, error.as_ref(), opts);
+    let done = record.thetas.len();
+    let status = m.status.clone();
+    let status = status.as_str();
+    if error.is_none() && opts.check_expect {
+        let flat = flat_metrics(&m, &scored);
+        m.expect = match check_expect(sc, &flat) {
+            Ok(c) => c
+                .into_iter()
+                .map(|c| ExpectResult {
+                    expect: c.text,
+                    lhs: Some(c.lhs),
+                    rhs: Some(c.rhs),
+                    holds: c.holds,
+                })
+                .collect(),
+            Err(e) => vec![ExpectResult {
+                expect: e,
+                lhs: None,
+                rhs: None,
+                holds: false,
+            }],
+        };
+    }
     let dir = &opts.out_dir;
     std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
         path: dir.clone(),
@@ -323,31 +434,7 @@ pub fn finish(
         error.as_ref(),
         record.run_id.as_deref(),
     )?;
-    // track.csv
-    let ctte = errs.as_ref().map(|e| metrics::running_ctte(e));
-    write_csv(
-        &dir.join("track.csv"),
-        &[
-            "sample", "true_x", "true_y", "est_x", "est_y", "error", "ml_x", "ml_y", "crlb",
-            "ctte", "seed",
-        ],
-        (0..done).map(|k| {
-            let t = truth.map(|t| t[k]);
-            vec![
-                k.to_string(),
-                opt(t.map(|p| p.x)),
-                opt(t.map(|p| p.y)),
-                num(est[k].x),
-                num(est[k].y),
-                opt(errs.as_ref().map(|e| e[k])),
-                num(ml[k].x),
-                num(ml[k].y),
-                opt(crlb[k]),
-                opt(ctte.as_ref().map(|c| c[k])),
-                sc.seed.to_string(),
-            ]
-        }),
-    )?;
+    write_track_csv(&dir.join("track.csv"), sc, real, &scored, done)?;
     write_csv(
         &dir.join("nodes.csv"),
         &["sample", "node", "x", "y", "d", "seed"],
@@ -400,7 +487,7 @@ pub fn finish(
         &real.measurements[..done],
         sc.seed,
     )?;
-    if let Some(t) = truth {
+    if let Some(t) = real.truth.as_ref().map(|t| &t[..done]) {
         write_csv(
             &dir.join("truth.csv"),
             &["sample", "x", "y", "seed"],
@@ -413,9 +500,97 @@ pub fn finish(
     Ok(RunOutcome {
         metrics: m,
         record,
+        scored,
         out_dir: dir.clone(),
         error,
     })
+}
+
+/// Write `track.csv`: the distributed track's columns, then per baseline
+/// `NAME_x,NAME_y,NAME_error,NAME_ctte,NAME_regret` (+ `NAME_regret_pred` for
+/// online trackers) and bound radii (`bound_B` on `theta_bar`, `NAME_bound_B`
+/// on a baseline; empty when the set was empty).
+pub fn write_track_csv(
+    path: &Path,
+    sc: &Scenario,
+    real: &Realization,
+    scored: &Scored,
+    done: usize,
+) -> Result<(), RunError> {
+    let truth = real.truth.as_ref().map(|t| &t[..done]);
+    let mut header: Vec<String> = [
+        "sample", "true_x", "true_y", "est_x", "est_y", "error", "ml_x", "ml_y", "crlb", "ctte",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let tb = &scored.tracks[0];
+    let ml = &scored.tracks[1];
+    if tb.regret.is_some() {
+        header.push("regret".into());
+    }
+    for (b, _) in &tb.bounds {
+        header.push(format!("bound_{b}"));
+    }
+    for t in &scored.tracks[2..] {
+        for suffix in ["x", "y", "error", "ctte"] {
+            header.push(format!("{}_{suffix}", t.name));
+        }
+        if t.regret.is_some() {
+            header.push(format!("{}_regret", t.name));
+        }
+        if t.regret_pred.is_some() {
+            header.push(format!("{}_regret_pred", t.name));
+        }
+        for (b, _) in &t.bounds {
+            header.push(format!("{}_bound_{b}", t.name));
+        }
+    }
+    header.push("seed".into());
+    let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+    let rows = (0..done).map(|k| {
+        let t = truth.map(|t| t[k]);
+        let e = |tr: &score::ScoredTrack| tr.error.as_ref().and_then(|e| e[k]);
+        let c = |tr: &score::ScoredTrack| tr.ctte.as_ref().map(|c| c[k]);
+        let est = tb.est[k].unwrap_or_else(Vec2::zeros);
+        let mlx = ml.est[k];
+        let mut row = vec![
+            k.to_string(),
+            opt(t.map(|p| p.x)),
+            opt(t.map(|p| p.y)),
+            num(est.x),
+            num(est.y),
+            opt(e(tb)),
+            opt(mlx.map(|p| p.x)),
+            opt(mlx.map(|p| p.y)),
+            opt(scored.crlb[k]),
+            opt(c(tb)),
+        ];
+        if let Some(r) = &tb.regret {
+            row.push(num(r[k]));
+        }
+        for (_, radii) in &tb.bounds {
+            row.push(opt(radii[k]));
+        }
+        for tr in &scored.tracks[2..] {
+            row.push(opt(tr.est[k].map(|p| p.x)));
+            row.push(opt(tr.est[k].map(|p| p.y)));
+            row.push(opt(e(tr)));
+            row.push(opt(c(tr)));
+            if let Some(r) = &tr.regret {
+                row.push(num(r[k]));
+            }
+            if let Some(r) = &tr.regret_pred {
+                row.push(num(r[k]));
+            }
+            for (_, radii) in &tr.bounds {
+                row.push(opt(radii[k]));
+            }
+        }
+        row.push(sc.seed.to_string());
+        row
+    });
+    write_csv(path, &header_refs, rows)
 }
 
 fn realtime_stats(rec: &RunRecord, opts: &RunOptions) -> Option<RealtimeStats> {

@@ -68,6 +68,112 @@ pub struct ScenarioFile {
     /// Thresholds the scenario tests assert.
     #[serde(default)]
     pub expect: ExpectCfg,
+    /// Centralised baselines scored next to the distributed track (`[[baselines]]`).
+    #[serde(default)]
+    pub baselines: Vec<crate::baselines::BaselineCfg>,
+    /// Certified error bounds attached to the tracks (`[bounds]`, seed 003).
+    #[serde(default)]
+    pub bounds: Option<BoundsCfg>,
+    /// What the scoring computes (`[scoring]`).
+    #[serde(default)]
+    pub scoring: ScoringCfg,
+    /// Repeat the run over seeds `seed..seed+trials` (`[monte_carlo]`).
+    #[serde(default)]
+    pub monte_carlo: Option<MonteCarloCfg>,
+    /// Named variants of this scenario (`[[variants]]`): each is a table of
+    /// overrides deep-merged into the file (see `scenarios/README.md`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub variants: Vec<VariantCfg>,
+}
+
+/// One `[[variants]]` entry: a `name` and any scenario keys to override.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VariantCfg {
+    /// Variant name (used in the results directory name and `--variant`).
+    pub name: String,
+    /// The overriding keys, merged table by table into the base file
+    /// (arrays and values replace).
+    #[serde(flatten)]
+    pub overrides: toml::Table,
+}
+
+/// A certified bound of seed 003.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BoundKind {
+    /// Upp-RBBox, eq. (53)-(54).
+    UppRbbox,
+    /// Upp-BBox, eq. (48)-(49).
+    UppBbox,
+    /// Upp-MinBall, eq. (43)-(44).
+    UppMinball,
+    /// Upp-MaxDis, eq. (26).
+    UppMaxdis,
+}
+
+impl BoundKind {
+    /// The name used in files (`upp_maxdis`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            BoundKind::UppRbbox => "upp_rbbox",
+            BoundKind::UppBbox => "upp_bbox",
+            BoundKind::UppMinball => "upp_minball",
+            BoundKind::UppMaxdis => "upp_maxdis",
+        }
+    }
+}
+
+/// `[bounds]`: which certified bounds to attach, to which tracks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundsCfg {
+    /// The bounds to compute at every sample.
+    pub names: Vec<BoundKind>,
+    /// Enlargement `rho` (metres) of every measured range (seed 003 Remark 4):
+    /// the sets are `||x - a|| <= d + rho` and `||x - t|| + ||x - r|| <= rho_mn + rho`.
+    #[serde(default)]
+    pub rho: f64,
+    /// Further enlargement in units of the nominal range sigma of the sample.
+    #[serde(default)]
+    pub rho_sigmas: f64,
+    /// Tracks that carry the bounds (`theta_bar`, `ml`, baseline names);
+    /// default: `theta_bar` and every baseline.
+    #[serde(default)]
+    pub tracks: Option<Vec<String>>,
+}
+
+impl BoundsCfg {
+    /// Whether the track `name` carries the bounds.
+    pub fn applies_to(&self, name: &str) -> bool {
+        match &self.tracks {
+            Some(t) => t.iter().any(|x| x == name),
+            None => name != "ml",
+        }
+    }
+}
+
+/// `[scoring]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScoringCfg {
+    /// Compute the dynamic regret of every track (needs `x_hat_t` per sample;
+    /// default true).
+    #[serde(default = "default_true")]
+    pub regret: bool,
+}
+
+impl Default for ScoringCfg {
+    fn default() -> Self {
+        ScoringCfg { regret: true }
+    }
+}
+
+/// `[monte_carlo]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MonteCarloCfg {
+    /// Number of trials (seeds `seed .. seed + trials`).
+    pub trials: usize,
 }
 
 /// `[geometry]`.
@@ -245,6 +351,12 @@ pub struct ExpectCfg {
     /// Upper bound on `ml_rmse`.
     #[serde(default)]
     pub ml_rmse_max: Option<f64>,
+    /// Relations that must hold, e.g. `"onm.ctte < ogd.ctte"` or
+    /// `"theta_bar.bounds.upp_maxdis.coverage >= 1"` (see [`crate::expect`]).
+    /// In a Monte Carlo run a metric is its mean across trials
+    /// (`NAME.METRIC.median`, `.p5`, `.p95` select other statistics).
+    #[serde(default)]
+    pub holds: Vec<String>,
 }
 
 /// Where the measurements come from.
@@ -315,6 +427,16 @@ pub struct Scenario {
     /// Record every node's `theta` after every iteration (`iterations.csv`);
     /// a run option (`--trace-iterations`), not part of the file.
     pub trace_iterations: bool,
+    /// Baselines (validated, unique names).
+    pub baselines: Vec<crate::baselines::BaselineCfg>,
+    /// Certified bounds.
+    pub bounds: Option<BoundsCfg>,
+    /// Scoring options.
+    pub scoring: ScoringCfg,
+    /// Monte Carlo trials (`None`: a single run).
+    pub trials: Option<usize>,
+    /// The variant's name, for a file with `[[variants]]`.
+    pub variant: Option<String>,
 }
 
 /// The measurements and truth of one run (one seed).
@@ -330,6 +452,19 @@ pub struct Realization {
     pub nlos: crate::noise::NlosMask,
 }
 
+/// Deep-merge `over` into `base`: tables merge key by key, anything else
+/// (values, arrays, arrays of tables) replaces.
+pub fn merge_tables(base: &mut toml::Table, over: &toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge_tables(b, o),
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
 fn check_point(path: &Path, key: &str, p: &[f64; 2]) -> Result<Vec2, InputError> {
     if p.iter().all(|x| x.is_finite()) {
         Ok(v2(*p))
@@ -343,18 +478,101 @@ fn check_point(path: &Path, key: &str, p: &[f64; 2]) -> Result<Vec2, InputError>
 }
 
 impl Scenario {
-    /// Read, parse and validate a scenario file.
+    /// Read, parse and validate a scenario file without `[[variants]]`
+    /// (a file with variants is an error here: use [`Scenario::load_all`]).
     pub fn load(path: &Path) -> Result<Scenario, InputError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
         Self::from_toml_str(&text, path)
     }
 
-    /// Parse and validate scenario text; `path` names it in errors and anchors
-    /// relative file names.
+    /// Read, parse and validate a scenario file: one scenario, or one per
+    /// `[[variants]]` entry, in file order.
+    pub fn load_all(path: &Path) -> Result<Vec<Scenario>, InputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        Self::all_from_toml_str(&text, path)
+    }
+
+    /// Parse and validate scenario text without variants; `path` names it in
+    /// errors and anchors relative file names.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Scenario, InputError> {
         let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        if !file.variants.is_empty() {
+            let names: Vec<&str> = file.variants.iter().map(|v| v.name.as_str()).collect();
+            return Err(InputError::at(
+                path,
+                "variants",
+                format!(
+                    "the file has {} variants ({}); load them all, or pick one with --variant",
+                    names.len(),
+                    names.join(", ")
+                ),
+            ));
+        }
         Self::from_file(file, path)
+    }
+
+    /// Parse and validate scenario text with any `[[variants]]`: each variant
+    /// is the base file with the variant's tables deep-merged over it.
+    pub fn all_from_toml_str(text: &str, path: &Path) -> Result<Vec<Scenario>, InputError> {
+        let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        if file.variants.is_empty() {
+            return Ok(vec![Self::from_file(file, path)?]);
+        }
+        let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        base.remove("variants");
+        let mut seen = BTreeSet::new();
+        let mut out = Vec::with_capacity(file.variants.len());
+        for (i, v) in file.variants.iter().enumerate() {
+            let key = format!("variants[{i}]");
+            let vname = v.name.trim();
+            if vname.is_empty()
+                || !vname
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            {
+                return Err(InputError::at(
+                    path,
+                    format!("{key}.name"),
+                    format!(
+                        "{:?} must be non-empty ASCII letters, digits, '-', '_' or '.'",
+                        v.name
+                    ),
+                ));
+            }
+            if !seen.insert(vname.to_string()) {
+                return Err(InputError::at(
+                    path,
+                    format!("{key}.name"),
+                    format!("duplicate variant name {vname:?}"),
+                ));
+            }
+            let mut t = base.clone();
+            merge_tables(&mut t, &v.overrides);
+            let f: ScenarioFile =
+                toml::Value::Table(t)
+                    .try_into()
+                    .map_err(|e: toml::de::Error| {
+                        InputError::at(
+                            path,
+                            format!("{key} ({vname})"),
+                            e.message().trim().to_string(),
+                        )
+                    })?;
+            let sc = Self::from_file(f, path).map_err(|mut e| {
+                e.location = Some(match e.location.take() {
+                    Some(l) => format!("{key} ({vname}): {l}"),
+                    None => format!("{key} ({vname})"),
+                });
+                e
+            })?;
+            out.push(Scenario {
+                variant: Some(vname.to_string()),
+                ..sc
+            });
+        }
+        Ok(out)
     }
 
     /// Validate a parsed scenario file.
@@ -602,6 +820,63 @@ impl Scenario {
                 ));
             }
         }
+        // Baselines, bounds, Monte Carlo.
+        let mut names = BTreeSet::new();
+        for (i, b) in file.baselines.iter().enumerate() {
+            b.validate(&geometry, !geometry.transmitters.is_empty())
+                .map_err(|e| InputError::at(path, format!("baselines[{i}] ({})", b.kind()), e))?;
+            if !names.insert(b.name()) {
+                return Err(InputError::at(
+                    path,
+                    format!("baselines[{i}].name"),
+                    format!(
+                        "duplicate track name {:?}: give each baseline its own `name`",
+                        b.name()
+                    ),
+                ));
+            }
+        }
+        if let Some(b) = &file.bounds {
+            if b.names.is_empty() {
+                return Err(InputError::at(
+                    path,
+                    "bounds.names",
+                    "list at least one bound",
+                ));
+            }
+            for (k, v) in [("bounds.rho", b.rho), ("bounds.rho_sigmas", b.rho_sigmas)] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(InputError::at(
+                        path,
+                        k,
+                        format!("must be finite and >= 0, got {v}"),
+                    ));
+                }
+            }
+            if let Some(tracks) = &b.tracks {
+                for (i, t) in tracks.iter().enumerate() {
+                    if t != "theta_bar" && t != "ml" && !names.contains(t) {
+                        return Err(InputError::at(
+                            path,
+                            format!("bounds.tracks[{i}]"),
+                            format!(
+                                "no track {t:?}: use theta_bar, ml or a baseline name ({})",
+                                names.iter().cloned().collect::<Vec<_>>().join(", ")
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        if let Some(mc) = &file.monte_carlo
+            && mc.trials == 0
+        {
+            return Err(InputError::at(
+                path,
+                "monte_carlo.trials",
+                "must be at least 1",
+            ));
+        }
         let algorithm = Algorithm {
             mode: a.mode,
             gamma: a.gamma,
@@ -624,6 +899,11 @@ impl Scenario {
             realtime: file.realtime.clone(),
             expect: file.expect.clone(),
             trace_iterations: false,
+            baselines: file.baselines.clone(),
+            bounds: file.bounds.clone(),
+            scoring: file.scoring.clone(),
+            trials: file.monte_carlo.as_ref().map(|m| m.trials),
+            variant: None,
             file,
         };
         sc.check_schedule_length()?;
@@ -651,6 +931,37 @@ impl Scenario {
             }
         }
         Ok(())
+    }
+
+    /// Replace the baselines (`--baselines`); names must be unique.
+    pub fn with_baselines(
+        mut self,
+        baselines: Vec<crate::baselines::BaselineCfg>,
+    ) -> Result<Self, InputError> {
+        let mut names = BTreeSet::new();
+        for b in &baselines {
+            b.validate(&self.geometry, !self.geometry.transmitters.is_empty())
+                .map_err(|e| cli_error("--baselines", format!("{}: {e}", b.kind())))?;
+            if !names.insert(b.name()) {
+                return Err(cli_error(
+                    "--baselines",
+                    format!("{} is listed twice", b.name()),
+                ));
+            }
+        }
+        self.baselines = baselines;
+        Ok(self)
+    }
+
+    /// Run `n` Monte Carlo trials (`--trials`; `None` or 1 is a single run).
+    pub fn with_trials(mut self, n: Option<usize>) -> Result<Self, InputError> {
+        if n == Some(0) {
+            return Err(cli_error("--trials", "must be at least 1"));
+        }
+        if n.is_some() {
+            self.trials = n;
+        }
+        Ok(self)
     }
 
     /// Override the run seed.

@@ -1,78 +1,90 @@
-//! Every shipped scenario validates, runs in-process, and meets its `[expect]` block.
+//! Every shipped scenario (every variant) validates, runs in-process (as a
+//! Monte Carlo run when it asks for trials), and meets its `[expect]` block.
 
 use crate::util::{TempDir, root, run_inprocess};
-use sonarnet::scenario::{ExpectCfg, Scenario};
+use sonarnet::run::{Clock, EngineKind, ExpectResult, RunOptions};
+use sonarnet::scenario::Scenario;
 
-fn check(name: &str, what: &str, got: Option<f64>, max: Option<f64>) -> Option<String> {
-    let max = max?;
-    match got {
-        Some(v) if v <= max => None,
-        Some(v) => Some(format!(
-            "{name}: {what} = {v:.4} exceeds the expected maximum {max}"
-        )),
-        None => Some(format!(
-            "{name}: {what} was not computed but [expect] bounds it"
-        )),
-    }
+fn describe(name: &str, checks: &[ExpectResult]) -> Vec<String> {
+    checks
+        .iter()
+        .filter(|c| !c.holds)
+        .map(|c| {
+            format!(
+                "{name}: expect {} fails (lhs {:?}, rhs {:?})",
+                c.expect, c.lhs, c.rhs
+            )
+        })
+        .collect()
 }
 
-#[test]
-fn every_scenario_validates_runs_and_meets_its_expect_block() {
-    let mut failures = Vec::new();
-    let mut count = 0;
+/// The scenario files, sorted.
+fn scenario_files() -> Vec<std::path::PathBuf> {
     let mut entries: Vec<_> = std::fs::read_dir(root().join("scenarios"))
         .expect("scenarios dir")
         .map(|e| e.expect("dir entry").path())
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
     entries.sort();
-    for path in entries {
-        count += 1;
-        let name = path.file_name().unwrap().to_string_lossy().to_string();
-        let sc = match Scenario::load(&path) {
-            Ok(sc) => sc,
+    entries
+}
+
+#[test]
+fn every_scenario_validates_runs_and_meets_its_expect_block() {
+    let mut failures = Vec::new();
+    let mut count = 0;
+    for path in scenario_files() {
+        let file = path.file_name().unwrap().to_string_lossy().to_string();
+        let all = match Scenario::load_all(&path) {
+            Ok(v) => v,
             Err(e) => {
-                failures.push(format!("{name}: does not validate: {e}"));
+                failures.push(format!("{file}: does not validate: {e}"));
                 continue;
             }
         };
-        let tmp = TempDir::new("scenario");
-        let out = run_inprocess(&sc, tmp.path());
-        if let Some(e) = &out.error {
-            failures.push(format!("{name}: run failed: {e}"));
-            continue;
+        for sc in all {
+            count += 1;
+            let name = match &sc.variant {
+                Some(v) => format!("{file} [{v}]"),
+                None => file.clone(),
+            };
+            let tmp = TempDir::new("scenario");
+            let checks = match sc.trials {
+                Some(n) if n > 1 => {
+                    let opts = RunOptions {
+                        engine: EngineKind::Inprocess,
+                        clock: Clock::Logical,
+                        out_dir: tmp.path().to_path_buf(),
+                        command_line: vec!["test".into()],
+                        progress: false,
+                        check_expect: false,
+                    };
+                    match sonarnet::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
+                        Ok(mc) if mc.failed == 0 => mc.expect,
+                        Ok(mc) => {
+                            failures.push(format!("{name}: {} trials failed", mc.failed));
+                            continue;
+                        }
+                        Err(e) => {
+                            failures.push(format!("{name}: Monte Carlo failed: {e}"));
+                            continue;
+                        }
+                    }
+                }
+                _ => {
+                    let out = run_inprocess(&sc, tmp.path());
+                    if let Some(e) = &out.error {
+                        failures.push(format!("{name}: run failed: {e}"));
+                        continue;
+                    }
+                    out.metrics.expect
+                }
+            };
+            if checks.is_empty() {
+                failures.push(format!("{name}: has no [expect] checks"));
+            }
+            failures.extend(describe(&name, &checks));
         }
-        let m = &out.metrics;
-        let ExpectCfg {
-            rmse_max,
-            rmse_after_burn_in_max,
-            median_error_max,
-            final_error_max,
-            max_disagreement_max,
-            ml_rmse_max,
-        } = sc.expect.clone();
-        failures.extend(
-            [
-                check(&name, "rmse", m.rmse, rmse_max),
-                check(
-                    &name,
-                    "rmse_after_burn_in",
-                    m.rmse_after_burn_in,
-                    rmse_after_burn_in_max,
-                ),
-                check(&name, "median_error", m.median_error, median_error_max),
-                check(&name, "final_error", m.final_error, final_error_max),
-                check(
-                    &name,
-                    "max_disagreement",
-                    Some(m.max_disagreement),
-                    max_disagreement_max,
-                ),
-                check(&name, "ml_rmse", m.ml_rmse, ml_rmse_max),
-            ]
-            .into_iter()
-            .flatten(),
-        );
     }
     assert!(count >= 2, "expected at least two scenarios, found {count}");
     assert!(

@@ -59,6 +59,7 @@ pub fn run_inprocess(sc: &Scenario, out: &Path) -> RunOutcome {
         out_dir: out.to_path_buf(),
         command_line: vec!["test".into()],
         progress: false,
+        check_expect: true,
     };
     run::finish(sc, &real, rec, res.err(), &opts).expect("write outputs")
 }
