@@ -9,7 +9,8 @@
 //!   [`crate::score::TrackMetrics`] (`rmse`, `ctte`, `regret_pred`, ...);
 //! * `TRACK.bounds.BOUND.METRIC`: a certified bound's metric (`coverage`, ...);
 //! * in a Monte Carlo run a metric is its **mean** across trials; append
-//!   `.median`, `.p5`, `.p95`, `.min` or `.max` for another statistic.
+//!   `.rms`, `.median`, `.p5`, `.p95`, `.min` or `.max` for another statistic
+//!   (`NAME.rmse.rms` of one-sample trials is the RMSE over trials).
 //!
 //! Example: `"onm.ctte < ogd.ctte"`, `"ogd.ctte_rate < ogd.ctte_rate_mid"`,
 //! `"l0os.rmse < 0.9 * ls.rmse"`.

@@ -13,8 +13,8 @@
 //!   percentile curves of every track's error, running CTTE and regret
 //!   (format in [`crate::plot::data::MonteCarlo`]; at most
 //!   [`MAX_CURVE_POINTS`] samples, evenly strided, are kept), the CRLB band,
-//!   per-metric statistics (`n, mean, std, min, p5, p10, p25, median, p75,
-//!   p90, p95, max`) and the `[expect]` checks;
+//!   per-metric statistics (`n, mean, rms, std, min, p5, p10, p25, median,
+//!   p75, p90, p95, max`) and the `[expect]` checks;
 //! * trial 0's full single-run outputs (`track.csv`, `nodes.csv`,
 //!   `metrics.json`, ...), so the track plots have a representative trial.
 
@@ -126,6 +126,9 @@ pub fn stats(values: &[f64]) -> BTreeMap<&'static str, f64> {
     let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0).max(1.0);
     out.insert("n", n);
     out.insert("mean", mean);
+    // Root mean square across trials: for one-sample trials `NAME.rmse.rms`
+    // is the RMSE over trials that seed 004 and seed 003 report.
+    out.insert("rms", (values.iter().map(|v| v * v).sum::<f64>() / n).sqrt());
     out.insert("std", var.sqrt());
     for (k, q) in [
         ("min", 0.0),
@@ -162,7 +165,7 @@ pub fn lookup(
         && let Some(s) = stats.get(base)
     {
         return s.get(stat).copied().ok_or_else(|| {
-            format!("no statistic {stat:?} of {base:?} (mean, std, min, p5, p10, p25, median, p75, p90, p95, max)")
+            format!("no statistic {stat:?} of {base:?} (mean, rms, std, min, p5, p10, p25, median, p75, p90, p95, max)")
         });
     }
     Err(run::unknown_metric(name, stats.keys()))
