@@ -202,12 +202,12 @@ pub fn eval_relation(
 
 /// Check every expectation. The `*_max` thresholds refer to the distributed
 /// track (`theta_bar.rmse <= rmse_max`, ...; `ml_rmse_max` to `ml.rmse`).
-/// `Err` names the first expectation that cannot be evaluated (unknown
-/// metric, syntax error).
+/// Each entry is evaluated on its own: an `Err` says why that one cannot be
+/// evaluated (unknown metric, syntax error), and the others still are.
 pub fn check(
     expect: &ExpectCfg,
     lookup: &impl Fn(&str) -> Result<f64, String>,
-) -> Result<Vec<Check>, String> {
+) -> Vec<Result<Check, String>> {
     let mut texts: Vec<String> = Vec::new();
     let thresholds = [
         ("theta_bar.rmse", expect.rmse_max),
@@ -228,7 +228,7 @@ pub fn check(
     texts.extend(expect.holds.iter().cloned());
     texts
         .iter()
-        .map(|t| eval_relation(t, lookup).map_err(|e| format!("expect {t:?}: {e}")))
+        .map(|t| eval_relation(t, lookup).map_err(|e| format!("{t}: {e}")))
         .collect()
 }
 
@@ -285,6 +285,17 @@ mod tests {
     }
 
     #[test]
+    fn one_unknown_metric_does_not_hide_the_other_checks() {
+        let e = ExpectCfg {
+            holds: vec!["nope.x < 1".into(), "ogd.ctte < onm.ctte".into()],
+            ..Default::default()
+        };
+        let c = check(&e, &metrics);
+        assert!(c[0].is_err());
+        assert!(c[1].as_ref().unwrap().holds);
+    }
+
+    #[test]
     fn thresholds_become_relations_on_the_distributed_track() {
         let e = ExpectCfg {
             rmse_max: Some(5.0),
@@ -295,7 +306,7 @@ mod tests {
             "theta_bar.rmse" => Ok(4.0),
             other => metrics(other),
         };
-        let c = check(&e, &look).unwrap();
+        let c: Vec<Check> = check(&e, &look).into_iter().map(Result::unwrap).collect();
         assert_eq!(c.len(), 2);
         assert!(c.iter().all(|c| c.holds));
         assert_eq!(c[0].text, "theta_bar.rmse <= 5.0");

@@ -14,7 +14,7 @@
 //!   (format in [`crate::plot::data::MonteCarlo`]; at most
 //!   [`MAX_CURVE_POINTS`] samples, evenly strided, are kept), the CRLB band,
 //!   per-metric statistics (`n, mean, rms, std, min, p5, p10, p25, median,
-//!   p75, p90, p95, max`) and the `[expect]` checks;
+//!   p75, p80, p90, p95, max`) and the `[expect]` checks;
 //! * trial 0's full single-run outputs (`track.csv`, `nodes.csv`,
 //!   `metrics.json`, ...), so the track plots have a representative trial.
 
@@ -128,7 +128,10 @@ pub fn stats(values: &[f64]) -> BTreeMap<&'static str, f64> {
     out.insert("mean", mean);
     // Root mean square across trials: for one-sample trials `NAME.rmse.rms`
     // is the RMSE over trials that seed 004 and seed 003 report.
-    out.insert("rms", (values.iter().map(|v| v * v).sum::<f64>() / n).sqrt());
+    out.insert(
+        "rms",
+        (values.iter().map(|v| v * v).sum::<f64>() / n).sqrt(),
+    );
     out.insert("std", var.sqrt());
     for (k, q) in [
         ("min", 0.0),
@@ -137,6 +140,7 @@ pub fn stats(values: &[f64]) -> BTreeMap<&'static str, f64> {
         ("p25", 0.25),
         ("median", 0.5),
         ("p75", 0.75),
+        ("p80", 0.8),
         ("p90", 0.9),
         ("p95", 0.95),
         ("max", 1.0),
@@ -165,7 +169,7 @@ pub fn lookup(
         && let Some(s) = stats.get(base)
     {
         return s.get(stat).copied().ok_or_else(|| {
-            format!("no statistic {stat:?} of {base:?} (mean, rms, std, min, p5, p10, p25, median, p75, p90, p95, max)")
+            format!("no statistic {stat:?} of {base:?} (mean, rms, std, min, p5, p10, p25, median, p75, p80, p90, p95, max)")
         });
     }
     Err(run::unknown_metric(name, stats.keys()))
@@ -298,24 +302,9 @@ fn write_outputs(
         })
         .collect();
     let failed = trials.iter().filter(|t| t.status != "ok").count();
-    let expect: Vec<ExpectResult> =
-        match crate::expect::check(&sc.expect, &|n: &str| lookup(&stats_map, n)) {
-            Ok(c) => c
-                .into_iter()
-                .map(|c| ExpectResult {
-                    expect: c.text,
-                    lhs: Some(c.lhs),
-                    rhs: Some(c.rhs),
-                    holds: c.holds,
-                })
-                .collect(),
-            Err(e) => vec![ExpectResult {
-                expect: e,
-                lhs: None,
-                rhs: None,
-                holds: false,
-            }],
-        };
+    let expect = run::expect_results(crate::expect::check(&sc.expect, &|n: &str| {
+        lookup(&stats_map, n)
+    }));
     // Curves: track order of trial 0.
     let names: Vec<String> = trials
         .first()

@@ -357,15 +357,34 @@ pub fn flat_metrics(m: &RunMetrics, scored: &Scored) -> std::collections::BTreeM
 }
 
 /// Check the scenario's `[expect]` block against one run's metrics.
-pub fn check_expect(
-    sc: &Scenario,
-    flat: &std::collections::BTreeMap<String, f64>,
-) -> Result<Vec<crate::expect::Check>, String> {
-    crate::expect::check(&sc.expect, &|name: &str| {
+pub fn check_expect(sc: &Scenario, flat: &BTreeMap<String, f64>) -> Vec<ExpectResult> {
+    expect_results(crate::expect::check(&sc.expect, &|name: &str| {
         flat.get(name)
             .copied()
             .ok_or_else(|| unknown_metric(name, flat.keys()))
-    })
+    }))
+}
+
+/// Checks as recorded in `metrics.json` / `summary.json`; one that could not
+/// be evaluated fails with its reason.
+pub fn expect_results(checks: Vec<Result<crate::expect::Check, String>>) -> Vec<ExpectResult> {
+    checks
+        .into_iter()
+        .map(|c| match c {
+            Ok(c) => ExpectResult {
+                expect: c.text,
+                lhs: Some(c.lhs),
+                rhs: Some(c.rhs),
+                holds: c.holds,
+            },
+            Err(e) => ExpectResult {
+                expect: e,
+                lhs: None,
+                rhs: None,
+                holds: false,
+            },
+        })
+        .collect()
 }
 
 /// "no metric X" with the closest names, for expectation errors.
@@ -403,23 +422,7 @@ pub fn finish(
     let status = status.as_str();
     if error.is_none() && opts.check_expect {
         let flat = flat_metrics(&m, &scored);
-        m.expect = match check_expect(sc, &flat) {
-            Ok(c) => c
-                .into_iter()
-                .map(|c| ExpectResult {
-                    expect: c.text,
-                    lhs: Some(c.lhs),
-                    rhs: Some(c.rhs),
-                    holds: c.holds,
-                })
-                .collect(),
-            Err(e) => vec![ExpectResult {
-                expect: e,
-                lhs: None,
-                rhs: None,
-                holds: false,
-            }],
-        };
+        m.expect = check_expect(sc, &flat);
     }
     let dir = &opts.out_dir;
     std::fs::create_dir_all(dir).map_err(|e| RunError::Output {

@@ -453,11 +453,20 @@ pub struct Realization {
 }
 
 /// Deep-merge `over` into `base`: tables merge key by key, anything else
-/// (values, arrays, arrays of tables) replaces.
+/// (values, arrays, arrays of tables) replaces. A table that names a
+/// different `model` or `kind` (a noise model, a generator, a motion)
+/// replaces the base table whole, so a variant can switch models.
 pub fn merge_tables(base: &mut toml::Table, over: &toml::Table) {
+    let switches = |b: &toml::Table, o: &toml::Table| {
+        ["model", "kind", "rule"]
+            .iter()
+            .any(|tag| o.get(*tag).is_some_and(|v| b.get(*tag) != Some(v)))
+    };
     for (k, v) in over {
         match (base.get_mut(k), v) {
-            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge_tables(b, o),
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) if !switches(b, o) => {
+                merge_tables(b, o)
+            }
             _ => {
                 base.insert(k.clone(), v.clone());
             }
@@ -868,6 +877,8 @@ impl Scenario {
                 }
             }
         }
+        crate::expect::validate_syntax(&file.expect)
+            .map_err(|e| InputError::at(path, "expect.holds", e))?;
         if let Some(mc) = &file.monte_carlo
             && mc.trials == 0
         {

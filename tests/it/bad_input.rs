@@ -162,3 +162,38 @@ fn usage_errors_exit_with_code_2() {
     );
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn an_unknown_baseline_kind_is_named_with_its_index() {
+    let text = format!("{GOOD}\n[[baselines]]\nkind = \"kalman\"\n");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["kalman"]);
+}
+
+#[test]
+fn a_bad_expect_relation_is_rejected_at_load_time() {
+    let text = format!("{GOOD}\n[expect]\nholds = [\"theta_bar.rmse <\"]\n");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["expect.holds"]);
+}
+
+#[test]
+fn a_bad_variant_is_named_by_index_and_name() {
+    let text = format!(
+        "{GOOD}\n[[variants]]\nname = \"fine\"\n\n[[variants]]\nname = \"broken\"\nalgorithm = {{ gamma = -1.0 }}\n"
+    );
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["variants[1] (broken)", "algorithm.gamma"],
+    );
+}
+
+#[test]
+fn bounds_on_a_track_that_does_not_exist_are_rejected() {
+    let text = format!("{GOOD}\n[bounds]\nnames = [\"upp_rbbox\"]\ntracks = [\"pocs\"]\n");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["bounds.tracks[0]", "pocs"]);
+}

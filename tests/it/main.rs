@@ -2,6 +2,7 @@
 //! one module per area.
 
 mod bad_input;
+mod baselines;
 mod engine;
 mod paper;
 mod processes;

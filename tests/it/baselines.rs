@@ -1,0 +1,233 @@
+//! Baselines, bounds, variants and Monte Carlo through the real `sonarnet`
+//! binary: the outputs a user reads with pandas.
+
+use crate::util::{TempDir, read_rows, sonarnet};
+use std::time::Duration;
+
+const TOA: &str = r#"
+name = "toa"
+seed = 7
+[geometry]
+receivers = [[0.5, 0.5], [0.0, 0.5], [0.5, 0.0]]
+[network]
+generator = { kind = "ring" }
+[target]
+samples = 40
+motion = { model = "random_walk", start = [2.0, 1.0], c = 0.005 }
+[measurements]
+bistatic = false
+range = true
+range_noise = { model = "gaussian", sigma = 1e-3 }
+[algorithm]
+mode = "sync"
+gamma = 1.0
+iterations_per_sample = 5
+[[baselines]]
+kind = "ogd"
+[[baselines]]
+kind = "onm"
+[[baselines]]
+kind = "pocs"
+[[baselines]]
+kind = "lls"
+[bounds]
+names = ["upp_rbbox", "upp_maxdis"]
+rho = 0.005
+tracks = ["pocs"]
+[expect]
+holds = ["onm.rmse < 0.05", "pocs.bounds.upp_rbbox.coverage >= 0.9"]
+"#;
+
+fn header(path: &std::path::Path) -> Vec<String> {
+    let mut rdr = csv::Reader::from_path(path).expect("open csv");
+    rdr.headers()
+        .expect("header")
+        .iter()
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn baselines_and_bounds_get_their_own_track_columns_and_metrics() {
+    let tmp = TempDir::new("baselines");
+    let p = tmp.write("toa.toml", TOA);
+    let out = tmp.path().join("out");
+    let o = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--out",
+            out.to_str().unwrap(),
+            "--check",
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let h = header(&out.join("track.csv"));
+    for col in [
+        "regret",
+        "ogd_x",
+        "ogd_error",
+        "ogd_ctte",
+        "ogd_regret",
+        "ogd_regret_pred",
+        "onm_y",
+        "pocs_bound_upp_rbbox",
+        "pocs_bound_upp_maxdis",
+        "lls_x",
+    ] {
+        assert!(h.iter().any(|c| c == col), "track.csv lacks {col}: {h:?}");
+    }
+    assert!(
+        !h.iter().any(|c| c == "bound_upp_rbbox"),
+        "theta_bar carries no bound here"
+    );
+    let m = crate::util::metrics(&out);
+    let ogd = &m["baselines"]["ogd"];
+    assert!(ogd["ctte"].as_f64().unwrap() > 0.0);
+    assert!(ogd["regret"].is_number() && ogd["regret_pred"].is_number());
+    let cov = m["baselines"]["pocs"]["bounds"]["upp_maxdis"]["coverage"]
+        .as_f64()
+        .unwrap();
+    assert!((0.0..=1.0).contains(&cov));
+    let expect = m["expect"].as_array().unwrap();
+    assert_eq!(expect.len(), 2);
+    assert!(expect.iter().all(|e| e["holds"] == true), "{expect:?}");
+}
+
+#[test]
+fn a_failing_expectation_makes_check_exit_1_and_names_it() {
+    let tmp = TempDir::new("check");
+    let p = tmp.write(
+        "toa.toml",
+        &TOA.replace("\"onm.rmse < 0.05\"", "\"onm.rmse > 1000\""),
+    );
+    let out = tmp.path().join("out");
+    let o = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--out",
+            out.to_str().unwrap(),
+            "--check",
+        ],
+        Duration::from_secs(120),
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("onm.rmse > 1000"), "{err}");
+}
+
+#[test]
+fn monte_carlo_writes_one_row_per_trial_and_a_summary_with_bands() {
+    let tmp = TempDir::new("mc");
+    let p = tmp.write("toa.toml", TOA);
+    let out = tmp.path().join("out");
+    let o = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--trials",
+            "6",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        Duration::from_secs(300),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows = read_rows(&out.join("trials.csv"));
+    let head = header(&out.join("trials.csv"));
+    assert_eq!(rows.len(), 6, "6 trials");
+    assert_eq!(&head[..3], &["trial", "seed", "failed"]);
+    let seeds: Vec<&str> = rows.iter().map(|r| r[1].as_str()).collect();
+    assert_eq!(seeds, ["7", "8", "9", "10", "11", "12"]);
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["trials"], 6);
+    let n = s["sample"].as_array().unwrap().len();
+    assert_eq!(n, 40);
+    for track in ["theta_bar", "ml", "ogd", "onm", "pocs"] {
+        let mean = s["curves"][track]["ctte"]["mean"].as_array().unwrap();
+        assert_eq!(mean.len(), n, "{track}");
+    }
+    assert!(s["metrics"]["ogd.ctte"]["mean"].as_f64().unwrap() > 0.0);
+    assert!(s["metrics"]["ogd.ctte"]["p95"].as_f64() >= s["metrics"]["ogd.ctte"]["p5"].as_f64());
+    // Trial 0 of the Monte Carlo run is the single run with the same seed.
+    let single = tmp.path().join("single");
+    let o = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--out",
+            single.to_str().unwrap(),
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success());
+    let t0 = &rows[0];
+    let col = head.iter().position(|c| c == "ogd.ctte").unwrap();
+    let m = crate::util::metrics(&single);
+    let want = m["baselines"]["ogd"]["ctte"].as_f64().unwrap();
+    approx::assert_relative_eq!(t0[col].parse::<f64>().unwrap(), want, max_relative = 1e-15);
+    // The report renders a Monte Carlo directory.
+    assert!(out.join("ctte.svg").is_file() && out.join("error.svg").is_file());
+}
+
+#[test]
+fn every_variant_runs_into_its_own_directory_and_variant_picks_one() {
+    let tmp = TempDir::new("variants");
+    let text = format!(
+        "{TOA}\n[[variants]]\nname = \"quiet\"\n\n[[variants]]\nname = \"noisy\"\nmeasurements = {{ range_noise = {{ model = \"gaussian\", sigma = 1e-2 }} }}\n"
+    );
+    let p = tmp.write("v.toml", &text);
+    let out = tmp.path().join("out");
+    let o = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rmse = |d: &str| {
+        crate::util::metrics(&out.join(d))["baselines"]["onm"]["rmse"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(rmse("noisy") > rmse("quiet"));
+    let one = tmp.path().join("one");
+    let o = sonarnet(
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--variant",
+            "noisy",
+            "--out",
+            one.to_str().unwrap(),
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success());
+    assert!(
+        one.join("metrics.json").is_file(),
+        "a single variant writes --out itself"
+    );
+    let o = sonarnet(
+        &["run", p.to_str().unwrap(), "--variant", "loud"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("quiet, noisy"));
+}
