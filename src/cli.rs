@@ -76,7 +76,9 @@ pub struct RunArgs {
     /// Gossip mode (overrides algorithm.mode).
     #[arg(long, value_enum)]
     pub mode: Option<Mode>,
-    /// Local prox (overrides algorithm.local_solver).
+    /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
+    /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
+    /// outlier rows per node separated).
     #[arg(long, value_parser = parse_solver)]
     pub local_solver: Option<LocalSolver>,
     /// Run seed (overrides the scenario's seed).
@@ -120,7 +122,7 @@ fn parse_solver(s: &str) -> Result<LocalSolver, String> {
     serde::Deserialize::deserialize(
         serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
     )
-    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs or relaxed)"))
+    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs, relaxed or gtrs_l0)"))
 }
 
 /// How a command failed; decides the exit code.
@@ -231,6 +233,7 @@ pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
     }
     if let Some(s) = args.local_solver {
         sc = sc.with_local_solver(s);
+        sc.check_kappa()?;
     }
     if let Some(n) = args.iterations_per_sample {
         sc = sc.with_iterations_per_sample(n)?;

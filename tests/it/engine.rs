@@ -33,8 +33,8 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
             match a.mode {
                 Mode::Async => {
                     let (v, w) = sched.next_pair();
-                    let tv = prox(a.local_solver, &probs[v], &u[v], a.gamma).unwrap();
-                    let tw = prox(a.local_solver, &probs[w], &u[w], a.gamma).unwrap();
+                    let tv = prox(a.local_solver, &probs[v], &u[v], a.gamma, a.kappa).unwrap();
+                    let tw = prox(a.local_solver, &probs[w], &u[w], a.gamma, a.kappa).unwrap();
                     let rv = 2.0 * tv - u[v];
                     let rw = 2.0 * tw - u[w];
                     let avg = Vec2::new((rv[0] + rw[0]) / 2.0, (rv[1] + rw[1]) / 2.0);
@@ -45,7 +45,7 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
                 }
                 Mode::Sync => {
                     let ts: Vec<Vec3> = (0..n)
-                        .map(|i| prox(a.local_solver, &probs[i], &u[i], a.gamma).unwrap())
+                        .map(|i| prox(a.local_solver, &probs[i], &u[i], a.gamma, a.kappa).unwrap())
                         .collect();
                     let rs: Vec<Vec3> = (0..n).map(|i| 2.0 * ts[i] - u[i]).collect();
                     let mut s = Vec2::zeros();
