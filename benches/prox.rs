@@ -1,7 +1,8 @@
 //! Local prox cost on the paper's geometry (seed 002 Sec. III-C): N = 6 receivers,
 //! 2 transmitters, target near [500, 500], range sigma 5, DOA sigma 0.5, omega 1,
 //! gamma 2e-8. Each iteration is ONE prox call; calls cycle through 6 nodes x 16 noisy
-//! samples with Douglas-Rachford-like inputs `u` near the lifted target.
+//! samples with Douglas-Rachford-like inputs `u` near the lifted target. `gtrs_l0` runs
+//! on the same instances with `kappa = 1`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarnet::geometry::{Vec2, Vec3};
@@ -10,6 +11,7 @@ use sonarnet::measure::NodeMeasurements;
 use sonarnet::noise::NoiseModel;
 use sonarnet::prox::{prox_gtrs, prox_relaxed};
 use sonarnet::rng::{Stream, stream_rng};
+use sonarnet::robust_prox::prox_gtrs_l0;
 use std::hint::black_box;
 
 fn instances() -> Vec<(LocalProblem, Vec3)> {
@@ -65,6 +67,21 @@ fn bench_prox(c: &mut Criterion) {
             let (p, u) = &inst[i % inst.len()];
             i = i.wrapping_add(1);
             black_box(prox_gtrs(black_box(p), black_box(u), black_box(gamma)))
+        })
+    });
+    // gtrs_l0 with kappa = 1 on the same 4-row instances: 4 supports enumerated,
+    // one GTRS solve each (src/robust_prox.rs).
+    let mut i = 0usize;
+    c.bench_function("gtrs_l0_prox_kappa1", |b| {
+        b.iter(|| {
+            let (p, u) = &inst[i % inst.len()];
+            i = i.wrapping_add(1);
+            black_box(prox_gtrs_l0(
+                black_box(p),
+                black_box(u),
+                black_box(gamma),
+                black_box(1),
+            ))
         })
     });
     let mut i = 0usize;

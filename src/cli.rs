@@ -76,7 +76,9 @@ pub struct RunArgs {
     /// Gossip mode (overrides algorithm.mode).
     #[arg(long, value_enum)]
     pub mode: Option<Mode>,
-    /// Local prox (overrides algorithm.local_solver).
+    /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
+    /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
+    /// outlier rows per node separated).
     #[arg(long, value_parser = parse_solver)]
     pub local_solver: Option<LocalSolver>,
     /// Run seed (overrides the scenario's seed).
@@ -318,6 +320,7 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         }
         if let Some(s) = args.local_solver {
             sc = sc.with_local_solver(s);
+            sc.check_kappa()?;
         }
         if let Some(n) = args.iterations_per_sample {
             sc = sc.with_iterations_per_sample(n)?;

@@ -48,6 +48,7 @@ pub mod prox;
 pub mod report;
 pub mod rng;
 pub mod robust;
+pub mod robust_prox;
 pub mod run;
 pub mod scenario;
 pub mod score;

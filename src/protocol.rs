@@ -43,6 +43,11 @@ pub struct NodeConfig {
     pub gamma: f64,
     /// Local prox.
     pub solver: LocalSolver,
+    /// Outlier budget of [`LocalSolver::GtrsL0`] (rows of this node's cost that may be
+    /// separated as outliers; clamped per sample by
+    /// [`crate::robust_prox::effective_kappa`]). Ignored by the other solvers.
+    #[serde(default = "default_kappa")]
+    pub kappa: usize,
     /// Initial `u` (and `theta`).
     pub init_u: Vec3,
     /// Run seed (the node's own clock RNG derives from it and `id`).
@@ -53,6 +58,10 @@ pub struct NodeConfig {
     /// async nodes always report each iteration.
     #[serde(default)]
     pub trace_iterations: bool,
+}
+
+fn default_kappa() -> usize {
+    crate::robust_prox::DEFAULT_KAPPA
 }
 
 /// How a run is clocked, as far as a node is concerned.
@@ -384,7 +393,13 @@ impl NodeCore {
     }
 
     fn prox_step(&mut self) -> Result<(Vec3, Vec3), ProxError> {
-        let theta = prox(self.cfg.solver, &self.problem, &self.u, self.cfg.gamma)?;
+        let theta = prox(
+            self.cfg.solver,
+            &self.problem,
+            &self.u,
+            self.cfg.gamma,
+            self.cfg.kappa,
+        )?;
         self.counters.prox_solves += 1;
         let r = 2.0 * theta - self.u;
         Ok((theta, r))

@@ -60,6 +60,10 @@ pub enum LocalSolver {
     Gtrs,
     /// Unconstrained prox, a 3x3 SPD solve (eq. 11 without eq. 12).
     Relaxed,
+    /// Exact prox on the cone with `l0` outlier separation of up to `kappa` rows
+    /// (seed 004 eq. 7, 19-20); see [`crate::robust_prox`].
+    #[serde(rename = "gtrs_l0")]
+    GtrsL0,
 }
 
 /// Why a prox could not be computed.
@@ -156,16 +160,20 @@ pub fn prox_gtrs(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxErr
     }
 }
 
-/// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13) or [`prox_relaxed`] (eq. 11).
+/// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13), [`prox_relaxed`] (eq. 11) or
+/// [`crate::robust_prox::prox_gtrs_l0`] (eq. 13 with `l0` outlier separation of up to
+/// `kappa` rows, seed 004 eq. 7). `kappa` is ignored by the other two.
 pub fn prox(
     solver: LocalSolver,
     p: &LocalProblem,
     u: &Vec3,
     gamma: f64,
+    kappa: usize,
 ) -> Result<Vec3, ProxError> {
     match solver {
         LocalSolver::Gtrs => prox_gtrs(p, u, gamma),
         LocalSolver::Relaxed => prox_relaxed(p, u, gamma),
+        LocalSolver::GtrsL0 => crate::robust_prox::prox_gtrs_l0(p, u, gamma, kappa),
     }
 }
 
@@ -469,7 +477,7 @@ fn cubic_largest_root(a: f64, b: f64, c: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::geometry::Vec2;
     use crate::local::RowKind;
@@ -606,7 +614,7 @@ mod tests {
     /// * a polar grid around `r_v` covering the same ellipse (finer near the apex);
     ///
     /// plus the apex, then Nelder-Mead from the best discrete local minima of each grid.
-    fn brute_force(p: &LocalProblem, u: &Vec3, gamma: f64, n: usize) -> (Vec3, f64) {
+    pub(crate) fn brute_force(p: &LocalProblem, u: &Vec3, gamma: f64, n: usize) -> (Vec3, f64) {
         let apex = Vec3::new(p.anchor.x, p.anchor.y, 0.0);
         let f_apex = objective(p, &apex, u, gamma);
         let rel = prox_relaxed(p, u, gamma).expect("relaxed prox");
@@ -739,7 +747,7 @@ mod tests {
     }
 
     /// A rounding-error bound (a few ulps per term) for evaluating `objective` at `th`.
-    fn eval_error(p: &LocalProblem, th: &Vec3, u: &Vec3, gamma: f64) -> f64 {
+    pub(crate) fn eval_error(p: &LocalProblem, th: &Vec3, u: &Vec3, gamma: f64) -> f64 {
         let mut s = 0.0;
         for (row, g) in p.rows.iter().zip(&p.g) {
             let e = row[0] * th[0] + row[1] * th[1] + row[2] * th[2] - g;
@@ -753,12 +761,12 @@ mod tests {
 
     /// A random local problem of node `v` (see `case()`).
     #[derive(Debug, Clone)]
-    struct Case {
-        p: LocalProblem,
-        u: Vec3,
-        gamma: f64,
+    pub(crate) struct Case {
+        pub(crate) p: LocalProblem,
+        pub(crate) u: Vec3,
+        pub(crate) gamma: f64,
         /// Coordinate scale of the instance.
-        scale: f64,
+        pub(crate) scale: f64,
     }
 
     /// Geometry: scale, transmitter count, positions, mode (0 generic, 1 target near
@@ -843,7 +851,7 @@ mod tests {
     }
 
     prop_compose! {
-        fn case()(
+        pub(crate) fn case()(
             geo in (
                 any::<bool>(),
                 0usize..=4,
@@ -868,7 +876,7 @@ mod tests {
 
     /// The paper's geometry (seed 002 Sec. III-C): node `v` of 6, noise-free
     /// measurements of a target at `[520, 480]`.
-    fn paper_problem(v: usize) -> LocalProblem {
+    pub(crate) fn paper_problem(v: usize) -> LocalProblem {
         let tx = [Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)];
         let rx = [
             Vec2::new(-1000.0, -1000.0),
@@ -1094,13 +1102,13 @@ mod tests {
     }
 
     #[test]
-    fn bad_gamma_is_an_error_for_both_solvers() {
+    fn bad_gamma_is_an_error_for_every_solver() {
         let p = paper_problem(0);
         let u = Vec3::new(1.0, 2.0, 3.0);
         for g in [0.0, -1e-8, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed] {
+            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
                 assert!(
-                    matches!(prox(s, &p, &u, g), Err(ProxError::BadGamma(_))),
+                    matches!(prox(s, &p, &u, g, 1), Err(ProxError::BadGamma(_))),
                     "{s:?} gamma {g}"
                 );
             }
@@ -1139,9 +1147,9 @@ mod tests {
             cases.push((LocalProblem::empty(Vec2::new(bad, 0.0)), u));
         }
         for (k, (p, u)) in cases.iter().enumerate() {
-            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed] {
+            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
                 assert!(
-                    matches!(prox(s, p, u, 2e-8), Err(ProxError::NonFinite(_))),
+                    matches!(prox(s, p, u, 2e-8, 1), Err(ProxError::NonFinite(_))),
                     "case {k} {s:?}"
                 );
             }
@@ -1156,9 +1164,9 @@ mod tests {
             vec![1e200],
             vec![RowKind::Range],
         );
-        for s in [LocalSolver::Gtrs, LocalSolver::Relaxed] {
+        for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
             assert!(
-                prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), 1.0).is_err(),
+                prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), 1.0, 1).is_err(),
                 "{s:?}"
             );
         }
@@ -1174,8 +1182,8 @@ mod tests {
             vec![RowKind::Range],
         );
         for gamma in [1e10, 1e100, 1e300, f64::MAX] {
-            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed] {
-                if let Ok(th) = prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), gamma) {
+            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
+                if let Ok(th) = prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), gamma, 1) {
                     assert!(th.iter().all(|x| x.is_finite()), "{s:?} {gamma}: {th:?}");
                 }
             }

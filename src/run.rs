@@ -722,6 +722,7 @@ fn write_run_json(
     resolved.seed = sc.seed;
     resolved.algorithm.mode = sc.algorithm.mode;
     resolved.algorithm.local_solver = sc.algorithm.local_solver;
+    resolved.algorithm.kappa = sc.algorithm.kappa;
     resolved.algorithm.iterations_per_sample = sc.algorithm.iterations_per_sample;
     if let Some(t) = &mut resolved.target {
         t.samples = sc.samples;

@@ -301,9 +301,14 @@ pub struct AlgorithmCfg {
     /// Douglas-Rachford iterations between two samples.
     #[serde(default = "default_ips")]
     pub iterations_per_sample: usize,
-    /// `gtrs` (exact, eq. 13) or `relaxed`.
+    /// `gtrs` (exact, eq. 13), `relaxed` or `gtrs_l0` (eq. 13 with `l0` outlier
+    /// separation, seed 004 eq. 7).
     #[serde(default = "default_solver")]
     pub local_solver: LocalSolver,
+    /// `gtrs_l0` only: how many rows of each node's cost may be outliers. Must be
+    /// below the number of rows of every node that has measurements.
+    #[serde(default = "default_kappa")]
+    pub kappa: usize,
     /// Initial `u` of every node.
     #[serde(default)]
     pub init_u: [f64; 3],
@@ -317,6 +322,10 @@ pub struct AlgorithmCfg {
 
 fn default_solver() -> LocalSolver {
     LocalSolver::Gtrs
+}
+
+fn default_kappa() -> usize {
+    crate::robust_prox::DEFAULT_KAPPA
 }
 
 /// `[realtime]`: the free-running emulator's clocks.
@@ -389,6 +398,8 @@ pub struct Algorithm {
     pub iterations_per_sample: usize,
     /// Local prox.
     pub local_solver: LocalSolver,
+    /// Outlier budget per node of `gtrs_l0`.
+    pub kappa: usize,
     /// Initial `u`.
     pub init_u: Vec3,
     /// A replayed async schedule, `(v, w)` per iteration, and its file.
@@ -893,6 +904,7 @@ impl Scenario {
             gamma: a.gamma,
             iterations_per_sample: a.iterations_per_sample,
             local_solver: a.local_solver,
+            kappa: a.kappa,
             init_u: Vec3::new(a.init_u[0], a.init_u[1], a.init_u[2]),
             schedule,
             burn_in: a.burn_in,
@@ -918,7 +930,58 @@ impl Scenario {
             file,
         };
         sc.check_schedule_length()?;
+        sc.check_kappa()?;
         Ok(sc)
+    }
+
+    /// The nominal number of rows of node `id`'s local cost (seed 002 eq. 9): one per
+    /// bistatic range, two per DOA, one per one-way range. Synthetic data: what the
+    /// measurements config synthesizes; a trace: the most the node has at any sample.
+    pub fn nominal_rows(&self, id: usize) -> usize {
+        let rows = |m: &NodeMeasurements| {
+            m.bistatic.len() + 2 * usize::from(m.doa.is_some()) + usize::from(m.range.is_some())
+        };
+        match &self.source {
+            DataSource::Trace { measurements, .. } => measurements
+                .iter()
+                .filter_map(|s| s.nodes.get(id).map(rows))
+                .max()
+                .unwrap_or(0),
+            DataSource::Synthetic { .. } => {
+                let m = &self.measurements;
+                let n_tx = if m.bistatic {
+                    self.geometry.transmitters.len()
+                } else {
+                    0
+                };
+                n_tx + 2 * usize::from(m.doa) + usize::from(m.range)
+            }
+        }
+    }
+
+    /// With `gtrs_l0`, `algorithm.kappa` must be below the nominal row count
+    /// ([`Scenario::nominal_rows`]) of every node that has any row (a node without
+    /// measurements runs the plain prox anyway). Samples with fewer rows are clamped at
+    /// run time ([`crate::robust_prox::effective_kappa`]).
+    pub fn check_kappa(&self) -> Result<(), InputError> {
+        if self.algorithm.local_solver != LocalSolver::GtrsL0 {
+            return Ok(());
+        }
+        let kappa = self.algorithm.kappa;
+        for id in 0..self.geometry.receivers.len() {
+            let rows = self.nominal_rows(id);
+            if rows > 0 && kappa >= rows {
+                return Err(InputError::at(
+                    &self.path,
+                    "algorithm.kappa",
+                    format!(
+                        "must be below the number of rows of every node's local cost with \
+                         local_solver = \"gtrs_l0\" (node {id} has {rows}), got {kappa}"
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Total DR iterations of a run.
@@ -994,7 +1057,7 @@ impl Scenario {
         Ok(self)
     }
 
-    /// Override the local solver.
+    /// Override the local solver (see [`Scenario::check_kappa`] for `gtrs_l0`).
     pub fn with_local_solver(mut self, s: LocalSolver) -> Self {
         self.algorithm.local_solver = s;
         self

@@ -129,6 +129,7 @@ pub fn node_config(sc: &Scenario, seed: u64, id: usize, mode: NodeMode) -> NodeC
         omega: sc.measurements.omega,
         gamma: sc.algorithm.gamma,
         solver: sc.algorithm.local_solver,
+        kappa: sc.algorithm.kappa,
         init_u: sc.algorithm.init_u,
         seed,
         mode,

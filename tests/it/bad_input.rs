@@ -26,20 +26,29 @@ iterations_per_sample = 5
 "#;
 
 fn run_bad(text: &str, extra: &[(&str, &str)]) -> (i32, String, std::path::PathBuf) {
+    run_bad_with(text, extra, &[])
+}
+
+/// `run_bad` with extra command-line arguments.
+fn run_bad_with(
+    text: &str,
+    extra: &[(&str, &str)],
+    args: &[&str],
+) -> (i32, String, std::path::PathBuf) {
     let tmp = TempDir::new("bad");
     for (name, body) in extra {
         tmp.write(name, body);
     }
     let p = tmp.write("scenario.toml", text);
-    let out = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--out",
-            tmp.path().join("out").to_str().unwrap(),
-        ],
-        Duration::from_secs(60),
-    );
+    let out_dir = tmp.path().join("out");
+    let mut all = vec![
+        "run",
+        p.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ];
+    all.extend_from_slice(args);
+    let out = sonarnet(&all, Duration::from_secs(60));
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     (out.status.code().unwrap_or(-1), stderr, p)
 }
@@ -150,6 +159,42 @@ fn a_negative_gamma_is_rejected_with_its_key() {
     let text = GOOD.replace("gamma = 1e-6", "gamma = -1.0");
     let (code, stderr, p) = run_bad(&text, &[]);
     assert_clear(code, &stderr, &p, &["algorithm.gamma", "> 0"]);
+}
+
+#[test]
+fn a_kappa_not_below_the_row_count_of_a_node_is_rejected_with_its_key() {
+    // One transmitter and a DOA: 3 rows per node.
+    let text = GOOD.replace(
+        "gamma = 1e-6",
+        "gamma = 1e-6\nlocal_solver = \"gtrs_l0\"\nkappa = 3",
+    );
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["algorithm.kappa", "node 0 has 3", "got 3"],
+    );
+    // The same kappa is fine with gtrs (unused) until --local-solver asks for gtrs_l0.
+    let text = GOOD.replace("gamma = 1e-6", "gamma = 1e-6\nkappa = 3");
+    let (code, stderr, _) = run_bad(&text, &[]);
+    assert_eq!(code, 0, "{stderr}");
+    let (code, stderr, p) = run_bad_with(&text, &[], &["--local-solver", "gtrs_l0"]);
+    assert_clear(code, &stderr, &p, &["algorithm.kappa", "gtrs_l0"]);
+    // kappa = 2 leaves one row: it runs.
+    let text = GOOD.replace("gamma = 1e-6", "gamma = 1e-6\nkappa = 2");
+    let (code, stderr, _) = run_bad_with(&text, &[], &["--local-solver", "gtrs_l0"]);
+    assert_eq!(code, 0, "{stderr}");
+}
+
+#[test]
+fn an_unknown_local_solver_lists_gtrs_l0_among_the_choices() {
+    let out = sonarnet(
+        &["run", "x.toml", "--local-solver", "l0"],
+        Duration::from_secs(30),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("gtrs, relaxed or gtrs_l0"));
 }
 
 #[test]

@@ -5,7 +5,7 @@ use crate::util::scenario;
 use sonarnet::engine::Scheduler;
 use sonarnet::geometry::{Vec2, Vec3};
 use sonarnet::local::LocalProblem;
-use sonarnet::prox::prox;
+use sonarnet::prox::{LocalSolver, prox};
 use sonarnet::run;
 use sonarnet::scenario::{Mode, Scenario};
 
@@ -33,8 +33,8 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
             match a.mode {
                 Mode::Async => {
                     let (v, w) = sched.next_pair();
-                    let tv = prox(a.local_solver, &probs[v], &u[v], a.gamma).unwrap();
-                    let tw = prox(a.local_solver, &probs[w], &u[w], a.gamma).unwrap();
+                    let tv = prox(a.local_solver, &probs[v], &u[v], a.gamma, a.kappa).unwrap();
+                    let tw = prox(a.local_solver, &probs[w], &u[w], a.gamma, a.kappa).unwrap();
                     let rv = 2.0 * tv - u[v];
                     let rw = 2.0 * tw - u[w];
                     let avg = Vec2::new((rv[0] + rw[0]) / 2.0, (rv[1] + rw[1]) / 2.0);
@@ -45,7 +45,7 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
                 }
                 Mode::Sync => {
                     let ts: Vec<Vec3> = (0..n)
-                        .map(|i| prox(a.local_solver, &probs[i], &u[i], a.gamma).unwrap())
+                        .map(|i| prox(a.local_solver, &probs[i], &u[i], a.gamma, a.kappa).unwrap())
                         .collect();
                     let rs: Vec<Vec3> = (0..n).map(|i| 2.0 * ts[i] - u[i]).collect();
                     let mut s = Vec2::zeros();
@@ -67,13 +67,22 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
 }
 
 fn check(mode: Mode, file: &str) {
-    let sc = Scenario::load(&scenario(file))
+    check_with(mode, file, None);
+}
+
+/// `check`, with the scenario's local solver replaced by `solver` if given.
+fn check_with(mode: Mode, file: &str, solver: Option<LocalSolver>) {
+    let mut sc = Scenario::load(&scenario(file))
         .unwrap()
         .with_mode(mode)
         .unwrap()
         .with_samples(25)
         .unwrap()
         .with_seed(11);
+    if let Some(s) = solver {
+        sc = sc.with_local_solver(s);
+        sc.check_kappa().unwrap();
+    }
     let real = sc.realize(sc.seed);
     let (rec, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
     res.unwrap();
@@ -101,4 +110,65 @@ fn async_engine_equals_the_sequential_transcription_of_eq_11_bit_for_bit() {
 fn sync_engine_equals_the_sequential_consensus_update_bit_for_bit() {
     check(Mode::Sync, "mourya2017-spiral.toml");
     check(Mode::Sync, "rgg16-waypoints.toml");
+}
+
+#[test]
+fn async_engine_with_gtrs_l0_equals_the_sequential_transcription_bit_for_bit() {
+    check_with(
+        Mode::Async,
+        "mourya2017-spiral.toml",
+        Some(LocalSolver::GtrsL0),
+    );
+    check_with(
+        Mode::Async,
+        "rgg16-waypoints.toml",
+        Some(LocalSolver::GtrsL0),
+    );
+}
+
+#[test]
+fn sync_engine_with_gtrs_l0_equals_the_sequential_consensus_update_bit_for_bit() {
+    check_with(
+        Mode::Sync,
+        "mourya2017-spiral.toml",
+        Some(LocalSolver::GtrsL0),
+    );
+    check_with(
+        Mode::Sync,
+        "rgg16-waypoints.toml",
+        Some(LocalSolver::GtrsL0),
+    );
+}
+
+#[test]
+fn gtrs_l0_runs_in_process_in_both_modes_and_tracks_the_spiral() {
+    for mode in [Mode::Sync, Mode::Async] {
+        let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+            .unwrap()
+            .with_mode(mode)
+            .unwrap()
+            .with_samples(40)
+            .unwrap()
+            .with_local_solver(LocalSolver::GtrsL0);
+        sc.check_kappa().unwrap();
+        assert_eq!(sc.algorithm.kappa, 1);
+        let real = sc.realize(sc.seed);
+        let (rec, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
+        res.unwrap();
+        assert_eq!(rec.thetas.len(), 40);
+        let truth = real.truth.as_ref().unwrap();
+        let errs: Vec<f64> = (20..40)
+            .map(|k| (sonarnet::metrics::theta_bar(&rec.thetas[k]) - truth[k]).norm())
+            .collect();
+        let worst = errs.iter().cloned().fold(0.0, f64::max);
+        assert!(
+            errs.iter().all(|e| e.is_finite()) && worst < 100.0,
+            "{mode:?}: errors {errs:?}"
+        );
+        // It is a different prox: the plain GTRS run differs.
+        let plain = sc.clone().with_local_solver(LocalSolver::Gtrs);
+        let (rec_g, res_g) = run::run_inprocess(&plain, &real, &mut |_, _| {});
+        res_g.unwrap();
+        assert_ne!(rec.thetas, rec_g.thetas, "{mode:?}");
+    }
 }

@@ -37,11 +37,22 @@ fn nodes_csv_equal(a: &std::path::Path, b: &std::path::Path) {
 }
 
 fn equivalence(file: &str, mode: &str, samples: &str) {
+    equivalence_at(&scenario(file), mode, samples, &[]);
+}
+
+/// `equivalence` for the scenario file `sc`, with extra `sonarnet run` arguments
+/// for both engines; returns run.json of the processes run.
+fn equivalence_at(
+    sc: &std::path::Path,
+    mode: &str,
+    samples: &str,
+    extra: &[&str],
+) -> serde_json::Value {
     let tmp = TempDir::new("equiv");
-    let sc = scenario(file);
+    let file = sc.display();
     let (p, i) = (tmp.path().join("p"), tmp.path().join("i"));
     for (engine, out) in [("processes", &p), ("inprocess", &i)] {
-        let o = run(&[
+        let mut args = vec![
             "run",
             sc.to_str().unwrap(),
             "--engine",
@@ -55,7 +66,9 @@ fn equivalence(file: &str, mode: &str, samples: &str) {
             "--quiet",
             "--out",
             out.to_str().unwrap(),
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
         assert!(
             o.status.success(),
             "{engine} {mode} run of {file} failed:\n{}",
@@ -66,6 +79,8 @@ fn equivalence(file: &str, mode: &str, samples: &str) {
     assert_eq!(metrics(&p)["engine"], "processes");
     assert_eq!(metrics(&p)["clock"], "logical");
     assert_nothing_left(&run_id_of(&p));
+    serde_json::from_str(&std::fs::read_to_string(p.join("run.json")).expect("run.json"))
+        .expect("run.json parses")
 }
 
 #[test]
@@ -86,6 +101,48 @@ fn async_processes_reproduce_the_inprocess_engine_on_16_nodes() {
 #[test]
 fn sync_processes_reproduce_the_inprocess_engine_on_16_nodes() {
     equivalence("rgg16-waypoints.toml", "sync", "12");
+}
+
+/// The spiral with `local_solver = "gtrs_l0"` and `kappa = 2` (not the default, so a
+/// node process that lost `kappa` on the way would disagree).
+fn spiral_gtrs_l0_kappa_2(tmp: &TempDir) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(scenario("mourya2017-spiral.toml")).unwrap();
+    assert!(text.contains("local_solver = \"gtrs\"\n"));
+    let text = text.replace(
+        "local_solver = \"gtrs\"\n",
+        "local_solver = \"gtrs_l0\"\nkappa = 2\n",
+    );
+    tmp.write("spiral-l0.toml", &text)
+}
+
+#[test]
+fn async_processes_reproduce_the_inprocess_engine_with_gtrs_l0() {
+    let run = equivalence_at(
+        &scenario("mourya2017-spiral.toml"),
+        "async",
+        "60",
+        &["--local-solver", "gtrs_l0"],
+    );
+    assert_eq!(run["local_solver"], "gtrs_l0");
+    assert_eq!(run["scenario"]["algorithm"]["kappa"], 1);
+    let tmp = TempDir::new("l0-async");
+    let run = equivalence_at(&spiral_gtrs_l0_kappa_2(&tmp), "async", "40", &[]);
+    assert_eq!(run["scenario"]["algorithm"]["kappa"], 2);
+}
+
+#[test]
+fn sync_processes_reproduce_the_inprocess_engine_with_gtrs_l0() {
+    let tmp = TempDir::new("l0-sync");
+    let run = equivalence_at(&spiral_gtrs_l0_kappa_2(&tmp), "sync", "20", &[]);
+    assert_eq!(run["local_solver"], "gtrs_l0");
+    assert_eq!(run["scenario"]["algorithm"]["kappa"], 2);
+    let run = equivalence_at(
+        &scenario("rgg16-waypoints.toml"),
+        "sync",
+        "12",
+        &["--local-solver", "gtrs_l0"],
+    );
+    assert_eq!(run["local_solver"], "gtrs_l0");
 }
 
 #[test]
