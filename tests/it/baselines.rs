@@ -231,3 +231,35 @@ fn every_variant_runs_into_its_own_directory_and_variant_picks_one() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("quiet, noisy"));
 }
+
+#[test]
+fn a_toa_only_network_is_tracked_by_the_distributed_engine_in_sync_and_async_mode() {
+    // Seed 000's three anchors are the gossip nodes; each node has one
+    // one-way range row [0, 0, 1] (g = r_v) and the same GTRS prox.
+    let text = TOA
+        .replace(
+            "gamma = 1.0\niterations_per_sample = 5",
+            "gamma = 3.0\niterations_per_sample = 50\nburn_in = 10",
+        )
+        .replace(
+            "[expect]\nholds = [\"onm.rmse < 0.05\", \"pocs.bounds.upp_rbbox.coverage >= 0.9\"]\n",
+            "",
+        );
+    let tmp = TempDir::new("toa-dr");
+    let p = tmp.write("toa.toml", &text);
+    for (mode, bound) in [("sync", 0.01), ("async", 0.05)] {
+        let sc = sonarnet::scenario::Scenario::load(&p)
+            .unwrap()
+            .with_mode(if mode == "sync" {
+                sonarnet::scenario::Mode::Sync
+            } else {
+                sonarnet::scenario::Mode::Async
+            })
+            .unwrap();
+        let out = crate::util::run_inprocess(&sc, &tmp.path().join(mode));
+        assert!(out.error.is_none());
+        let r = out.metrics.rmse_after_burn_in.unwrap();
+        // sigma = 1e-3: after the burn-in the consensus tracks within centimetres.
+        assert!(r < bound, "{mode}: rmse_after_burn_in {r}");
+    }
+}
