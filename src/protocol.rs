@@ -717,3 +717,40 @@ impl NodeCore {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(solver: LocalSolver, kappa: usize) -> NodeConfig {
+        NodeConfig {
+            id: 1,
+            n_nodes: 3,
+            anchor: Vec2::new(1.0, 2.0),
+            transmitters: vec![Vec2::new(0.0, 0.0)],
+            neighbours: vec![0, 2],
+            omega: 1.0,
+            gamma: 1e-3,
+            solver,
+            kappa,
+            init_u: Vec3::zeros(),
+            seed: 7,
+            mode: NodeMode::Sync,
+            trace_iterations: false,
+        }
+    }
+
+    #[test]
+    fn the_node_config_json_carries_the_solver_and_kappa_and_defaults_kappa_to_one() {
+        let cfg = config(LocalSolver::GtrsL0, 2);
+        let json = serde_json::to_string(&cfg).unwrap();
+        assert!(json.contains("\"solver\":\"gtrs_l0\""), "{json}");
+        assert!(json.contains("\"kappa\":2"), "{json}");
+        assert_eq!(serde_json::from_str::<NodeConfig>(&json).unwrap(), cfg);
+        // A launch written without the key (older coordinator) gets the default.
+        let old = json.replace(",\"kappa\":2", "");
+        assert!(!old.contains("kappa"));
+        let back: NodeConfig = serde_json::from_str(&old).unwrap();
+        assert_eq!(back.kappa, crate::robust_prox::DEFAULT_KAPPA);
+    }
+}

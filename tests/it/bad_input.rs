@@ -242,3 +242,35 @@ fn bounds_on_a_track_that_does_not_exist_are_rejected() {
     let (code, stderr, p) = run_bad(&text, &[]);
     assert_clear(code, &stderr, &p, &["bounds.tracks[0]", "pocs"]);
 }
+
+#[test]
+fn with_a_trace_kappa_is_checked_against_the_most_rows_each_node_ever_has() {
+    let tmp = TempDir::new("kappa-trace");
+    // Node 0: a bistatic range and a DOA (3 rows); node 1: a DOA (2 rows) at sample 1
+    // only; node 2: nothing (exempt: it runs the plain prox).
+    tmp.write(
+        "trace.csv",
+        "sample,receiver,transmitter,kind,value\n\
+         0,0,0,bistatic_range,200.0\n0,0,,doa,0.5\n1,1,,doa,0.7\n",
+    );
+    let text = |kappa: usize| {
+        GOOD.replace(
+            "[target]\nsamples = 3\nmotion = { model = \"static\", position = [10.0, 20.0] }\n",
+            "",
+        )
+        .replace("doa = true", "doa = true\ntrace = \"trace.csv\"")
+        .replace(
+            "gamma = 1e-6",
+            &format!("gamma = 1e-6\nlocal_solver = \"gtrs_l0\"\nkappa = {kappa}"),
+        )
+    };
+    let p = tmp.path().join("scenario.toml");
+    let sc = sonarnet::scenario::Scenario::from_toml_str(&text(1), &p).unwrap();
+    assert_eq!(
+        (0..3).map(|n| sc.nominal_rows(n)).collect::<Vec<_>>(),
+        vec![3, 2, 0]
+    );
+    let e = sonarnet::scenario::Scenario::from_toml_str(&text(2), &p).unwrap_err();
+    assert_eq!(e.location.as_deref(), Some("algorithm.kappa"));
+    assert!(e.reason.contains("node 1 has 2"), "{e}");
+}
