@@ -15,7 +15,7 @@
 //! | `lq_irls` | `l_q` loss by IRLS, `1 < q < 2` | seed 004 eq. (4) |
 //! | `lad` | `l_1` loss by IRLS | seed 004 eq. (4), `q = 1` |
 //! | `pocs` | projection onto the farthest disc/ellipse | seed 003 eq. (18) |
-//! | `lls` | closed-form linear least squares | seed 000 eq. (15)-(17), seed 003 Sec. 4 |
+//! | `lls` | closed-form linear least squares ([`online::ols_position`], the OLS initialisation) | seed 000 eq. (15)-(17), seed 003 Sec. 4 |
 //! | `distributed` | the in-process DR engine with another local solver / mode | seed 002 eq. (11) |
 //!
 //! Every estimator is the library's one implementation ([`crate::online`],
@@ -131,8 +131,8 @@ pub enum BaselineCfg {
         #[serde(default = "default_pocs_tol")]
         tol: f64,
     },
-    /// Closed-form linear least squares: one-way ranges by seed 000
-    /// eq. (15)-(17), else bistatic ranges (see [`bounds::lls_bistatic`]).
+    /// Closed-form linear least squares, [`online::ols_position`]: one-way
+    /// ranges by seed 000 eq. (15)-(17), else the lifted bistatic system.
     Lls {
         /// Track name (default `lls`).
         #[serde(default)]
@@ -251,24 +251,20 @@ impl BaselineCfg {
                 "name {name:?} is reserved for another track.csv column"
             ));
         }
-        let finite_pos = |v: f64, what: &str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{what} must be finite and > 0, got {v}"))
-            }
-        };
         match self {
-            BaselineCfg::Ogd { step, .. } => match *step {
-                StepSize::Constant { eta } => finite_pos(eta, "step.eta"),
-                StepSize::InvSqrt { eta0 } => finite_pos(eta0, "step.eta0"),
-            },
+            // The trackers' own constructors validate their parameters.
+            BaselineCfg::Ogd { step, .. } => online::OgdTracker::new(Vec2::zeros(), *step)
+                .map(|_| ())
+                .map_err(|e| format!("step: {e}")),
             BaselineCfg::Onm {
                 damping: Some(d), ..
             } => online::OnmTracker::new(Vec2::zeros(), *d)
                 .map(|_| ())
                 .map_err(|e| format!("damping: {e}")),
-            BaselineCfg::Ls { .. } | BaselineCfg::Lad { .. } | BaselineCfg::L0os { .. }
+            BaselineCfg::Ls { .. }
+            | BaselineCfg::Lad { .. }
+            | BaselineCfg::L0os { .. }
+            | BaselineCfg::LqIrls { .. }
                 if !has_bistatic =>
             {
                 Err(format!(
@@ -292,10 +288,6 @@ impl BaselineCfg {
                     ));
                 }
                 Ok(())
-            }
-            BaselineCfg::LqIrls { q, .. } if !has_bistatic => {
-                let _ = q;
-                Err("lq_irls uses bistatic ranges only, and this scenario has none".into())
             }
             BaselineCfg::LqIrls { q, .. } => {
                 if *q > 1.0 && *q < 2.0 {
@@ -376,36 +368,15 @@ fn centroid(geometry: &Geometry) -> Vec2 {
     all.iter().fold(Vec2::zeros(), |s, p| s + **p) / all.len().max(1) as f64
 }
 
-fn lls_of(geometry: &Geometry, sample: &SampleMeasurements) -> Result<Vec2, String> {
-    let mut anchors = Vec::new();
-    let mut ranges = Vec::new();
-    let mut links = Vec::new();
-    for (n, node) in sample.nodes.iter().enumerate() {
-        let Some(&r) = geometry.receivers.get(n) else {
-            continue;
-        };
-        if let Some(v) = node.range {
-            anchors.push(r);
-            ranges.push(v);
-        }
-        for &(m, sum) in &node.bistatic {
-            links.push(bounds::BistaticLink { tx: m, rx: r, sum });
-        }
-    }
-    if anchors.len() >= 3 {
-        bounds::lls(&anchors, &ranges).map_err(|e| e.to_string())
-    } else {
-        bounds::lls_bistatic(&geometry.transmitters, &links).map_err(|e| e.to_string())
-    }
-}
-
 /// Run one baseline over the first `samples` samples of a realization.
-/// `truth0` is the true first position (for `init = "exact"`).
+/// `ml` is the centralised ML reference track of those samples and the
+/// seconds it took (the `ml` baseline reuses it instead of solving again).
 pub fn run_baseline(
     cfg: &BaselineCfg,
     sc: &Scenario,
     real: &Realization,
     samples: usize,
+    ml: (&[Vec2], f64),
 ) -> BaselineTrack {
     let geometry = &sc.geometry;
     let meas = &real.measurements[..samples];
@@ -441,35 +412,25 @@ pub fn run_baseline(
                     .initial_estimate(geometry, &meas[0], t0.unwrap_or_else(Vec2::zeros))
                     .map_err(|e| format!("initialisation: {e}")),
             };
-            let x0 = match x0 {
-                Ok(x) => x,
+            let tracker = x0.and_then(|x0| match cfg {
+                BaselineCfg::Ogd { step, .. } => online::OgdTracker::new(x0, *step)
+                    .map(|t| Box::new(t) as Box<dyn Tracker>)
+                    .map_err(|e| e.to_string()),
+                BaselineCfg::Onm { damping, .. } => {
+                    online::OnmTracker::new(x0, damping.unwrap_or_default())
+                        .map(|t| Box::new(t) as Box<dyn Tracker>)
+                        .map_err(|e| e.to_string())
+                }
+                _ => unreachable!("matched above"),
+            });
+            let mut tracker = match tracker {
+                Ok(t) => t,
                 Err(e) => {
                     fail(&mut track, e);
                     track.failures = samples;
                     track.est = vec![None; samples];
                     return track;
                 }
-            };
-            let mut tracker: Box<dyn Tracker> = match cfg {
-                BaselineCfg::Ogd { step, .. } => match online::OgdTracker::new(x0, *step) {
-                    Ok(t) => Box::new(t),
-                    Err(e) => {
-                        fail(&mut track, e.to_string());
-                        track.est = vec![None; samples];
-                        return track;
-                    }
-                },
-                BaselineCfg::Onm { damping, .. } => {
-                    match online::OnmTracker::new(x0, damping.unwrap_or_default()) {
-                        Ok(t) => Box::new(t),
-                        Err(e) => {
-                            fail(&mut track, e.to_string());
-                            track.est = vec![None; samples];
-                            return track;
-                        }
-                    }
-                }
-                _ => unreachable!("matched above"),
             };
             let mut before = Vec::with_capacity(samples);
             for (k, s) in meas.iter().enumerate() {
@@ -486,10 +447,8 @@ pub fn run_baseline(
             track.step_seconds = start.elapsed().as_secs_f64();
         }
         BaselineCfg::Ml { .. } => {
-            let start = Instant::now();
-            let ml = crate::central::ml_track(geometry, meas, &real.sigmas[..samples]);
-            track.step_seconds = start.elapsed().as_secs_f64();
-            track.est = ml.into_iter().map(Some).collect();
+            track.step_seconds = ml.1;
+            track.est = ml.0.iter().take(samples).map(|x| Some(*x)).collect();
         }
         BaselineCfg::Ls { .. }
         | BaselineCfg::L0os { .. }
@@ -558,7 +517,7 @@ pub fn run_baseline(
         BaselineCfg::Lls { .. } => {
             for (k, s) in meas.iter().enumerate() {
                 let start = Instant::now();
-                let r = lls_of(geometry, s);
+                let r = online::ols_position(geometry, s).map_err(|e| e.to_string());
                 track.step_seconds += start.elapsed().as_secs_f64();
                 match r {
                     Ok(x) => track.est.push(Some(x)),

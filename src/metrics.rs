@@ -64,10 +64,14 @@ pub fn errors(est: &[Vec2], truth: &[Vec2]) -> Vec<f64> {
     est.iter().zip(truth).map(|(e, t)| (e - t).norm()).collect()
 }
 
-/// Running CTTE per sample.
+/// Running CTTE per sample (the running sum of the errors).
 pub fn running_ctte(errors: &[f64]) -> Vec<f64> {
-    errors
-        .iter()
+    running_sum(errors)
+}
+
+/// Running sum `s_k = sum_{j <= k} x_j` (running CTTE, running regret).
+pub fn running_sum(xs: &[f64]) -> Vec<f64> {
+    xs.iter()
         .scan(0.0, |s, e| {
             *s += e;
             Some(*s)

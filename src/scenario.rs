@@ -463,6 +463,54 @@ pub struct Realization {
     pub nlos: crate::noise::NlosMask,
 }
 
+/// Check the baselines (parameters, unique names) and the `[bounds]` table
+/// against them: `Err((key, reason))`. The one check for the file and for
+/// `--baselines`, which replaces the list (so `bounds.tracks` must still name
+/// existing tracks).
+fn check_tracks(
+    baselines: &[crate::baselines::BaselineCfg],
+    bounds: Option<&BoundsCfg>,
+    geometry: &Geometry,
+) -> Result<(), (String, String)> {
+    let mut names = BTreeSet::new();
+    for (i, b) in baselines.iter().enumerate() {
+        b.validate(geometry, !geometry.transmitters.is_empty())
+            .map_err(|e| (format!("baselines[{i}] ({})", b.kind()), e))?;
+        if !names.insert(b.name()) {
+            return Err((
+                format!("baselines[{i}].name"),
+                format!(
+                    "duplicate track name {:?}: give each baseline its own `name`",
+                    b.name()
+                ),
+            ));
+        }
+    }
+    let Some(b) = bounds else {
+        return Ok(());
+    };
+    if b.names.is_empty() {
+        return Err(("bounds.names".into(), "list at least one bound".into()));
+    }
+    for (k, v) in [("bounds.rho", b.rho), ("bounds.rho_sigmas", b.rho_sigmas)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err((k.into(), format!("must be finite and >= 0, got {v}")));
+        }
+    }
+    for (i, t) in b.tracks.iter().flatten().enumerate() {
+        if t != "theta_bar" && t != "ml" && !names.contains(t) {
+            return Err((
+                format!("bounds.tracks[{i}]"),
+                format!(
+                    "no track {t:?}: use theta_bar, ml or a baseline name ({})",
+                    names.iter().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Deep-merge `over` into `base`: tables merge key by key, anything else
 /// (values, arrays, arrays of tables) replaces. A table that names a
 /// different `model` or `kind` (a noise model, a generator, a motion)
@@ -841,53 +889,8 @@ impl Scenario {
             }
         }
         // Baselines, bounds, Monte Carlo.
-        let mut names = BTreeSet::new();
-        for (i, b) in file.baselines.iter().enumerate() {
-            b.validate(&geometry, !geometry.transmitters.is_empty())
-                .map_err(|e| InputError::at(path, format!("baselines[{i}] ({})", b.kind()), e))?;
-            if !names.insert(b.name()) {
-                return Err(InputError::at(
-                    path,
-                    format!("baselines[{i}].name"),
-                    format!(
-                        "duplicate track name {:?}: give each baseline its own `name`",
-                        b.name()
-                    ),
-                ));
-            }
-        }
-        if let Some(b) = &file.bounds {
-            if b.names.is_empty() {
-                return Err(InputError::at(
-                    path,
-                    "bounds.names",
-                    "list at least one bound",
-                ));
-            }
-            for (k, v) in [("bounds.rho", b.rho), ("bounds.rho_sigmas", b.rho_sigmas)] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(InputError::at(
-                        path,
-                        k,
-                        format!("must be finite and >= 0, got {v}"),
-                    ));
-                }
-            }
-            if let Some(tracks) = &b.tracks {
-                for (i, t) in tracks.iter().enumerate() {
-                    if t != "theta_bar" && t != "ml" && !names.contains(t) {
-                        return Err(InputError::at(
-                            path,
-                            format!("bounds.tracks[{i}]"),
-                            format!(
-                                "no track {t:?}: use theta_bar, ml or a baseline name ({})",
-                                names.iter().cloned().collect::<Vec<_>>().join(", ")
-                            ),
-                        ));
-                    }
-                }
-            }
-        }
+        check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
+            .map_err(|(key, reason)| InputError::at(path, key, reason))?;
         crate::expect::validate_syntax(&file.expect)
             .map_err(|e| InputError::at(path, "expect.holds", e))?;
         if let Some(mc) = &file.monte_carlo
@@ -1012,17 +1015,8 @@ impl Scenario {
         mut self,
         baselines: Vec<crate::baselines::BaselineCfg>,
     ) -> Result<Self, InputError> {
-        let mut names = BTreeSet::new();
-        for b in &baselines {
-            b.validate(&self.geometry, !self.geometry.transmitters.is_empty())
-                .map_err(|e| cli_error("--baselines", format!("{}: {e}", b.kind())))?;
-            if !names.insert(b.name()) {
-                return Err(cli_error(
-                    "--baselines",
-                    format!("{} is listed twice", b.name()),
-                ));
-            }
-        }
+        check_tracks(&baselines, self.bounds.as_ref(), &self.geometry)
+            .map_err(|(key, reason)| cli_error("--baselines", format!("{key}: {reason}")))?;
         self.baselines = baselines;
         Ok(self)
     }

@@ -195,15 +195,14 @@ fn slopes(curve: &[f64]) -> (Option<f64>, Option<f64>) {
     (first, last)
 }
 
-fn running(terms: &[f64]) -> Vec<f64> {
-    metrics::running_ctte(terms)
-}
-
-/// Score everything for the first `done` samples of a run.
+/// Score everything for the first `done` samples of a run: `theta_bar`, the
+/// centralised ML reference track `ml` ([`crate::central::ml_track`]) and the
+/// baselines.
 pub fn score(
     sc: &Scenario,
     real: &Realization,
     theta_bar: &[Vec2],
+    ml: Vec<Vec2>,
     baselines: Vec<BaselineTrack>,
     done: usize,
 ) -> Scored {
@@ -252,7 +251,7 @@ pub fn score(
             };
             terms.push(term);
         }
-        Some(running(&terms))
+        Some(metrics::running_sum(&terms))
     };
 
     // The certified-bound feasible sets, one per sample.
@@ -277,14 +276,7 @@ pub fn score(
             theta_bar.iter().map(|x| Some(*x)).collect(),
             None,
         ),
-        (
-            "ml".into(),
-            crate::central::ml_track(geometry, meas, &real.sigmas[..done])
-                .into_iter()
-                .map(Some)
-                .collect(),
-            None,
-        ),
+        ("ml".into(), ml.into_iter().map(Some).collect(), None),
     ];
     for b in baselines {
         raw.push((b.name.clone(), b.est.clone(), Some(b)));
@@ -313,7 +305,7 @@ pub fn score(
             m.rmse_after_burn_in = metrics::rms(&after);
             m.median_error = metrics::median(&present);
             m.final_error = err.last().copied().flatten();
-            let c = running(&err.iter().map(|e| e.unwrap_or(0.0)).collect::<Vec<_>>());
+            let c = metrics::running_sum(&err.iter().map(|e| e.unwrap_or(0.0)).collect::<Vec<_>>());
             if present.len() == err.len() {
                 m.ctte = c.last().copied();
                 let t = c.len();

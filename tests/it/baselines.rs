@@ -263,3 +263,22 @@ fn a_toa_only_network_is_tracked_by_the_distributed_engine_in_sync_and_async_mod
         assert!(r < bound, "{mode}: rmse_after_burn_in {r}");
     }
 }
+
+#[test]
+fn replacing_the_baselines_must_keep_every_track_the_bounds_name() {
+    let tmp = TempDir::new("rebase");
+    let p = tmp.write("toa.toml", TOA);
+    let sc = sonarnet::scenario::Scenario::load(&p).unwrap();
+    let ogd = sonarnet::baselines::BaselineCfg::default_of("ogd").unwrap();
+    let err = sc
+        .clone()
+        .with_baselines(vec![ogd])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("--baselines") && err.contains("bounds.tracks[0]") && err.contains("pocs"),
+        "{err}"
+    );
+    let pocs = sonarnet::baselines::BaselineCfg::default_of("pocs").unwrap();
+    assert!(sc.with_baselines(vec![pocs]).is_ok());
+}
