@@ -87,6 +87,7 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
     let parent = std::os::unix::process::parent_id();
     let topo = launch.run_topology().map_err(|e| e.to_string())?;
     let mut tx = IoxTransport::node(&topo, id).map_err(|e| e.to_string())?;
+    tx.set_poll(Duration::from_micros(launch.poll_us));
     tx.send(Endpoint::Coordinator, &codec::encode_ready(id))
         .map_err(|e| e.to_string())?;
     tx.flush().map_err(|e| e.to_string())?;

@@ -4,7 +4,8 @@
 //! * **Engine overhead**: wall time of `mourya2017-spiral` (100 samples × 50
 //!   iterations) on node processes over the in-process engine, async-logical
 //!   and sync; the best of `repeats` runs of each, start-up excluded (it is
-//!   reported separately).
+//!   reported separately). Measured with blocking nodes (the default) and with
+//!   `--poll-us` [`POLL_US`].
 //! * **Scale**: a ring of N node processes (async logical): start-up time to
 //!   the first iteration, iterations per second, peak RSS per node.
 //! * **Realtime throughput**: network-wide exchanges per second of the
@@ -23,6 +24,8 @@ use std::path::Path;
 pub struct Overhead {
     /// `async` or `sync`.
     pub mode: String,
+    /// Node polling before blocking (µs; 0 = block at once, the default engine).
+    pub poll_us: u64,
     /// Best in-process wall time (s).
     pub inprocess_seconds: f64,
     /// Best multi-process wall time, start-up excluded (s).
@@ -62,6 +65,9 @@ pub struct BenchReport {
     /// Realtime median exchanges per sample period.
     pub realtime_iterations_per_sample_median: Option<f64>,
 }
+
+/// The `--poll-us` of the second pair of overhead figures.
+pub const POLL_US: u64 = 100;
 
 fn spiral(dir: &Path) -> Result<Scenario, crate::error::InputError> {
     Scenario::load(&dir.join("mourya2017-spiral.toml"))
@@ -114,7 +120,16 @@ pub fn run_bench(
 ) -> Result<BenchReport, crate::cli::CliError> {
     let popts = ProcessOptions::default();
     let mut overhead = Vec::new();
-    for mode in [Mode::Async, Mode::Sync] {
+    for (mode, poll_us) in [
+        (Mode::Async, 0),
+        (Mode::Sync, 0),
+        (Mode::Async, POLL_US),
+        (Mode::Sync, POLL_US),
+    ] {
+        let popts = ProcessOptions {
+            poll_us,
+            ..popts.clone()
+        };
         let sc = spiral(scenarios)?.with_mode(mode)?;
         let real = sc.realize(sc.seed);
         let mut best_in = f64::INFINITY;
@@ -130,12 +145,13 @@ pub fn run_bench(
             }
         }
         eprintln!(
-            "overhead {}: in-process {best_in:.4} s, processes {:.4} s",
+            "overhead {} (poll {poll_us} us): in-process {best_in:.4} s, processes {:.4} s",
             mode.as_str(),
             best_proc.0
         );
         overhead.push(Overhead {
             mode: mode.as_str().into(),
+            poll_us,
             inprocess_seconds: best_in,
             processes_seconds: best_proc.0,
             startup_seconds: best_proc.1,
@@ -215,8 +231,8 @@ fn print_report(r: &BenchReport, out: &Path) {
     println!("engine overhead on mourya2017-spiral (best run, start-up excluded):");
     for o in &r.overhead {
         println!(
-            "  {:5}  in-process {:8.4} s   processes {:8.4} s   ratio {:5.2}x   (start-up {:.3} s)",
-            o.mode, o.inprocess_seconds, o.processes_seconds, o.ratio, o.startup_seconds
+            "  {:5}  poll {:3} us  in-process {:8.4} s   processes {:8.4} s   ratio {:5.2}x   (start-up {:.3} s)",
+            o.mode, o.poll_us, o.inprocess_seconds, o.processes_seconds, o.ratio, o.startup_seconds
         );
     }
     println!("scale (ring, async logical):");

@@ -305,6 +305,10 @@ pub struct NodeCore {
     exchange_seq: u64,
     alive: Vec<u32>,
     rng: SonarRng,
+    /// Sample, sync-rounds and plan commands that arrived while the node was still
+    /// working on an earlier sample (the coordinator may send several samples ahead);
+    /// run in order once that sample is done.
+    queued: VecDeque<Command>,
 }
 
 /// The average `a = (r_v[0:2] + r_w[0:2]) / 2` of a pairwise exchange
@@ -351,8 +355,14 @@ impl NodeCore {
             exchange_seq: 0,
             alive: cfg.neighbours.clone(),
             rng,
+            queued: VecDeque::new(),
             cfg,
         }
+    }
+
+    /// True while the node is running a sample's sync rounds or async plan.
+    pub fn busy(&self) -> bool {
+        self.sync.is_some() || self.plan.is_some()
     }
 
     /// This node's id.
@@ -423,13 +433,34 @@ impl NodeCore {
     }
 
     /// Handle one input; append what to send to `out`.
+    ///
+    /// `Sample`, `SyncRounds` and `AsyncPlan` commands that arrive while the node is
+    /// [`busy`](Self::busy) with an earlier sample are queued and run, in order, as
+    /// soon as that sample is done, so the coordinator may send samples ahead without
+    /// changing any result.
     pub fn handle(&mut self, input: Input, out: &mut Vec<Output>) {
         match input {
-            Input::Command(c) => self.on_command(c, out),
+            Input::Command(c) => {
+                let sequenced = matches!(
+                    c,
+                    Command::Sample { .. } | Command::SyncRounds { .. } | Command::AsyncPlan { .. }
+                );
+                if sequenced && (self.busy() || !self.queued.is_empty()) {
+                    self.queued.push_back(c);
+                } else {
+                    self.on_command(c, out);
+                }
+            }
             Input::Peer(m) => {
                 self.counters.messages_in += 1;
                 self.on_peer(m, out)
             }
+        }
+        while !self.busy() {
+            let Some(c) = self.queued.pop_front() else {
+                break;
+            };
+            self.on_command(c, out);
         }
     }
 
@@ -738,6 +769,78 @@ mod tests {
             mode: NodeMode::Sync,
             trace_iterations: false,
         }
+    }
+
+    fn meas(rho: f64) -> NodeMeasurements {
+        NodeMeasurements {
+            bistatic: vec![(0, rho)],
+            doa: Some(0.3),
+            range: None,
+        }
+    }
+
+    /// Two async nodes, each with a one-step plan per sample against the other.
+    fn plan(sample: u32) -> Command {
+        Command::AsyncPlan {
+            sample,
+            steps: vec![(sample as u64, 0)],
+        }
+    }
+
+    #[test]
+    fn samples_sent_ahead_wait_until_the_current_sample_is_done_and_give_the_same_state() {
+        let mut cfg = config(LocalSolver::Gtrs, 1);
+        cfg.mode = NodeMode::AsyncLogical;
+        let partner_r = |k: u64| Vec3::new(3.0 + k as f64, 4.0, 5.0);
+        let reflect = |k: u64| {
+            Input::Peer(PeerMsg::Reflect {
+                from: 0,
+                seq: k,
+                r: partner_r(k),
+            })
+        };
+        let sample = |k: u32| {
+            Input::Command(Command::Sample {
+                sample: k,
+                meas: meas(10.0 + k as f64),
+            })
+        };
+        // One sample at a time.
+        let mut step = NodeCore::new(cfg.clone());
+        let mut out = Vec::new();
+        for k in 0..2u32 {
+            step.handle(sample(k), &mut out);
+            step.handle(Input::Command(plan(k)), &mut out);
+            step.handle(reflect(k as u64), &mut out);
+            assert!(!step.busy());
+        }
+        // Both samples sent before the first is done.
+        let mut ahead = NodeCore::new(cfg);
+        let mut out2 = Vec::new();
+        ahead.handle(sample(0), &mut out2);
+        ahead.handle(Input::Command(plan(0)), &mut out2);
+        ahead.handle(sample(1), &mut out2);
+        ahead.handle(Input::Command(plan(1)), &mut out2);
+        assert!(ahead.busy(), "sample 0 waits for its partner");
+        // Only sample 0's reflected point went out so far.
+        let sent: Vec<u64> = out2
+            .iter()
+            .filter_map(|o| match o {
+                Output::Peer {
+                    msg: PeerMsg::Reflect { seq, .. },
+                    ..
+                } => Some(*seq),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(sent, vec![0]);
+        ahead.handle(reflect(0), &mut out2);
+        assert!(ahead.busy(), "sample 1 started at once");
+        ahead.handle(reflect(1), &mut out2);
+        assert!(!ahead.busy());
+        assert_eq!(ahead.u(), step.u());
+        assert_eq!(ahead.theta(), step.theta());
+        assert_eq!(out2, out, "same outputs in the same order");
     }
 
     #[test]

@@ -70,6 +70,9 @@ pub struct RunOptions {
     /// `metrics.json` (off for the representative trial of a Monte Carlo
     /// run, whose expectations are checked on the trial means).
     pub check_expect: bool,
+    /// Multi-process engine: node processes poll their inboxes for up to this many
+    /// microseconds before blocking (0: block at once). Recorded in `run.json`.
+    pub poll_us: u64,
 }
 
 /// Per-node counters as written to `metrics.json`.
@@ -747,6 +750,7 @@ fn write_run_json(
         "mode": sc.algorithm.mode.as_str(),
         "clock": match opts.clock { Clock::Logical => "logical", Clock::Realtime => "realtime" },
         "local_solver": sc.algorithm.local_solver,
+        "poll_us": opts.poll_us,
         "command_line": opts.command_line,
         "status": status,
         "error": error.map(|e| e.to_string()),

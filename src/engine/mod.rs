@@ -63,6 +63,9 @@ pub trait Network {
     fn flush(&mut self) -> Result<(), EngineError>;
     /// Block until at least one report is available; append them to `out`.
     fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError>;
+    /// The oldest sample not yet complete (errors such as a node death are
+    /// attributed to it). Called by [`drive`] whenever it changes.
+    fn working_on(&mut self, _sample: u32) {}
 }
 
 /// What a run produced, complete or not.
@@ -182,8 +185,19 @@ impl<'a> Scheduler<'a> {
 /// Progress callback: `(samples done, iterations done)`.
 pub type Progress<'a> = &'a mut dyn FnMut(usize, u64);
 
+/// How many samples the coordinator keeps in flight: it sends the commands of
+/// sample `k + LOOKAHEAD - 1` as soon as sample `k` is complete, so nodes that finish
+/// a sample early go straight on with the next one instead of waiting for the
+/// slowest node and a round trip to the coordinator. Nodes run queued samples in
+/// order ([`NodeCore::handle`](crate::protocol::NodeCore::handle)), so the results
+/// do not depend on it.
+pub const LOOKAHEAD: usize = 3;
+
 /// Run `scenario` with logical clocks over `net`. Returns the record of
 /// everything completed and, if the run stopped early, why.
+///
+/// Up to [`LOOKAHEAD`] samples are in flight; the async schedule is drawn sample
+/// by sample in order, exactly as without lookahead.
 pub fn drive(
     sc: &Scenario,
     seed: u64,
@@ -201,103 +215,139 @@ pub fn drive(
     let mut sched = Scheduler::new(sc, seed);
     let mut reports = Vec::new();
     let result = (|| {
-        for k in 0..sc.samples {
-            let sample = k as u32;
-            for (i, meas) in real.measurements[k].nodes.iter().enumerate() {
-                net.send(
-                    i as u32,
-                    Command::Sample {
+        // thetas of the samples in flight, oldest first, with their count of reports.
+        let mut in_flight: std::collections::VecDeque<(Vec<Option<Vec3>>, usize)> =
+            std::collections::VecDeque::new();
+        let mut sent = 0usize;
+        let mut send_sample =
+            |k: usize, net: &mut dyn Network, rec: &mut RunRecord| -> Result<(), EngineError> {
+                let sample = k as u32;
+                for (i, meas) in real.measurements[k].nodes.iter().enumerate() {
+                    net.send(
+                        i as u32,
+                        Command::Sample {
+                            sample,
+                            meas: meas.clone(),
+                        },
+                    )?;
+                }
+                match sc.algorithm.mode {
+                    Mode::Sync => {
+                        for i in 0..n {
+                            net.send(
+                                i as u32,
+                                Command::SyncRounds {
+                                    sample,
+                                    first_round: (k * ips) as u64,
+                                    rounds: ips as u32,
+                                },
+                            )?;
+                        }
+                    }
+                    Mode::Async => {
+                        let mut steps: Vec<Vec<(u64, u32)>> = vec![Vec::new(); n];
+                        for j in 0..ips {
+                            let it = (k * ips + j) as u64;
+                            let (v, w) = sched.next_pair();
+                            rec.schedule.push((v, w));
+                            steps[v].push((it, w as u32));
+                            steps[w].push((it, v as u32));
+                        }
+                        for (i, s) in steps.into_iter().enumerate() {
+                            net.send(i as u32, Command::AsyncPlan { sample, steps: s })?;
+                        }
+                    }
+                }
+                Ok(())
+            };
+        net.working_on(0);
+        while sent < sc.samples.min(LOOKAHEAD) {
+            send_sample(sent, net, &mut rec)?;
+            in_flight.push_back((vec![None; n], 0));
+            sent += 1;
+        }
+        net.flush()?;
+        let mut completed = 0usize;
+        while completed < sc.samples {
+            reports.clear();
+            net.recv(&mut reports)?;
+            for r in reports.drain(..) {
+                match r {
+                    Report::SampleDone {
+                        node,
+                        sample: s,
+                        theta,
+                        counters,
+                    } => {
+                        let i = node as usize;
+                        let Some(slot) = (s as usize)
+                            .checked_sub(completed)
+                            .and_then(|d| in_flight.get_mut(d))
+                        else {
+                            continue;
+                        };
+                        if i < n && slot.0[i].is_none() {
+                            slot.0[i] = Some(theta);
+                            slot.1 += 1;
+                            // Reports of one node arrive in sample order.
+                            rec.counters[i] = counters;
+                        }
+                    }
+                    Report::IterationDone {
+                        node,
+                        iteration,
+                        theta,
+                    } if sc.trace_iterations => rec.iteration_trace.push((
+                        iteration,
+                        (iteration / ips.max(1) as u64) as u32,
+                        node,
+                        theta,
+                    )),
+                    Report::Failed {
+                        node,
                         sample,
-                        meas: meas.clone(),
-                    },
-                )?;
-            }
-            match sc.algorithm.mode {
-                Mode::Sync => {
-                    for i in 0..n {
-                        net.send(
-                            i as u32,
-                            Command::SyncRounds {
-                                sample,
-                                first_round: (k * ips) as u64,
-                                rounds: ips as u32,
-                            },
-                        )?;
-                    }
-                }
-                Mode::Async => {
-                    let mut steps: Vec<Vec<(u64, u32)>> = vec![Vec::new(); n];
-                    for j in 0..ips {
-                        let it = (k * ips + j) as u64;
-                        let (v, w) = sched.next_pair();
-                        rec.schedule.push((v, w));
-                        steps[v].push((it, w as u32));
-                        steps[w].push((it, v as u32));
-                    }
-                    for (i, s) in steps.into_iter().enumerate() {
-                        net.send(i as u32, Command::AsyncPlan { sample, steps: s })?;
-                    }
-                }
-            }
-            net.flush()?;
-            let mut thetas: Vec<Option<Vec3>> = vec![None; n];
-            let mut done = 0;
-            while done < n {
-                reports.clear();
-                net.recv(&mut reports)?;
-                for r in reports.drain(..) {
-                    match r {
-                        Report::SampleDone {
-                            node,
-                            sample: s,
-                            theta,
-                            counters,
-                        } if s == sample => {
-                            let i = node as usize;
-                            if i < n && thetas[i].is_none() {
-                                thetas[i] = Some(theta);
-                                rec.counters[i] = counters;
-                                done += 1;
-                            }
-                        }
-                        Report::IterationDone {
-                            node,
-                            iteration,
-                            theta,
-                        } if sc.trace_iterations => {
-                            rec.iteration_trace.push((iteration, sample, node, theta))
-                        }
-                        Report::Failed {
+                        reason,
+                    } => {
+                        return Err(EngineError::NodeFailed {
                             node,
                             sample,
                             reason,
-                        } => {
-                            return Err(EngineError::NodeFailed {
-                                node,
-                                sample,
-                                reason,
-                            });
-                        }
-                        _ => {}
+                        });
                     }
+                    _ => {}
                 }
             }
-            rec.thetas
-                .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
-            if sc.trace_iterations {
-                // Arrival order differs between engines; the file is ordered.
-                let first = rec
-                    .iteration_trace
-                    .iter()
-                    .rposition(|e| e.1 != sample)
-                    .map_or(0, |i| i + 1);
-                rec.iteration_trace[first..].sort_by_key(|e| (e.0, e.2));
+            let mut advanced = false;
+            while in_flight.front().is_some_and(|(_, done)| *done == n) {
+                let Some((thetas, _)) = in_flight.pop_front() else {
+                    break;
+                };
+                rec.thetas
+                    .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
+                completed += 1;
+                rec.iterations += ips as u64;
+                progress(completed, rec.iterations);
+                if sent < sc.samples {
+                    send_sample(sent, net, &mut rec)?;
+                    in_flight.push_back((vec![None; n], 0));
+                    sent += 1;
+                }
+                advanced = true;
             }
-            rec.iterations += ips as u64;
-            progress(k + 1, rec.iterations);
+            if advanced {
+                net.working_on(completed as u32);
+                net.flush()?;
+            }
         }
         Ok(())
     })();
+    if sc.trace_iterations {
+        // Arrival order differs between engines; the file is ordered.
+        rec.iteration_trace.sort_by_key(|e| (e.0, e.2));
+        // Iterations of samples that did not complete are not part of the record.
+        let done = rec.thetas.len() as u32;
+        rec.iteration_trace.retain(|e| e.1 < done);
+    }
     rec.wall_seconds = start.elapsed().as_secs_f64();
     (rec, result)
 }

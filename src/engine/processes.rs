@@ -48,6 +48,10 @@ pub struct NodeLaunch {
     pub node: NodeConfig,
     /// Log protocol events to stderr.
     pub verbose: bool,
+    /// Bounded polling before blocking, in microseconds (0: block at once; see
+    /// [`IoxTransport::set_poll`]).
+    #[serde(default)]
+    pub poll_us: u64,
 }
 
 impl NodeLaunch {
@@ -138,6 +142,10 @@ pub struct ProcessOptions {
     pub verbose: bool,
     /// How long to wait for all nodes to report READY.
     pub startup_timeout: Duration,
+    /// Node processes poll their inboxes for up to this many microseconds before
+    /// blocking (`--poll-us`; 0, the default, blocks at once). The coordinator
+    /// always blocks.
+    pub poll_us: u64,
 }
 
 impl Default for ProcessOptions {
@@ -146,6 +154,7 @@ impl Default for ProcessOptions {
             node_program: default_node_program(),
             verbose: false,
             startup_timeout: Duration::from_secs(60),
+            poll_us: 0,
         }
     }
 }
@@ -216,6 +225,7 @@ impl Processes {
             send_timeout_ms: 10_000,
             node: configs[0].clone(),
             verbose: opts.verbose,
+            poll_us: opts.poll_us,
         };
         let topo = launch0.run_topology().map_err(terr)?;
         let tx = IoxTransport::coordinator(&topo).map_err(terr)?;
@@ -505,10 +515,11 @@ impl Drop for Processes {
 
 impl Network for Processes {
     fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError> {
-        if let Command::Sample { sample, .. } = &cmd {
-            self.sample = *sample;
-        }
         self.control(node, &Control::Command(cmd))
+    }
+
+    fn working_on(&mut self, sample: u32) {
+        self.sample = sample;
     }
 
     fn flush(&mut self) -> Result<(), EngineError> {
@@ -544,7 +555,10 @@ pub fn run_logical(
         .collect();
     let neighbours = configs.iter().map(|c| c.neighbours.clone()).collect();
     let m = sc.geometry.transmitters.len();
-    let inbox = 2 * sc.algorithm.iterations_per_sample + m + 16;
+    // Room for every frame of LOOKAHEAD samples in flight (a node in every iteration
+    // gets one plan frame per iteration, plus its measurements), so that the
+    // coordinator never waits for a full inbox.
+    let inbox = super::LOOKAHEAD * (sc.algorithm.iterations_per_sample + m + 4) + 16;
     let broadcast = sc.algorithm.mode == crate::scenario::Mode::Sync;
     let mut procs = match Processes::spawn(configs, neighbours, inbox, broadcast, opts) {
         Ok(p) => p,

@@ -586,6 +586,8 @@ pub struct IoxTransport {
     inbox: Subscriber<Svc, Frame, ()>,
     wake: Listener<Svc>,
     bcast: Option<BroadcastPorts>,
+    /// Bounded polling before blocking in `recv` (zero: block at once).
+    poll: Duration,
     pubsub_services: Vec<PubSub>,
     event_services: Vec<EventSvc>,
     node: Node<Svc>,
@@ -822,10 +824,46 @@ impl IoxTransport {
             inbox,
             wake,
             bcast,
+            poll: Duration::ZERO,
             pubsub_services,
             event_services,
             node,
         })
+    }
+
+    /// Bounded polling: [`Transport::recv`] first checks the inboxes in shared memory
+    /// (no system call), yielding the CPU between checks, for up to `poll` before it
+    /// blocks on the wake-up events. Zero (the default) blocks at once.
+    ///
+    /// This trades CPU for latency while frames are expected within microseconds:
+    /// a frame that arrives during the poll is taken without a wake-up, which on a
+    /// virtual machine costs ~8 us on the same CPU and ~25 us across CPUs. An idle
+    /// endpoint still blocks (after `poll`), so it never spins for longer.
+    pub fn set_poll(&mut self, poll: Duration) {
+        self.poll = poll;
+    }
+
+    /// Polls the inboxes for up to `self.poll` (see [`IoxTransport::set_poll`]);
+    /// true if a frame is waiting.
+    fn poll_inboxes(&self) -> bool {
+        if self.poll.is_zero() {
+            return false;
+        }
+        let start = Instant::now();
+        loop {
+            let waiting = self.inbox.has_samples().unwrap_or(true)
+                || self
+                    .bcast
+                    .as_ref()
+                    .is_some_and(|b| b.subscriber.has_samples().unwrap_or(true));
+            if waiting {
+                return true;
+            }
+            if start.elapsed() >= self.poll {
+                return false;
+            }
+            std::thread::yield_now();
+        }
     }
 
     /// The run topology this endpoint was built for.
@@ -1112,6 +1150,9 @@ impl Transport for IoxTransport {
             Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), out)?;
             if out.len() > before {
                 return Ok(out.len() - before);
+            }
+            if self.poll_inboxes() {
+                continue;
             }
             let result = if forever {
                 self.waitset

@@ -94,6 +94,67 @@ fn sync_processes_reproduce_the_inprocess_engine_on_the_spiral() {
 }
 
 #[test]
+fn polling_nodes_reproduce_the_inprocess_engine_and_record_the_poll_time() {
+    let tmp = TempDir::new("poll");
+    let sc = scenario("rgg16-waypoints.toml");
+    for mode in ["async", "sync"] {
+        let (p, i) = (
+            tmp.path().join(mode).join("p"),
+            tmp.path().join(mode).join("i"),
+        );
+        for (engine, out, extra) in [
+            ("processes", &p, &["--poll-us", "200"][..]),
+            ("inprocess", &i, &[][..]),
+        ] {
+            let mut args = vec![
+                "run",
+                sc.to_str().unwrap(),
+                "--engine",
+                engine,
+                "--mode",
+                mode,
+                "--samples",
+                "14",
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ];
+            args.extend_from_slice(extra);
+            let o = run(&args);
+            assert!(
+                o.status.success(),
+                "{engine} {mode}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        nodes_csv_equal(&p, &i);
+        let run_json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p.join("run.json")).unwrap()).unwrap();
+        assert_eq!(run_json["poll_us"], 200, "{run_json}");
+        assert_nothing_left(&run_id_of(&p));
+    }
+}
+
+#[test]
+fn polling_is_refused_without_node_processes() {
+    let o = run(&[
+        "run",
+        scenario("mourya2017-spiral.toml").to_str().unwrap(),
+        "--engine",
+        "inprocess",
+        "--poll-us",
+        "10",
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--poll-us") && err.contains("--engine processes"),
+        "{err}"
+    );
+}
+
+#[test]
 fn async_processes_reproduce_the_inprocess_engine_on_16_nodes() {
     equivalence("rgg16-waypoints.toml", "async", "60");
 }

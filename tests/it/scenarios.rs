@@ -58,6 +58,7 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
                         command_line: vec!["test".into()],
                         progress: false,
                         check_expect: false,
+                        poll_us: 0,
                     };
                     match sonarnet::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
                         Ok(mc) if mc.failed == 0 => mc.expect,

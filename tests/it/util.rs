@@ -60,6 +60,7 @@ pub fn run_inprocess(sc: &Scenario, out: &Path) -> RunOutcome {
         command_line: vec!["test".into()],
         progress: false,
         check_expect: true,
+        poll_us: 0,
     };
     run::finish(sc, &real, rec, res.err(), &opts).expect("write outputs")
 }
