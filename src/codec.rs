@@ -43,6 +43,8 @@ pub mod kind {
     pub const ACCEPT: u32 = 22;
     /// Peer: exchange declined.
     pub const DECLINE: u32 = 23;
+    /// Peer (sync, from the root): consensus average of round `seq`, `data[0..2]`.
+    pub const AVERAGE: u32 = 24;
     /// Report: counters (`data` = prox_solves, messages_out, messages_in, declines, updates).
     pub const COUNTERS: u32 = 30;
     /// Report: sample done, `data[0..3]` = theta (after a COUNTERS frame).
@@ -153,6 +155,7 @@ pub fn encode_peer(m: &PeerMsg) -> Frame {
         PeerMsg::Request { from, seq, r } => frame(kind::REQUEST, from, 0, 0, seq, r.as_slice()),
         PeerMsg::Accept { from, seq, r } => frame(kind::ACCEPT, from, 0, 0, seq, r.as_slice()),
         PeerMsg::Decline { from, seq } => frame(kind::DECLINE, from, 0, 0, seq, &[]),
+        PeerMsg::Average { from, seq, a } => frame(kind::AVERAGE, from, 0, 0, seq, a.as_slice()),
     }
 }
 
@@ -371,6 +374,11 @@ impl NodeDecoder {
                 from: f.from,
                 seq: f.seq,
             }))),
+            AVERAGE => Ok(Some(NodeInput::Peer(PeerMsg::Average {
+                from: f.from,
+                seq: f.seq,
+                a: crate::geometry::Vec2::new(f.data[0], f.data[1]),
+            }))),
             k => Err(DecodeError::UnknownKind(k)),
         }
     }
@@ -542,6 +550,11 @@ mod tests {
             PeerMsg::Request { from: 2, seq: 1, r },
             PeerMsg::Accept { from: 3, seq: 1, r },
             PeerMsg::Decline { from: 4, seq: 9 },
+            PeerMsg::Average {
+                from: 0,
+                seq: 12,
+                a: crate::geometry::Vec2::new(-1.5, 2.25),
+            },
         ] {
             let f = encode_peer(&m);
             assert_eq!(

@@ -12,6 +12,13 @@
 //!   the reflected points of the communicating nodes (the pair `{v, w}` in
 //!   async mode, every node in sync mode, summed in node-id order);
 //! * update: `u_i += z_i - theta_i`.
+//!
+//! Sync rounds gather at one node, [`SYNC_ROOT`] (node 0): every other node sends its
+//! reflected point of round `k` to the root, which averages all `n` of them in node-id
+//! order and broadcasts the mean ([`PeerMsg::Average`]). That is one message per node
+//! and one broadcast per round (instead of every node broadcasting to every node),
+//! and a waiting node is woken once per round. The root is a receiver like any other;
+//! the coordinator never computes node states.
 
 use crate::geometry::{Vec2, Vec3};
 use crate::local::LocalProblem;
@@ -159,6 +166,16 @@ pub enum PeerMsg {
         /// The initiator's exchange counter.
         seq: u64,
     },
+    /// Sync round `seq`, from the root [`SYNC_ROOT`] to every node: the consensus
+    /// average `a` of all nodes' reflected points.
+    Average {
+        /// The root.
+        from: u32,
+        /// Round.
+        seq: u64,
+        /// `mean_i r_i[0:2]`, summed in node-id order.
+        a: Vec2,
+    },
 }
 
 impl PeerMsg {
@@ -168,7 +185,8 @@ impl PeerMsg {
             PeerMsg::Reflect { from, .. }
             | PeerMsg::Request { from, .. }
             | PeerMsg::Accept { from, .. }
-            | PeerMsg::Decline { from, .. } => from,
+            | PeerMsg::Decline { from, .. }
+            | PeerMsg::Average { from, .. } => from,
         }
     }
 }
@@ -299,8 +317,10 @@ pub struct NodeCore {
     /// Async-logical reflected points that arrived before this node reached
     /// that iteration, keyed by iteration.
     early: BTreeMap<u64, Vec3>,
-    /// Sync reflected points that arrived before the SyncRounds command.
+    /// Root: sync reflected points that arrived before the SyncRounds command.
     early_sync: BTreeMap<u64, Vec<Option<Vec3>>>,
+    /// Other nodes: consensus averages from the root not yet used, by round.
+    averages: BTreeMap<u64, Vec2>,
     exchange: Option<Exchange>,
     exchange_seq: u64,
     alive: Vec<u32>,
@@ -317,6 +337,10 @@ pub struct NodeCore {
 pub fn pair_average(r_a: &Vec3, r_b: &Vec3) -> Vec2 {
     Vec2::new((r_a[0] + r_b[0]) / 2.0, (r_a[1] + r_b[1]) / 2.0)
 }
+
+/// The node that gathers the reflected points of every sync round and sends their
+/// mean back to all nodes ([`PeerMsg::Average`]).
+pub const SYNC_ROOT: u32 = 0;
 
 /// The sync consensus average: the mean of the position parts of all
 /// reflected points, summed in node-id order.
@@ -351,6 +375,7 @@ impl NodeCore {
             plan: None,
             early: BTreeMap::new(),
             early_sync: BTreeMap::new(),
+            averages: BTreeMap::new(),
             exchange: None,
             exchange_seq: 0,
             alive: cfg.neighbours.clone(),
@@ -527,7 +552,7 @@ impl NodeCore {
             PeerMsg::Reflect { from, seq, r } => match self.cfg.mode {
                 NodeMode::Sync => {
                     let n = self.cfg.n_nodes as usize;
-                    if from as usize >= n {
+                    if from as usize >= n || self.cfg.id != SYNC_ROOT {
                         return;
                     }
                     match &mut self.sync {
@@ -549,6 +574,13 @@ impl NodeCore {
                     self.async_advance(out);
                 }
             },
+            PeerMsg::Average { seq, a, .. } => {
+                // The root ignores the loopback copy of its own broadcast.
+                if self.cfg.mode == NodeMode::Sync && self.cfg.id != SYNC_ROOT {
+                    self.averages.insert(seq, a);
+                    self.sync_try_finish(out);
+                }
+            }
             PeerMsg::Request { from, seq, r } => {
                 if self.exchange.is_some() {
                     self.counters.messages_out += 1;
@@ -609,17 +641,28 @@ impl NodeCore {
     fn sync_start_round(&mut self, out: &mut Vec<Output>) {
         let Some(st) = &self.sync else { return };
         let round = st.round;
+        let id = self.cfg.id;
+        let n = self.cfg.n_nodes as usize;
         match self.prox_step() {
             Ok((theta, r)) => {
                 if let Some(st) = &mut self.sync {
                     st.mine = Some((theta, r));
+                    if id == SYNC_ROOT {
+                        st.received.entry(round).or_insert_with(|| vec![None; n])[id as usize] =
+                            Some(r);
+                    }
                 }
-                self.counters.messages_out += 1;
-                out.push(Output::Broadcast(PeerMsg::Reflect {
-                    from: self.cfg.id,
-                    seq: round,
-                    r,
-                }));
+                if id != SYNC_ROOT {
+                    self.counters.messages_out += 1;
+                    out.push(Output::Peer {
+                        to: SYNC_ROOT,
+                        msg: PeerMsg::Reflect {
+                            from: id,
+                            seq: round,
+                            r,
+                        },
+                    });
+                }
                 self.sync_try_finish(out);
             }
             Err(e) => {
@@ -629,19 +672,39 @@ impl NodeCore {
         }
     }
 
+    /// Finish every sync round whose average is known: the root when it holds all
+    /// `n` reflected points of the round (it then broadcasts their mean), every other
+    /// node when the root's average has arrived.
     fn sync_try_finish(&mut self, out: &mut Vec<Output>) {
         loop {
+            let id = self.cfg.id;
             let Some(st) = &mut self.sync else { return };
             let Some((theta, r)) = st.mine else { return };
-            let complete = st
-                .received
-                .get(&st.round)
-                .is_some_and(|v| v.iter().all(Option::is_some));
-            if !complete {
-                return;
-            }
-            let rs = st.received.remove(&st.round).unwrap_or_default();
-            let a = mean_position(rs.iter().flatten());
+            let a = if id == SYNC_ROOT {
+                let complete = st
+                    .received
+                    .get(&st.round)
+                    .is_some_and(|v| v.iter().all(Option::is_some));
+                if !complete {
+                    return;
+                }
+                let rs = st.received.remove(&st.round).unwrap_or_default();
+                let a = mean_position(rs.iter().flatten());
+                if self.cfg.n_nodes > 1 {
+                    self.counters.messages_out += 1;
+                    out.push(Output::Broadcast(PeerMsg::Average {
+                        from: id,
+                        seq: st.round,
+                        a,
+                    }));
+                }
+                a
+            } else {
+                match self.averages.remove(&st.round) {
+                    Some(a) => a,
+                    None => return,
+                }
+            };
             dr_update(&mut self.u, &theta, &r, a);
             self.theta = theta;
             self.counters.updates += 1;
@@ -841,6 +904,87 @@ mod tests {
         assert_eq!(ahead.u(), step.u());
         assert_eq!(ahead.theta(), step.theta());
         assert_eq!(out2, out, "same outputs in the same order");
+    }
+
+    #[test]
+    fn a_sync_round_is_one_message_per_node_to_the_root_and_one_broadcast_of_the_mean() {
+        let n = 3u32;
+        let mut nodes: Vec<NodeCore> = (0..n)
+            .map(|id| {
+                let mut cfg = config(LocalSolver::Relaxed, 1);
+                cfg.id = id;
+                cfg.anchor = Vec2::new(id as f64, 2.0 * id as f64);
+                NodeCore::new(cfg)
+            })
+            .collect();
+        let mut outs: Vec<Vec<Output>> = vec![Vec::new(); n as usize];
+        for (i, node) in nodes.iter_mut().enumerate() {
+            let mut o = Vec::new();
+            node.handle(
+                Input::Command(Command::Sample {
+                    sample: 0,
+                    meas: meas(10.0 + i as f64),
+                }),
+                &mut o,
+            );
+            node.handle(
+                Input::Command(Command::SyncRounds {
+                    sample: 0,
+                    first_round: 0,
+                    rounds: 1,
+                }),
+                &mut o,
+            );
+            outs[i] = o;
+        }
+        // Non-roots: one Reflect to the root; the root waits.
+        let mut reflects = Vec::new();
+        for (i, o) in outs.iter().enumerate().skip(1) {
+            assert_eq!(o.len(), 1, "node {i}: {o:?}");
+            match &o[0] {
+                Output::Peer {
+                    to: SYNC_ROOT,
+                    msg: m @ PeerMsg::Reflect { .. },
+                } => reflects.push(*m),
+                other => panic!("node {i} sent {other:?}"),
+            }
+        }
+        assert!(outs[0].is_empty() && nodes[0].busy());
+        let root_r = nodes[0].sync.as_ref().and_then(|s| s.mine).unwrap().1;
+        let mut rs = vec![root_r];
+        rs.extend(reflects.iter().map(|m| match m {
+            PeerMsg::Reflect { r, .. } => *r,
+            _ => unreachable!(),
+        }));
+        let mut root_out = Vec::new();
+        for m in reflects {
+            nodes[0].handle(Input::Peer(m), &mut root_out);
+        }
+        let avg = match root_out.as_slice() {
+            [
+                Output::Broadcast(m @ PeerMsg::Average { seq: 0, .. }),
+                Output::Report(_),
+            ] => *m,
+            other => panic!("root sent {other:?}"),
+        };
+        let PeerMsg::Average { a, .. } = avg else {
+            unreachable!()
+        };
+        // The mean of all three reflected points, in node-id order, bit for bit.
+        assert_eq!(a, mean_position(rs.iter()));
+        for node in nodes.iter_mut().skip(1) {
+            let mut o = Vec::new();
+            node.handle(Input::Peer(avg), &mut o);
+            assert!(!node.busy());
+            assert!(
+                matches!(o.as_slice(), [Output::Report(Report::SampleDone { .. })]),
+                "{o:?}"
+            );
+        }
+        // The root ignores the loopback of its own broadcast.
+        let mut o = Vec::new();
+        nodes[0].handle(Input::Peer(avg), &mut o);
+        assert!(o.is_empty());
     }
 
     #[test]

@@ -553,13 +553,23 @@ pub fn run_logical(
     let configs: Vec<NodeConfig> = (0..n)
         .map(|i| super::node_config(sc, sc.seed, i, mode))
         .collect();
-    let neighbours = configs.iter().map(|c| c.neighbours.clone()).collect();
+    let broadcast = sc.algorithm.mode == crate::scenario::Mode::Sync;
+    let mut neighbours: Vec<Vec<u32>> = configs.iter().map(|c| c.neighbours.clone()).collect();
+    if broadcast {
+        // Sync rounds gather at the root (protocol::SYNC_ROOT), which answers over
+        // the broadcast group.
+        let root = crate::protocol::SYNC_ROOT;
+        for (i, nb) in neighbours.iter_mut().enumerate() {
+            if i as u32 != root && !nb.contains(&root) {
+                nb.push(root);
+            }
+        }
+    }
     let m = sc.geometry.transmitters.len();
     // Room for every frame of LOOKAHEAD samples in flight (a node in every iteration
     // gets one plan frame per iteration, plus its measurements), so that the
     // coordinator never waits for a full inbox.
     let inbox = super::LOOKAHEAD * (sc.algorithm.iterations_per_sample + m + 4) + 16;
-    let broadcast = sc.algorithm.mode == crate::scenario::Mode::Sync;
     let mut procs = match Processes::spawn(configs, neighbours, inbox, broadcast, opts) {
         Ok(p) => p,
         Err(e) => {

@@ -1145,7 +1145,9 @@ impl Transport for IoxTransport {
         let deadline = timeout.and_then(|t| Instant::now().checked_add(t));
         let forever = timeout.is_none() || deadline.is_none();
         loop {
-            self.consume_wakeups()?;
+            // Frames first (shared memory, no system call): while frames keep coming,
+            // the wake-up notifications are only read (system calls) right before
+            // blocking, once per wait instead of once per call.
             out.append(&mut self.stash);
             Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), out)?;
             if out.len() > before {
@@ -1153,6 +1155,13 @@ impl Transport for IoxTransport {
             }
             if self.poll_inboxes() {
                 continue;
+            }
+            // Clear the notifications, then look again: a frame sent after the
+            // look still leaves a notification behind, so the wait below wakes up.
+            self.consume_wakeups()?;
+            Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), out)?;
+            if out.len() > before {
+                return Ok(out.len() - before);
             }
             let result = if forever {
                 self.waitset
