@@ -53,8 +53,8 @@
 //! `C(rows, kappa) <= `[`MAX_ENUMERATED_SUPPORTS`] (= `C(12, 2)` = 66: every node of
 //! up to 12 rows with `kappa <= 2`, and `kappa = 1` up to 66 rows), which is exact,
 //! and falls back to alternation for larger instances. Cost: about `C(rows, kappa)`
-//! GTRS solves; on the paper's 4-row nodes with `kappa = 1`, about 1.6 us against
-//! 0.3 us for one [`prox_gtrs`] (`benches/prox.rs`, `gtrs_l0_prox_kappa1`).
+//! GTRS solves; on the paper's 4-row nodes with `kappa = 1`, about 1.0 us against
+//! 0.18 us for one [`prox_gtrs`] (`benches/prox.rs`, `gtrs_l0_prox_kappa1`).
 //!
 //! Inputs are checked row by row (a non-finite row is an error even though deleting
 //! it would hide it) and the result is never NaN: every failure is a [`ProxError`].

@@ -33,7 +33,8 @@
 //!   returns an error.
 //! * [`Transport::recv`] returns everything available now, and otherwise blocks on
 //!   the wake-up notification(s) until something arrives or the timeout passes. It
-//!   never busy-spins.
+//!   never busy-spins; [`IoxTransport::set_poll`] opts into a bounded poll of the
+//!   shared-memory inboxes (yielding the CPU) before blocking.
 //! * [`Transport::shutdown`] waits until the receivers have taken every frame sent;
 //!   call it before a process exits (with iceoryx2 a frame lives in the sender's
 //!   shared memory, and the last frames of an exiting process are otherwise lost if
