@@ -3,7 +3,7 @@
 //! coordinator.
 //!
 //! Life of a run:
-//! 1. [`cleanup_stale_resources`] removes what crashed runs left behind.
+//! 1. [`cleanup_stale_resources`](crate::transport::cleanup_stale_resources) removes what crashed runs left behind.
 //! 2. The coordinator creates the run's services (a fresh run id, limits sized
 //!    to the graph) and spawns the N children. Each child gets a
 //!    [`NodeLaunch`] (its own [`NodeConfig`] and the transport topology) as
