@@ -732,7 +732,26 @@ pub fn ols_position(geometry: &Geometry, sample: &SampleMeasurements) -> Result<
     Err(TrackError::OlsDegenerate(why))
 }
 
-fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
+/// Closed-form linear least squares on differenced squared one-way ranges, seed 000
+/// eq. (15)-(17): subtracting `||x - a_i||^2 = r_i^2` from the next equation gives
+/// `(a_{i+1} - a_i)^T x = (||a_{i+1}||^2 - ||a_i||^2 + r_i^2 - r_{i+1}^2) / 2`,
+/// `i = 1..m-1`, solved as `x = (A^T A)^{-1} A^T b` over the `(anchor, range)` pairs in
+/// the given order. The one implementation of this estimator: [`ols_position`] (and
+/// so the trackers' OLS initialisation and the `lls` baseline) and the seed 003
+/// bound tests use it.
+///
+/// Errors (as text, for [`TrackError::OlsDegenerate`]): fewer than 3 pairs,
+/// non-finite input, or collinear anchors (`A^T A` singular to `1e-10` relative).
+pub fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
+    if anchors.len() < 3 {
+        return Err(format!("{} one-way ranges (need >= 3)", anchors.len()));
+    }
+    if anchors
+        .iter()
+        .any(|(a, r)| !(a.x.is_finite() && a.y.is_finite() && r.is_finite()))
+    {
+        return Err("non-finite anchor or one-way range".into());
+    }
     let mut ata = Mat2::zeros();
     let mut atb = Vec2::zeros();
     for w in anchors.windows(2) {
@@ -1632,6 +1651,63 @@ mod tests {
         };
         let x = ols_position(&g2, &s2).unwrap();
         assert_abs_diff_eq!((x - truth).norm(), 0.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn ols_toa_recovers_the_position_from_exact_ranges() {
+        let mut rng = stream_rng(3, Stream::Aux, 0);
+        for _ in 0..100 {
+            let x = Vec2::new(rng.random_range(-50.0..50.0), rng.random_range(-50.0..50.0));
+            let anchors: Vec<(Vec2, f64)> = (0..5)
+                .map(|_| {
+                    let a = Vec2::new(
+                        rng.random_range(-100.0..100.0),
+                        rng.random_range(-100.0..100.0),
+                    );
+                    (a, (x - a).norm())
+                })
+                .collect();
+            let xh = ols_toa(&anchors).unwrap();
+            assert!((xh - x).norm() < 1e-8, "{xh:?} vs {x:?}");
+        }
+    }
+
+    #[test]
+    fn ols_toa_matches_the_normal_equations_of_seed_000_eq_15_to_17() {
+        // Noisy ranges: a direct dense evaluation of eq. (15)-(17).
+        let anchors = [
+            (Vec2::new(0.5, 0.5), 0.31),
+            (Vec2::new(0.0, 0.5), 0.52),
+            (Vec2::new(0.5, 0.0), 0.47),
+            (Vec2::new(1.0, 1.2), 0.9),
+        ];
+        let m = anchors.len();
+        let mut a = nalgebra::DMatrix::<f64>::zeros(m - 1, 2);
+        let mut b = nalgebra::DVector::<f64>::zeros(m - 1);
+        for i in 0..m - 1 {
+            let ((a0, r0), (a1, r1)) = (anchors[i], anchors[i + 1]);
+            let row = a1 - a0;
+            a[(i, 0)] = row.x;
+            a[(i, 1)] = row.y;
+            b[i] = 0.5 * (a1.norm_squared() - a0.norm_squared() + r0 * r0 - r1 * r1);
+        }
+        let direct = (a.transpose() * &a).try_inverse().unwrap() * a.transpose() * b;
+        let xh = ols_toa(&anchors).unwrap();
+        assert!((xh - Vec2::new(direct[0], direct[1])).norm() < 1e-12);
+    }
+
+    #[test]
+    fn ols_toa_rejects_collinear_anchors_too_few_ranges_and_non_finite_input() {
+        let line = [
+            (Vec2::new(0.0, 0.0), 1.0),
+            (Vec2::new(1.0, 0.0), 1.0),
+            (Vec2::new(2.0, 0.0), 1.0),
+        ];
+        assert!(ols_toa(&line).unwrap_err().contains("collinear"));
+        assert!(ols_toa(&line[..2]).unwrap_err().contains("need >= 3"));
+        let mut bad = line;
+        bad[1] = (Vec2::new(1.0, 1.0), f64::NAN);
+        assert!(ols_toa(&bad).unwrap_err().contains("non-finite"));
     }
 
     #[test]

@@ -46,7 +46,7 @@ mod solve;
 #[cfg(test)]
 mod tests;
 
-pub use estimators::{BistaticLink, LlsError, PocsResult, lls, lls_bistatic, pocs};
+pub use estimators::{PocsResult, pocs};
 pub use region::{Quadratic, Region};
 
 use crate::geometry::Vec2;

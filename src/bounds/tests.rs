@@ -326,7 +326,13 @@ fn estimates(inst: &Instance, rng: &mut SonarRng) -> Vec<Vec2> {
     )
     .unwrap();
     v.push(p.x);
-    if let Ok(x) = lls(&inst.anchors, &inst.ranges) {
+    let anchors: Vec<(Vec2, f64)> = inst
+        .anchors
+        .iter()
+        .copied()
+        .zip(inst.ranges.iter().copied())
+        .collect();
+    if let Ok(x) = crate::online::ols_toa(&anchors) {
         v.push(x);
     }
     v.push(inst.x_true + Vec2::new(rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0)));
