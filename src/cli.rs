@@ -81,6 +81,11 @@ pub struct RunArgs {
     /// outlier rows per node separated).
     #[arg(long, value_parser = parse_solver)]
     pub local_solver: Option<LocalSolver>,
+    /// Outlier budget of gtrs_l0: rows of each node's local cost that may be
+    /// separated as outliers (overrides algorithm.kappa; must be below every
+    /// node's row count; ignored by gtrs and relaxed).
+    #[arg(long, value_name = "K")]
+    pub kappa: Option<usize>,
     /// Run seed (overrides the scenario's seed).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -326,7 +331,20 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         }
         if let Some(s) = args.local_solver {
             sc = sc.with_local_solver(s);
-            sc.check_kappa()?;
+        }
+        if let Some(k) = args.kappa {
+            sc = sc.with_kappa(k);
+        }
+        if args.local_solver.is_some() || args.kappa.is_some() {
+            sc.check_kappa().map_err(|e| match args.kappa {
+                // The value came from the command line: say so.
+                Some(_) => crate::error::InputError::at(
+                    std::path::Path::new("<command line>"),
+                    "--kappa",
+                    e.reason,
+                ),
+                None => e,
+            })?;
         }
         if let Some(n) = args.iterations_per_sample {
             sc = sc.with_iterations_per_sample(n)?;

@@ -446,6 +446,12 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     add("DOA noise", noise(get(sc, &["measurements", "doa_noise"])));
     add("mode", i.mode.clone());
     add("local solver", i.local_solver.clone());
+    if i.local_solver.as_deref() == Some("gtrs_l0") {
+        add(
+            "κ (kappa, outlier rows per node)",
+            get(sc, &["algorithm", "kappa"]).map(show),
+        );
+    }
     add(
         "iterations per sample",
         get(sc, &["algorithm", "iterations_per_sample"]).map(show),
@@ -454,6 +460,9 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     add("burn-in", i.burn_in.map(|b| format!("{b} samples")));
     add("engine", i.engine.clone());
     add("clock", i.clock.clone());
+    if let Some(p) = i.poll_us.filter(|&p| p > 0) {
+        add("node polling", Some(format!("{p} µs before blocking")));
+    }
     add("seed", i.seed.map(|s| s.to_string()));
     if let Some(mc) = &d.monte_carlo {
         add(

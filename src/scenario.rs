@@ -1057,6 +1057,13 @@ impl Scenario {
         self
     }
 
+    /// Override the `gtrs_l0` outlier budget `algorithm.kappa` (checked by
+    /// [`Scenario::check_kappa`]).
+    pub fn with_kappa(mut self, kappa: usize) -> Self {
+        self.algorithm.kappa = kappa;
+        self
+    }
+
     /// Override the iterations per sample (must be >= 1).
     pub fn with_iterations_per_sample(mut self, n: usize) -> Result<Self, InputError> {
         if n == 0 {

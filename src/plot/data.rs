@@ -119,8 +119,10 @@ pub struct RunInfo {
     pub mode: Option<String>,
     /// `logical` or `realtime`.
     pub clock: Option<String>,
-    /// `gtrs` or `relaxed`.
+    /// `gtrs`, `relaxed` or `gtrs_l0`.
     pub local_solver: Option<String>,
+    /// Node polling before blocking (µs; `run.json` `poll_us`, absent in older runs).
+    pub poll_us: Option<u64>,
     /// `ok`, `failed` or `interrupted`.
     pub status: Option<String>,
     /// Why the run stopped early.
@@ -736,6 +738,7 @@ pub fn parse_run_json(p: &Path, v: &Value) -> Result<RunInfo, InputError> {
         mode: str_at(v, &["mode"]),
         clock: str_at(v, &["clock"]),
         local_solver: str_at(v, &["local_solver"]),
+        poll_us: v.get("poll_us").and_then(Value::as_u64),
         status: str_at(v, &["status"]),
         error: str_at(v, &["error"]),
         crate_version: str_at(v, &["crate_version"]),

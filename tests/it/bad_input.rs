@@ -188,6 +188,50 @@ fn a_kappa_not_below_the_row_count_of_a_node_is_rejected_with_its_key() {
 }
 
 #[test]
+fn kappa_on_the_command_line_overrides_the_file_and_is_checked_like_it() {
+    let tmp = TempDir::new("kappa");
+    let text = GOOD.replace("gamma = 1e-6", "gamma = 1e-6\nlocal_solver = \"gtrs_l0\"");
+    let p = tmp.write("scenario.toml", &text);
+    let out = tmp.path().join("out");
+    let run = |k: &str| {
+        sonarnet(
+            &[
+                "run",
+                p.to_str().unwrap(),
+                "--engine",
+                "inprocess",
+                "--quiet",
+                "--report",
+                "--kappa",
+                k,
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            Duration::from_secs(60),
+        )
+    };
+    // One transmitter and a DOA: 3 rows per node, so 3 is refused, naming the flag.
+    let o = run("3");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.matches("error:").count(), 1, "{stderr}");
+    for n in ["<command line>", "--kappa", "node 0 has 3", "got 3"] {
+        assert!(stderr.contains(n), "message must contain `{n}`:\n{stderr}");
+    }
+    // 2 runs; run.json records it and the report shows it.
+    let o = run("2");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let run_json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+    assert_eq!(run_json["scenario"]["algorithm"]["kappa"], 2, "{run_json}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("<tr><th>κ (kappa, outlier rows per node)</th><td>2</td></tr>"),
+        "report does not show kappa"
+    );
+}
+
+#[test]
 fn an_unknown_local_solver_lists_gtrs_l0_among_the_choices() {
     let out = sonarnet(
         &["run", "x.toml", "--local-solver", "l0"],
