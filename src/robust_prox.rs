@@ -144,12 +144,48 @@ pub fn prox_gtrs_l0(
         validate(p, u, gamma)?;
         return prox_gtrs(p, u, gamma);
     }
-    let r = if binomial(n, k) <= MAX_ENUMERATED_SUPPORTS {
-        prox_gtrs_l0_enumerate(p, u, gamma, kappa)?
-    } else {
-        prox_gtrs_l0_alternate(p, u, gamma, kappa, MAX_ALTERNATIONS)?
-    };
-    Ok(r.theta)
+    if binomial(n, k) <= MAX_ENUMERATED_SUPPORTS {
+        validate(p, u, gamma)?;
+        return enumerate_theta(p, u, gamma, k);
+    }
+    Ok(prox_gtrs_l0_alternate(p, u, gamma, kappa, MAX_ALTERNATIONS)?.theta)
+}
+
+thread_local! {
+    /// Per-thread scratch of [`enumerate_theta`]: the problem with rows deleted and the
+    /// support, reused so that the engine's prox calls do not allocate.
+    static SCRATCH: std::cell::RefCell<Option<(LocalProblem, Vec<usize>)>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// [`prox_gtrs_l0_enumerate`]'s minimiser only (same supports, same order, same tie
+/// rule, so bit-identical), without the trace, the support or allocations: the hot
+/// path of the gossip engines. `k >= 1`; the input must be validated.
+fn enumerate_theta(p: &LocalProblem, u: &Vec3, gamma: f64, k: usize) -> Result<Vec3, ProxError> {
+    let n = p.rows.len();
+    SCRATCH.with(|cell| {
+        let mut guard = cell.borrow_mut();
+        let (scratch, idx) =
+            guard.get_or_insert_with(|| (LocalProblem::empty(p.anchor), Vec::new()));
+        idx.clear();
+        idx.extend(0..k);
+        let mut best: Option<(Vec3, f64)> = None;
+        loop {
+            let (theta, j) = solve_without(p, idx, u, gamma, scratch)?;
+            if best.is_none_or(|b| j < b.1) {
+                best = Some((theta, j));
+            }
+            if !next_combination(idx, n) {
+                break;
+            }
+        }
+        match best {
+            Some((theta, j)) if j.is_finite() => Ok(theta),
+            _ => Err(ProxError::Degenerate(
+                "gtrs_l0: the prox objective overflowed on every outlier support".into(),
+            )),
+        }
+    })
 }
 
 /// The exact `gtrs_l0` prox by enumeration of every support of size
