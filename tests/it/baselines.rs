@@ -1,7 +1,7 @@
 //! Baselines, bounds, variants and Monte Carlo through the real `sonarnet`
 //! binary: the outputs a user reads with pandas.
 
-use crate::util::{TempDir, read_rows, sonarnet};
+use crate::util::{TempDir, read_rows, run_file, sonarnet};
 use std::time::Duration;
 
 const TOA: &str = r#"
@@ -52,16 +52,10 @@ fn baselines_and_bounds_get_their_own_track_columns_and_metrics() {
     let tmp = TempDir::new("baselines");
     let p = tmp.write("toa.toml", TOA);
     let out = tmp.path().join("out");
-    let o = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--engine",
-            "inprocess",
-            "--out",
-            out.to_str().unwrap(),
-            "--check",
-        ],
+    let o = run_file(
+        &p,
+        &out,
+        &["--engine", "inprocess", "--check"],
         Duration::from_secs(120),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -105,16 +99,10 @@ fn a_failing_expectation_makes_check_exit_1_and_names_it() {
         &TOA.replace("\"onm.rmse < 0.05\"", "\"onm.rmse > 1000\""),
     );
     let out = tmp.path().join("out");
-    let o = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--engine",
-            "inprocess",
-            "--out",
-            out.to_str().unwrap(),
-            "--check",
-        ],
+    let o = run_file(
+        &p,
+        &out,
+        &["--engine", "inprocess", "--check"],
         Duration::from_secs(120),
     );
     assert_eq!(o.status.code(), Some(1));
@@ -127,17 +115,7 @@ fn monte_carlo_writes_one_row_per_trial_and_a_summary_with_bands() {
     let tmp = TempDir::new("mc");
     let p = tmp.write("toa.toml", TOA);
     let out = tmp.path().join("out");
-    let o = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--trials",
-            "6",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        Duration::from_secs(300),
-    );
+    let o = run_file(&p, &out, &["--trials", "6"], Duration::from_secs(300));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows = read_rows(&out.join("trials.csv"));
     let head = header(&out.join("trials.csv"));
@@ -158,15 +136,10 @@ fn monte_carlo_writes_one_row_per_trial_and_a_summary_with_bands() {
     assert!(s["metrics"]["ogd.ctte"]["p95"].as_f64() >= s["metrics"]["ogd.ctte"]["p5"].as_f64());
     // Trial 0 of the Monte Carlo run is the single run with the same seed.
     let single = tmp.path().join("single");
-    let o = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--engine",
-            "inprocess",
-            "--out",
-            single.to_str().unwrap(),
-        ],
+    let o = run_file(
+        &p,
+        &single,
+        &["--engine", "inprocess"],
         Duration::from_secs(120),
     );
     assert!(o.status.success());
@@ -187,15 +160,10 @@ fn every_variant_runs_into_its_own_directory_and_variant_picks_one() {
     );
     let p = tmp.write("v.toml", &text);
     let out = tmp.path().join("out");
-    let o = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--engine",
-            "inprocess",
-            "--out",
-            out.to_str().unwrap(),
-        ],
+    let o = run_file(
+        &p,
+        &out,
+        &["--engine", "inprocess"],
         Duration::from_secs(120),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -206,17 +174,10 @@ fn every_variant_runs_into_its_own_directory_and_variant_picks_one() {
     };
     assert!(rmse("noisy") > rmse("quiet"));
     let one = tmp.path().join("one");
-    let o = sonarnet(
-        &[
-            "run",
-            p.to_str().unwrap(),
-            "--engine",
-            "inprocess",
-            "--variant",
-            "noisy",
-            "--out",
-            one.to_str().unwrap(),
-        ],
+    let o = run_file(
+        &p,
+        &one,
+        &["--engine", "inprocess", "--variant", "noisy"],
         Duration::from_secs(120),
     );
     assert!(o.status.success());

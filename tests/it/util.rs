@@ -93,6 +93,18 @@ pub fn sonarnet(args: &[&str], limit: Duration) -> Output {
     }
 }
 
+/// `sonarnet run FILE --out OUT ARGS...` with the watchdog of [`sonarnet`].
+pub fn run_file(file: &Path, out: &Path, args: &[&str], limit: Duration) -> Output {
+    let mut all = vec![
+        "run",
+        file.to_str().expect("utf-8 path"),
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ];
+    all.extend_from_slice(args);
+    sonarnet(&all, limit)
+}
+
 /// Read a results CSV as rows of strings (header dropped).
 pub fn read_rows(path: &Path) -> Vec<Vec<String>> {
     let mut rdr = csv::Reader::from_path(path).expect("open csv");
