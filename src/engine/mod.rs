@@ -341,6 +341,12 @@ pub fn drive(
         }
         Ok(())
     })();
+    if result.is_err() {
+        // As without lookahead: the schedule of the completed samples and of the one
+        // in progress, not of the samples sent ahead.
+        let keep = ((rec.thetas.len() + 1) * ips).min(rec.schedule.len());
+        rec.schedule.truncate(keep);
+    }
     if sc.trace_iterations {
         // Arrival order differs between engines; the file is ordered.
         rec.iteration_trace.sort_by_key(|e| (e.0, e.2));

@@ -400,6 +400,21 @@ fn a_killed_node_ends_a_logical_run_with_a_clear_error_naming_it() {
     let m = metrics(&out);
     assert_eq!(m["status"], "failed");
     assert!(m["error"].as_str().unwrap().contains(&format!("node {id}")));
+    // The error names the sample in progress, and schedule.csv holds the completed
+    // samples and that one, not the samples the coordinator had sent ahead.
+    let done = m["samples_completed"].as_u64().unwrap() as usize;
+    assert!(
+        m["error"]
+            .as_str()
+            .unwrap()
+            .contains(&format!("at sample {done}")),
+        "{m}"
+    );
+    assert_eq!(
+        read_rows(&out.join("schedule.csv")).len(),
+        (done + 1) * 3000,
+        "schedule rows"
+    );
     eprintln!("run ended {took:?} after the kill");
     assert_nothing_left(&run_id_of(&out));
 }
