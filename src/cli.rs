@@ -747,7 +747,7 @@ fn print_mc_summary(sc: &Scenario, mc: &crate::montecarlo::MonteCarloOutcome) {
             fmt_opt(mean(&format!("{n}.regret")))
         );
         if let Some(b) = &sc.bounds {
-            for k in &b.names {
+            for k in &b.all_kinds() {
                 let p = format!("{n}.bounds.{}", k.as_str());
                 if let Some(c) = mean(&format!("{p}.coverage")) {
                     println!(

@@ -140,15 +140,46 @@ pub struct BoundsCfg {
     /// default: `theta_bar` and every baseline.
     #[serde(default)]
     pub tracks: Option<Vec<String>>,
+    /// Tracks with their own list of bounds, replacing `names` for them (they
+    /// carry these bounds whether or not `tracks` lists them), e.g.
+    /// `per_track = { lls = ["upp_maxdis"] }`.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub per_track: std::collections::BTreeMap<String, Vec<BoundKind>>,
 }
 
 impl BoundsCfg {
-    /// Whether the track `name` carries the bounds.
+    /// Whether the track `name` carries the `names` bounds (`tracks`, or by default
+    /// every track but `ml`). See [`BoundsCfg::kinds_for`] for what it carries.
     pub fn applies_to(&self, name: &str) -> bool {
         match &self.tracks {
             Some(t) => t.iter().any(|x| x == name),
             None => name != "ml",
         }
+    }
+
+    /// The bounds the track `name` carries: its `per_track` list, else `names` if
+    /// [`BoundsCfg::applies_to`] it, else none.
+    pub fn kinds_for(&self, name: &str) -> &[BoundKind] {
+        if let Some(k) = self.per_track.get(name) {
+            return k;
+        }
+        if self.applies_to(name) {
+            &self.names
+        } else {
+            &[]
+        }
+    }
+
+    /// Every bound some track carries, in first-mention order (`names`, then the
+    /// `per_track` lists).
+    pub fn all_kinds(&self) -> Vec<BoundKind> {
+        let mut v: Vec<BoundKind> = Vec::new();
+        for k in self.names.iter().chain(self.per_track.values().flatten()) {
+            if !v.contains(k) {
+                v.push(*k);
+            }
+        }
+        v
     }
 }
 
@@ -497,16 +528,33 @@ fn check_tracks(
             return Err((k.into(), format!("must be finite and >= 0, got {v}")));
         }
     }
-    for (i, t) in b.tracks.iter().flatten().enumerate() {
+    let keys = b
+        .tracks
+        .iter()
+        .flatten()
+        .enumerate()
+        .map(|(i, t)| (format!("bounds.tracks[{i}]"), t))
+        .chain(
+            b.per_track
+                .keys()
+                .map(|t| (format!("bounds.per_track.{t}"), t)),
+        );
+    for (key, t) in keys {
         if t != "theta_bar" && t != "ml" && !names.contains(t) {
             return Err((
-                format!("bounds.tracks[{i}]"),
+                key,
                 format!(
                     "no track {t:?}: use theta_bar, ml or a baseline name ({})",
                     names.iter().cloned().collect::<Vec<_>>().join(", ")
                 ),
             ));
         }
+    }
+    if let Some((t, _)) = b.per_track.iter().find(|(_, v)| v.is_empty()) {
+        return Err((
+            format!("bounds.per_track.{t}"),
+            "list at least one bound".into(),
+        ));
     }
     Ok(())
 }

@@ -343,10 +343,8 @@ pub fn score(
         }
         // Bounds on this track.
         let mut series = Vec::new();
-        if let Some(bc) = bound_cfg
-            && bc.applies_to(&name)
-        {
-            for kind in &bc.names {
+        if let Some(bc) = bound_cfg {
+            for kind in bc.kinds_for(&name) {
                 let mut radii = Vec::with_capacity(done);
                 let start = Instant::now();
                 let mut instances = 0usize;

@@ -92,6 +92,60 @@ fn baselines_and_bounds_get_their_own_track_columns_and_metrics() {
 }
 
 #[test]
+fn a_per_track_bound_list_replaces_the_names_for_that_track_only() {
+    let tmp = TempDir::new("per-track");
+    let text = TOA.replace(
+        "tracks = [\"pocs\"]",
+        "tracks = [\"pocs\"]\nper_track = { lls = [\"upp_maxdis\"] }",
+    );
+    let p = tmp.write("toa.toml", &text);
+    let out = tmp.path().join("out");
+    let o = run_file(
+        &p,
+        &out,
+        &["--engine", "inprocess"],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let h = header(&out.join("track.csv"));
+    for (col, want) in [
+        ("pocs_bound_upp_rbbox", true),
+        ("pocs_bound_upp_maxdis", true),
+        ("lls_bound_upp_maxdis", true),
+        ("lls_bound_upp_rbbox", false),
+        ("bound_upp_maxdis", false),
+    ] {
+        assert_eq!(h.iter().any(|c| c == col), want, "{col} in {h:?}");
+    }
+    let m = crate::util::metrics(&out);
+    let lls = m["baselines"]["lls"]["bounds"].as_object().unwrap();
+    assert_eq!(lls.keys().collect::<Vec<_>>(), ["upp_maxdis"]);
+    // A per-track entry must name a track and list a bound.
+    for (entry, key) in [
+        (
+            "per_track = { nope = [\"upp_maxdis\"] }",
+            "bounds.per_track.nope",
+        ),
+        ("per_track = { lls = [] }", "bounds.per_track.lls"),
+    ] {
+        let bad = tmp.write(
+            "bad.toml",
+            &TOA.replace(
+                "tracks = [\"pocs\"]",
+                &format!("tracks = [\"pocs\"]\n{entry}"),
+            ),
+        );
+        let o = sonarnet(
+            &["validate", bad.to_str().unwrap()],
+            Duration::from_secs(60),
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("bad.toml") && err.contains(key), "{err}");
+    }
+}
+
+#[test]
 fn a_failing_expectation_makes_check_exit_1_and_names_it() {
     let tmp = TempDir::new("check");
     let p = tmp.write(
