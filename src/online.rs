@@ -94,6 +94,10 @@ pub enum TrackError {
     /// The computation overflowed (e.g. coordinates near `f64::MAX`).
     #[error("non-finite result in {0}")]
     NonFiniteResult(&'static str),
+    /// The undamped Newton step ([`NewtonDamping::Plain`]) met a Hessian that is
+    /// singular to its eigenvalue floor.
+    #[error("singular Hessian (eigenvalues {0:e} and {1:e}): no Newton step")]
+    SingularHessian(f64, f64),
 }
 
 /// Value, gradient and (optionally) Hessian of `f_t` at one point.
@@ -331,6 +335,16 @@ pub enum NewtonDamping {
         /// Absolute eigenvalue floor (default `1e-12`; the Hessian of `f_t` is dimensionless).
         abs_floor: f64,
     },
+    /// The paper's undamped step with the Hessian as it is, also when it is
+    /// indefinite (seed 000 Sec. V): `x_{t-1} - (hess f_t)^{-1} grad f_t`. Only a
+    /// Hessian that is singular to `floor` (`min |lambda_i| < floor`) has no step:
+    /// the update fails, the tracker keeps its estimate and counts a failure.
+    Plain {
+        /// Relative eigenvalue floor.
+        rel_floor: f64,
+        /// Absolute eigenvalue floor.
+        abs_floor: f64,
+    },
     /// Fall back to a gradient step `x_{t-1} - eta grad f_t` when `lambda_2 < floor`.
     GradientFallback {
         /// Relative eigenvalue floor.
@@ -355,6 +369,10 @@ impl NewtonDamping {
     fn validate(&self) -> Result<(), TrackError> {
         let (rel, abs, eta) = match *self {
             NewtonDamping::AbsEigen {
+                rel_floor,
+                abs_floor,
+            }
+            | NewtonDamping::Plain {
                 rel_floor,
                 abs_floor,
             } => (rel_floor, abs_floor, 1.0),
@@ -387,8 +405,13 @@ impl NewtonDamping {
 }
 
 /// The Newton displacement `d` (the update is `x - d`) under `damping`, and
-/// whether the Hessian had to be modified.
-fn newton_displacement(h: &Mat2, g: &Vec2, damping: &NewtonDamping) -> (Vec2, bool) {
+/// whether the Hessian had to be modified; [`TrackError::SingularHessian`] for a
+/// singular Hessian under [`NewtonDamping::Plain`].
+fn newton_displacement(
+    h: &Mat2,
+    g: &Vec2,
+    damping: &NewtonDamping,
+) -> Result<(Vec2, bool), TrackError> {
     let a = h[(0, 0)];
     let b = 0.5 * (h[(0, 1)] + h[(1, 0)]);
     let c = h[(1, 1)];
@@ -404,6 +427,10 @@ fn newton_displacement(h: &Mat2, g: &Vec2, damping: &NewtonDamping) -> (Vec2, bo
             rel_floor,
             abs_floor,
         }
+        | NewtonDamping::Plain {
+            rel_floor,
+            abs_floor,
+        }
         | NewtonDamping::GradientFallback {
             rel_floor,
             abs_floor,
@@ -414,9 +441,17 @@ fn newton_displacement(h: &Mat2, g: &Vec2, damping: &NewtonDamping) -> (Vec2, bo
     if l2 >= floor {
         // Plain Newton step: explicit inverse of the SPD 2x2 matrix.
         let det = l1 * l2;
-        return (Vec2::new(c * g.x - b * g.y, a * g.y - b * g.x) / det, false);
+        return Ok((Vec2::new(c * g.x - b * g.y, a * g.y - b * g.x) / det, false));
     }
-    match *damping {
+    Ok(match *damping {
+        NewtonDamping::Plain { .. } => {
+            if l1.abs().min(l2.abs()) < floor {
+                return Err(TrackError::SingularHessian(l1, l2));
+            }
+            // Indefinite but invertible: the same explicit inverse.
+            let det = l1 * l2;
+            (Vec2::new(c * g.x - b * g.y, a * g.y - b * g.x) / det, false)
+        }
         NewtonDamping::AbsEigen { .. } => {
             // Eigenvector of l1, computed in the cancellation-free branch.
             let v = if hd >= 0.0 {
@@ -436,7 +471,7 @@ fn newton_displacement(h: &Mat2, g: &Vec2, damping: &NewtonDamping) -> (Vec2, bo
             (v1 * (v1.dot(g) / m1) + v2 * (v2.dot(g) / m2), true)
         }
         NewtonDamping::GradientFallback { eta, .. } => (g * eta, true),
-    }
+    })
 }
 
 /// A centralised online tracker: one update per sample. Object safe, so a
@@ -602,7 +637,7 @@ impl Tracker for OnmTracker {
             return Err(TrackError::ZeroTime);
         }
         let ev = loss_grad_hess(geometry, sample, &self.x)?;
-        let (d, damped) = newton_displacement(&ev.hess, &ev.grad, &self.damping);
+        let (d, damped) = newton_displacement(&ev.hess, &ev.grad, &self.damping)?;
         let x = commit(self.x - d, "ONM update")?;
         self.x = x;
         self.damped_steps += usize::from(damped);
@@ -1491,7 +1526,7 @@ mod tests {
             );
             let h = m * m.transpose() + Mat2::identity() * 0.1;
             let gv = Vec2::new(gauss(&mut rng), gauss(&mut rng));
-            let (d, damped) = newton_displacement(&h, &gv, &NewtonDamping::default());
+            let (d, damped) = newton_displacement(&h, &gv, &NewtonDamping::default()).unwrap();
             let want = h.try_inverse().unwrap() * gv;
             assert!(!damped);
             assert_abs_diff_eq!((d - want).norm(), 0.0, epsilon = 1e-9 * (1.0 + want.norm()));
@@ -1501,15 +1536,47 @@ mod tests {
             &Mat2::zeros(),
             &Vec2::new(1e-3, 0.0),
             &NewtonDamping::default(),
-        );
+        )
+        .unwrap();
         assert!(damped && d.x.is_finite() && d.y.is_finite());
         // Diagonal indefinite: eigenvalue magnitudes are used.
         let (d, _) = newton_displacement(
             &Mat2::new(2.0, 0.0, 0.0, -4.0),
             &Vec2::new(1.0, 1.0),
             &NewtonDamping::default(),
-        );
+        )
+        .unwrap();
         assert_abs_diff_eq!((d - Vec2::new(0.5, 0.25)).norm(), 0.0, epsilon = 1e-15);
+    }
+
+    #[test]
+    fn the_plain_newton_step_inverts_an_indefinite_hessian_and_refuses_a_singular_one() {
+        let plain = NewtonDamping::Plain {
+            rel_floor: 1e-9,
+            abs_floor: 1e-12,
+        };
+        // Indefinite: the unmodified inverse, d = H^-1 g (towards the saddle).
+        let h = Mat2::new(2.0, 1.0, 1.0, -4.0);
+        let g = Vec2::new(1.0, 1.0);
+        let (d, damped) = newton_displacement(&h, &g, &plain).unwrap();
+        let want = h.try_inverse().unwrap() * g;
+        assert!(!damped);
+        assert_abs_diff_eq!((d - want).norm(), 0.0, epsilon = 1e-15);
+        // PD: the same step as the default damping.
+        let spd = Mat2::new(3.0, 0.5, 0.5, 1.0);
+        let a = newton_displacement(&spd, &g, &plain).unwrap();
+        let b = newton_displacement(&spd, &g, &NewtonDamping::default()).unwrap();
+        assert_eq!(a, b);
+        // Singular (one zero eigenvalue, the other negative): an error naming it.
+        let sing = Mat2::new(0.0, 0.0, 0.0, -3.0);
+        assert!(matches!(
+            newton_displacement(&sing, &g, &plain),
+            Err(TrackError::SingularHessian(..))
+        ));
+        // From a TOML table, as a scenario gives it.
+        let v: NewtonDamping =
+            toml::from_str("kind = \"plain\"\nrel_floor = 1e-9\nabs_floor = 1e-12").unwrap();
+        assert_eq!(v, plain);
     }
 
     /// Brute-force global minimiser of `f` on `[lo, hi]^2`: a 501^2 grid, then
