@@ -724,15 +724,10 @@ pub fn ols_position(geometry: &Geometry, sample: &SampleMeasurements) -> Result<
             bistatic.push((m, n, rho));
         }
     }
-    let mut why = String::new();
-    if anchors.len() >= 3 {
-        match ols_toa(&anchors) {
-            Ok(x) => return Ok(x),
-            Err(e) => why = e,
-        }
-    } else {
-        why.push_str(&format!("{} one-way ranges (need >= 3)", anchors.len()));
-    }
+    let mut why = match ols_toa(&anchors) {
+        Ok(x) => return Ok(x),
+        Err(e) => e,
+    };
     if bistatic.is_empty() {
         return Err(TrackError::OlsDegenerate(format!(
             "{why}; no bistatic ranges"

@@ -343,6 +343,23 @@ struct Quad {
     a12: f64,
 }
 
+impl Quad {
+    /// `a(w) = w^T A w` at the direction `w = (c, s, h)`.
+    #[inline(always)]
+    fn a_of(&self, c: f64, s: f64, h: f64) -> f64 {
+        self.a00 * c * c
+            + self.a11 * s * s
+            + 2.0 * (self.a01 * c * s + (self.a02 * c + self.a12 * s) * h)
+            + self.a22 * h * h
+    }
+}
+
+/// `b(w) = b^T w` at the direction `w = (c, s, h)`.
+#[inline(always)]
+fn b_of(b0: f64, b1: f64, b2: f64, c: f64, s: f64, h: f64) -> f64 {
+    b2 * h + b0 * c + b1 * s
+}
+
 /// Best angle so far for the reduced problem `max_phi F(phi)`, `F = b(phi)^2 / a(phi)`
 /// kept as the fraction `num / den` (no division in the comparisons). The angle is kept
 /// as a direction `w = (c, s, h)` on the cone, `c^2 + s^2 = h^2`, `h > 0`, not
@@ -365,9 +382,8 @@ impl Best {
     /// per sample cost about as much as the rest of the sampling.
     #[inline(always)]
     fn consider_branchless(&mut self, q: &Quad, b0: f64, b1: f64, b2: f64, c: f64, s: f64) {
-        let bw = b2 + b0 * c + b1 * s;
-        let aw =
-            q.a00 * c * c + q.a11 * s * s + 2.0 * (q.a01 * c * s + q.a02 * c + q.a12 * s) + q.a22;
+        let bw = b_of(b0, b1, b2, c, s, 1.0);
+        let aw = q.a_of(c, s, 1.0);
         let positive = bw > 0.0;
         self.bad |= positive & (aw <= 0.0);
         let num = if positive { bw * bw } else { 0.0 };
@@ -386,12 +402,9 @@ impl Best {
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn consider(&mut self, q: &Quad, b0: f64, b1: f64, b2: f64, c: f64, s: f64, h: f64) {
-        let bw = b2 * h + b0 * c + b1 * s;
+        let bw = b_of(b0, b1, b2, c, s, h);
         if bw > 0.0 {
-            let aw = q.a00 * c * c
-                + q.a11 * s * s
-                + 2.0 * (q.a01 * c * s + (q.a02 * c + q.a12 * s) * h)
-                + q.a22 * h * h;
+            let aw = q.a_of(c, s, h);
             if aw > 0.0 {
                 if bw * bw * self.den > self.num * aw {
                     self.num = bw * bw;

@@ -162,29 +162,19 @@ thread_local! {
 /// rule, so bit-identical), without the trace, the support or allocations: the hot
 /// path of the gossip engines. `k >= 1`; the input must be validated.
 fn enumerate_theta(p: &LocalProblem, u: &Vec3, gamma: f64, k: usize) -> Result<Vec3, ProxError> {
-    let n = p.rows.len();
     SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
         let (scratch, idx) =
             guard.get_or_insert_with(|| (LocalProblem::empty(p.anchor), Vec::new()));
-        idx.clear();
-        idx.extend(0..k);
-        let mut best: Option<(Vec3, f64)> = None;
-        loop {
-            let (theta, j) = solve_without(p, idx, u, gamma, scratch)?;
-            if best.is_none_or(|b| j < b.1) {
-                best = Some((theta, j));
-            }
-            if !next_combination(idx, n) {
-                break;
-            }
-        }
-        match best {
-            Some((theta, j)) if j.is_finite() => Ok(theta),
-            _ => Err(ProxError::Degenerate(
-                "gtrs_l0: the prox objective overflowed on every outlier support".into(),
-            )),
-        }
+        let best = enumerate_supports(p, u, gamma, k, scratch, idx, |_, _, _| {})?;
+        // Empty support and trace: no allocation.
+        let r = finish(
+            best.map(|(theta, j)| (theta, Vec::new(), j)),
+            k,
+            L0Method::Enumerate,
+            Vec::new(),
+        )?;
+        Ok(r.theta)
     })
 }
 
@@ -207,20 +197,51 @@ pub fn prox_gtrs_l0_enumerate(
         return plain(p, u, gamma);
     }
     let mut scratch = LocalProblem::empty(p.anchor);
-    let mut idx: Vec<usize> = (0..k).collect();
-    let mut best: Option<(Vec3, Vec<usize>, f64)> = None;
+    let mut idx = Vec::new();
     let mut trace = Vec::new();
-    loop {
-        let (theta, j) = solve_without(p, &idx, u, gamma, &mut scratch)?;
+    let mut support = Vec::new();
+    let best = enumerate_supports(p, u, gamma, k, &mut scratch, &mut idx, |s, j, better| {
         trace.push(j);
-        if best.as_ref().is_none_or(|b| j < b.2) {
-            best = Some((theta, idx.clone(), j));
+        if better {
+            support = s.to_vec();
         }
-        if !next_combination(&mut idx, n) {
-            break;
+    })?;
+    finish(
+        best.map(|(theta, j)| (theta, support, j)),
+        k,
+        L0Method::Enumerate,
+        trace,
+    )
+}
+
+/// The enumeration of [`prox_gtrs_l0_enumerate`]: one [`prox_gtrs`] per support of
+/// size `k >= 1` in lexicographic order (`idx` is the support buffer), ties to the
+/// first. `visit(support, J, better)` sees every support; returns the best point and
+/// its `J`.
+fn enumerate_supports(
+    p: &LocalProblem,
+    u: &Vec3,
+    gamma: f64,
+    k: usize,
+    scratch: &mut LocalProblem,
+    idx: &mut Vec<usize>,
+    mut visit: impl FnMut(&[usize], f64, bool),
+) -> Result<Option<(Vec3, f64)>, ProxError> {
+    let n = p.rows.len();
+    idx.clear();
+    idx.extend(0..k);
+    let mut best: Option<(Vec3, f64)> = None;
+    loop {
+        let (theta, j) = solve_without(p, idx, u, gamma, scratch)?;
+        let better = best.is_none_or(|b| j < b.1);
+        visit(idx, j, better);
+        if better {
+            best = Some((theta, j));
+        }
+        if !next_combination(idx, n) {
+            return Ok(best);
         }
     }
-    finish(best, k, L0Method::Enumerate, trace)
 }
 
 /// The seed 004 eq. (7) alternation for the `gtrs_l0` prox (module docs), from

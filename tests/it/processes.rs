@@ -37,16 +37,18 @@ fn nodes_csv_equal(a: &std::path::Path, b: &std::path::Path) {
 }
 
 fn equivalence(file: &str, mode: &str, samples: &str) {
-    equivalence_at(&scenario(file), mode, samples, &[]);
+    equivalence_at(&scenario(file), mode, samples, &[], &[]);
 }
 
 /// `equivalence` for the scenario file `sc`, with extra `sonarnet run` arguments
-/// for both engines; returns run.json of the processes run.
+/// for both engines (`extra`) and for the processes run only (`processes_only`);
+/// returns run.json of the processes run.
 fn equivalence_at(
     sc: &std::path::Path,
     mode: &str,
     samples: &str,
     extra: &[&str],
+    processes_only: &[&str],
 ) -> serde_json::Value {
     let tmp = TempDir::new("equiv");
     let file = sc.display();
@@ -68,6 +70,9 @@ fn equivalence_at(
             out.to_str().unwrap(),
         ];
         args.extend_from_slice(extra);
+        if engine == "processes" {
+            args.extend_from_slice(processes_only);
+        }
         let o = run(&args);
         assert!(
             o.status.success(),
@@ -95,43 +100,10 @@ fn sync_processes_reproduce_the_inprocess_engine_on_the_spiral() {
 
 #[test]
 fn polling_nodes_reproduce_the_inprocess_engine_and_record_the_poll_time() {
-    let tmp = TempDir::new("poll");
     let sc = scenario("rgg16-waypoints.toml");
     for mode in ["async", "sync"] {
-        let (p, i) = (
-            tmp.path().join(mode).join("p"),
-            tmp.path().join(mode).join("i"),
-        );
-        for (engine, out, extra) in [
-            ("processes", &p, &["--poll-us", "200"][..]),
-            ("inprocess", &i, &[][..]),
-        ] {
-            let mut args = vec![
-                "run",
-                sc.to_str().unwrap(),
-                "--engine",
-                engine,
-                "--mode",
-                mode,
-                "--samples",
-                "14",
-                "--quiet",
-                "--out",
-                out.to_str().unwrap(),
-            ];
-            args.extend_from_slice(extra);
-            let o = run(&args);
-            assert!(
-                o.status.success(),
-                "{engine} {mode}: {}",
-                String::from_utf8_lossy(&o.stderr)
-            );
-        }
-        nodes_csv_equal(&p, &i);
-        let run_json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(p.join("run.json")).unwrap()).unwrap();
+        let run_json = equivalence_at(&sc, mode, "14", &[], &["--poll-us", "200"]);
         assert_eq!(run_json["poll_us"], 200, "{run_json}");
-        assert_nothing_left(&run_id_of(&p));
     }
 }
 
@@ -183,18 +155,19 @@ fn async_processes_reproduce_the_inprocess_engine_with_gtrs_l0() {
         "async",
         "60",
         &["--local-solver", "gtrs_l0"],
+        &[],
     );
     assert_eq!(run["local_solver"], "gtrs_l0");
     assert_eq!(run["scenario"]["algorithm"]["kappa"], 1);
     let tmp = TempDir::new("l0-async");
-    let run = equivalence_at(&spiral_gtrs_l0_kappa_2(&tmp), "async", "40", &[]);
+    let run = equivalence_at(&spiral_gtrs_l0_kappa_2(&tmp), "async", "40", &[], &[]);
     assert_eq!(run["scenario"]["algorithm"]["kappa"], 2);
 }
 
 #[test]
 fn sync_processes_reproduce_the_inprocess_engine_with_gtrs_l0() {
     let tmp = TempDir::new("l0-sync");
-    let run = equivalence_at(&spiral_gtrs_l0_kappa_2(&tmp), "sync", "20", &[]);
+    let run = equivalence_at(&spiral_gtrs_l0_kappa_2(&tmp), "sync", "20", &[], &[]);
     assert_eq!(run["local_solver"], "gtrs_l0");
     assert_eq!(run["scenario"]["algorithm"]["kappa"], 2);
     let run = equivalence_at(
@@ -202,6 +175,7 @@ fn sync_processes_reproduce_the_inprocess_engine_with_gtrs_l0() {
         "sync",
         "12",
         &["--local-solver", "gtrs_l0"],
+        &[],
     );
     assert_eq!(run["local_solver"], "gtrs_l0");
 }
