@@ -24,6 +24,10 @@
 //! ```
 #![deny(clippy::float_cmp)]
 
+// The BLAS/LAPACK symbols clarabel's PSD cone calls (pure Rust, on faer):
+// named here so that every binary linking the library links them.
+extern crate dense_lapack;
+
 pub mod baselines;
 pub mod bench;
 pub mod bounds;

@@ -122,7 +122,16 @@ fn run_with(
     problem: &'static str,
     unbounded_means_empty: bool,
 ) -> Result<Solved, BoundError> {
-    solver.solve();
+    // clarabel's PSD cone `expect`s its LAPACK calls to succeed; dense-lapack
+    // reports NaN or infinite input through `info` rather than decompose it,
+    // so a diverging solve would panic inside clarabel. Report it as a solver
+    // failure of this bound instead.
+    if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| solver.solve())).is_err() {
+        return Err(BoundError::Solver {
+            problem,
+            status: "the conic solver panicked (non-finite iterate)".into(),
+        });
+    }
     let sol = &solver.solution;
     match sol.status {
         SolverStatus::Solved | SolverStatus::AlmostSolved => {

@@ -3,6 +3,7 @@
 
 mod bad_input;
 mod baselines;
+mod bounds_ref;
 mod engine;
 mod paper;
 mod processes;
