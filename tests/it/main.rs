@@ -5,6 +5,7 @@ mod bad_input;
 mod baselines;
 mod bounds_ref;
 mod engine;
+mod golden;
 mod paper;
 mod processes;
 mod replay;
