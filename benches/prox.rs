@@ -7,7 +7,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarnet::geometry::{Vec2, Vec3};
 use sonarnet::local::LocalProblem;
-use sonarnet::measure::NodeMeasurements;
+use sonarnet::measure::{Geometry, NodeMeasurements};
 use sonarnet::noise::NoiseModel;
 use sonarnet::prox::{prox_gtrs, prox_relaxed};
 use sonarnet::rng::{Stream, stream_rng};
@@ -15,15 +15,8 @@ use sonarnet::robust_prox::prox_gtrs_l0;
 use std::hint::black_box;
 
 fn instances() -> Vec<(LocalProblem, Vec3)> {
-    let tx = [Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)];
-    let rx = [
-        Vec2::new(-1000.0, -1000.0),
-        Vec2::new(1500.0, -1000.0),
-        Vec2::new(-1000.0, 1000.0),
-        Vec2::new(1500.0, 1000.0),
-        Vec2::new(1500.0, 2500.0),
-        Vec2::new(2500.0, 1500.0),
-    ];
+    let geometry = Geometry::seed002();
+    let (tx, rx) = (&geometry.transmitters, &geometry.receivers);
     let range_noise = NoiseModel::gaussian(5.0);
     let doa_noise = NoiseModel::gaussian(0.5);
     let u_noise = NoiseModel::gaussian(20.0);
@@ -31,7 +24,7 @@ fn instances() -> Vec<(LocalProblem, Vec3)> {
     let mut out = Vec::new();
     for k in 0..16 {
         let target = Vec2::new(500.0 + 2.5 * k as f64, 500.0 - 1.5 * k as f64);
-        for r in rx {
+        for &r in rx {
             let meas = NodeMeasurements {
                 bistatic: tx
                     .iter()
@@ -46,7 +39,7 @@ fn instances() -> Vec<(LocalProblem, Vec3)> {
                 ),
                 range: None,
             };
-            let p = LocalProblem::build(r, &tx, 1.0, &meas);
+            let p = LocalProblem::build(r, tx, 1.0, &meas);
             let u = Vec3::new(
                 target.x + u_noise.sample(k, false, &mut rng),
                 target.y + u_noise.sample(k, false, &mut rng),

@@ -27,11 +27,12 @@
 
 use crate::bounds::{self, Region};
 use crate::geometry::Vec2;
+use crate::local_prox::LocalSolver;
 use crate::measure::{Geometry, SampleMeasurements};
 use crate::online::{self, NewtonDamping, StepSize, Tracker};
-use crate::prox::LocalSolver;
+use crate::protocol::Mode;
 use crate::robust;
-use crate::scenario::{Mode, Realization, Scenario};
+use crate::synth::Realization;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -368,17 +369,24 @@ fn centroid(geometry: &Geometry) -> Vec2 {
     all.iter().fold(Vec2::zeros(), |s, p| s + **p) / all.len().max(1) as f64
 }
 
+/// The `distributed` baseline's run of the Douglas-Rachford engine over the
+/// first `samples` samples: `theta_bar` per sample (`None` past a failure)
+/// and the failure, if any. The run pipeline, which sits above the engine,
+/// supplies it ([`crate::run::evaluate`]).
+pub type EngineRun<'a> = &'a dyn Fn(usize) -> (Vec<Option<Vec2>>, Option<String>);
+
 /// Run one baseline over the first `samples` samples of a realization.
 /// `ml` is the centralised ML reference track of those samples and the
-/// seconds it took (the `ml` baseline reuses it instead of solving again).
+/// seconds it took (the `ml` baseline reuses it instead of solving again);
+/// `engine` runs the DR engine for the `distributed` kind.
 pub fn run_baseline(
     cfg: &BaselineCfg,
-    sc: &Scenario,
+    geometry: &Geometry,
     real: &Realization,
     samples: usize,
     ml: (&[Vec2], f64),
+    engine: EngineRun<'_>,
 ) -> BaselineTrack {
-    let geometry = &sc.geometry;
     let meas = &real.measurements[..samples];
     let mut track = BaselineTrack {
         name: cfg.name(),
@@ -528,33 +536,14 @@ pub fn run_baseline(
                 }
             }
         }
-        BaselineCfg::Distributed {
-            local_solver,
-            mode,
-            iterations_per_sample,
-            ..
-        } => {
-            let mut alt = sc.clone().with_trace_iterations(false);
-            alt.algorithm.schedule = None;
-            if let Some(s) = local_solver {
-                alt = alt.with_local_solver(*s);
-            }
-            if let Some(m) = mode {
-                alt.algorithm.mode = *m;
-            }
-            if let Some(n) = iterations_per_sample {
-                alt.algorithm.iterations_per_sample = *n;
-            }
-            alt.samples = samples;
+        BaselineCfg::Distributed { .. } => {
             let start = Instant::now();
-            let (rec, res) = crate::run::run_inprocess(&alt, real, &mut |_, _| {});
+            let (est, failure) = engine(samples);
             track.step_seconds = start.elapsed().as_secs_f64();
-            if let Err(e) = res {
-                fail(&mut track, e.to_string());
+            if let Some(e) = failure {
+                fail(&mut track, e);
             }
-            track.est = (0..samples)
-                .map(|k| rec.thetas.get(k).map(|t| crate::metrics::theta_bar(t)))
-                .collect();
+            track.est = est;
         }
     }
     track

@@ -110,6 +110,25 @@ fn ring(n: usize) -> Result<Scenario, crate::error::InputError> {
     Scenario::from_toml_str(&ring_toml(n, 10, 200), Path::new("<bench ring>"))
 }
 
+/// Why a benchmark could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// A scenario of the bench is bad input (exit 2).
+    #[error(transparent)]
+    Input(#[from] crate::error::InputError),
+    /// A benchmark run failed; what it produced is in `dir`.
+    #[error("{error}\npartial results were written to {}", dir.display())]
+    RunFailed {
+        /// The reason.
+        error: crate::engine::EngineError,
+        /// Where the partial results are.
+        dir: std::path::PathBuf,
+    },
+    /// `bench.json` could not be written.
+    #[error(transparent)]
+    Run(#[from] run::RunError),
+}
+
 /// Run the benchmarks. `scenarios` is the directory holding
 /// `mourya2017-spiral.toml`; `nodes` the scale sizes; `repeats` per overhead figure.
 pub fn run_bench(
@@ -117,7 +136,7 @@ pub fn run_bench(
     nodes: &[usize],
     repeats: usize,
     out: &Path,
-) -> Result<BenchReport, crate::cli::CliError> {
+) -> Result<BenchReport, BenchError> {
     let popts = ProcessOptions::default();
     let mut overhead = Vec::new();
     for (mode, poll_us) in [
@@ -206,7 +225,7 @@ pub fn run_bench(
         realtime_iterations_per_sample_median: rt_med,
     };
     std::fs::create_dir_all(out).map_err(|e| {
-        crate::cli::CliError::Run(run::RunError::Output {
+        BenchError::Run(run::RunError::Output {
             path: out.to_path_buf(),
             source: e,
         })
@@ -216,8 +235,8 @@ pub fn run_bench(
     Ok(report)
 }
 
-fn run_failed(e: crate::engine::EngineError, out: &Path) -> crate::cli::CliError {
-    crate::cli::CliError::RunFailed {
+fn run_failed(e: crate::engine::EngineError, out: &Path) -> BenchError {
+    BenchError::RunFailed {
         error: e,
         dir: out.to_path_buf(),
     }

@@ -1,7 +1,7 @@
 //! The `sonarnet` command line (clap derive). `main` stays thin: it parses,
 //! calls [`dispatch`], prints the error chain once, and maps it to an exit code.
 
-use crate::prox::LocalSolver;
+use crate::local_prox::LocalSolver;
 use crate::run::{self, Clock, EngineKind, RunError, RunOptions};
 use crate::scenario::{Mode, Scenario};
 use clap::{Parser, Subcommand};
@@ -37,8 +37,13 @@ pub enum Command {
     Bench(BenchArgs),
 }
 
+// The field docs below are clap's `--help` text, not rustdoc prose: `[expect]`,
+// `[[variants]]` and `<DIR2 name>` are the scenario-file and placeholder syntax
+// a user types, and escaping them for rustdoc would show the backslashes in
+// `--help`. So rustdoc is told they are not links or HTML.
 /// `sonarnet report`.
 #[derive(Debug, clap::Args)]
+#[allow(rustdoc::invalid_html_tags)]
 pub struct ReportArgs {
     /// Results directory (and a second one to compare against).
     #[arg(required = true, num_args = 1..=2, value_name = "DIR")]
@@ -68,14 +73,86 @@ pub struct BenchArgs {
     pub out: PathBuf,
 }
 
+/// The command-line spelling of [`Mode`] (library types carry no clap derive;
+/// the doc comments are the `--help` text of each value).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    /// Every node updates every iteration; positions averaged over all nodes.
+    Sync,
+    /// One random edge `(v, w)` per iteration (seed 002 eq. 11).
+    Async,
+}
+
+impl From<ModeArg> for Mode {
+    fn from(m: ModeArg) -> Self {
+        match m {
+            ModeArg::Sync => Mode::Sync,
+            ModeArg::Async => Mode::Async,
+        }
+    }
+}
+
+/// The command-line spelling of [`EngineKind`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum EngineArg {
+    /// All nodes in one thread of this process.
+    Inprocess,
+    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
+    Processes,
+}
+
+impl From<EngineArg> for EngineKind {
+    fn from(e: EngineArg) -> Self {
+        match e {
+            EngineArg::Inprocess => EngineKind::Inprocess,
+            EngineArg::Processes => EngineKind::Processes,
+        }
+    }
+}
+
+/// The command-line spelling of [`Clock`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ClockArg {
+    /// The coordinator sequences rounds/iterations; results are exact.
+    Logical,
+    /// Free-running nodes on Poisson clocks (multi-process async only).
+    Realtime,
+}
+
+impl RunArgs {
+    /// `--mode` as the library's type.
+    pub fn mode(&self) -> Option<Mode> {
+        self.mode.map(Mode::from)
+    }
+    /// `--engine` as the library's type.
+    pub fn engine(&self) -> Option<EngineKind> {
+        self.engine.map(EngineKind::from)
+    }
+    /// `--clock` as the library's type.
+    pub fn clock(&self) -> Clock {
+        self.clock.into()
+    }
+}
+
+impl From<ClockArg> for Clock {
+    fn from(c: ClockArg) -> Self {
+        match c {
+            ClockArg::Logical => Clock::Logical,
+            ClockArg::Realtime => Clock::Realtime,
+        }
+    }
+}
+
 /// `sonarnet run`.
 #[derive(Debug, clap::Args)]
+// `[expect]`, `[[variants]]`: see the note above `ReportArgs`.
+#[allow(rustdoc::broken_intra_doc_links)]
 pub struct RunArgs {
     /// The scenario TOML file.
     pub scenario: PathBuf,
     /// Gossip mode (overrides algorithm.mode).
     #[arg(long, value_enum)]
-    pub mode: Option<Mode>,
+    pub mode: Option<ModeArg>,
     /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
     /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
     /// outlier rows per node separated).
@@ -102,7 +179,7 @@ pub struct RunArgs {
     /// shared memory, or all nodes in this process (exact same numbers)
     /// [default: processes; inprocess for Monte Carlo runs].
     #[arg(long, value_enum)]
-    pub engine: Option<EngineKind>,
+    pub engine: Option<EngineArg>,
     /// Run only this variant of a scenario with [[variants]] (repeatable;
     /// default: every variant, one results directory each).
     #[arg(long, value_name = "NAME")]
@@ -124,7 +201,7 @@ pub struct RunArgs {
     /// exact, reproducible) or `realtime` (free-running nodes on Poisson
     /// clocks, [realtime] table of the scenario; needs --engine processes).
     #[arg(long, value_enum, default_value = "logical")]
-    pub clock: Clock,
+    pub clock: ClockArg,
     /// Record every node's theta after every iteration into iterations.csv
     /// (used by consensus.svg).
     #[arg(long)]
@@ -182,6 +259,39 @@ pub enum CliError {
     /// Plots or report could not be written (exit 1).
     #[error(transparent)]
     Plot(crate::plot::PlotError),
+    /// Some variants of a scenario failed; each error was printed as it
+    /// happened (exit 1).
+    #[error("{failed} variant(s) failed (their errors are above):\n{list}")]
+    VariantsFailed {
+        /// How many.
+        failed: usize,
+        /// One line per failed variant.
+        list: String,
+    },
+}
+
+/// An error and its causes as the command line prints them, once:
+/// `error: ...` and one `  caused by: ...` line per cause.
+pub fn error_report(e: &dyn std::error::Error) -> String {
+    let mut out = format!("error: {e}\n");
+    let mut src = e.source();
+    while let Some(s) = src {
+        out.push_str(&format!("  caused by: {s}\n"));
+        src = s.source();
+    }
+    out
+}
+
+impl From<crate::bench::BenchError> for CliError {
+    fn from(e: crate::bench::BenchError) -> Self {
+        match e {
+            crate::bench::BenchError::Input(i) => CliError::Input(i),
+            crate::bench::BenchError::RunFailed { error, dir } => {
+                CliError::RunFailed { error, dir }
+            }
+            crate::bench::BenchError::Run(r) => r.into(),
+        }
+    }
 }
 
 impl From<crate::plot::PlotError> for CliError {
@@ -326,7 +436,7 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         if let Some(s) = args.seed {
             sc = sc.with_seed(s);
         }
-        if let Some(m) = args.mode {
+        if let Some(m) = args.mode() {
             sc = sc.with_mode(m)?;
         }
         if let Some(s) = args.local_solver {
@@ -381,7 +491,7 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     let scenarios = resolve_scenarios(&args)?;
     let many = scenarios.len() > 1;
     let mut failed_checks = Vec::new();
-    let mut first_error = None;
+    let mut failed_variants = Vec::new();
     for sc in scenarios {
         let label = sc.variant.clone();
         if many {
@@ -405,18 +515,26 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
                 }
             }
             Err(e) => {
-                // Input errors stop at once; a failed run lets the other
-                // variants run and is reported at the end.
-                if e.exit_code() == 2 {
+                // Input errors stop at once, and so does the only run; a
+                // failed variant lets the other variants run: its error is
+                // printed now, once, and the failures are listed at the end.
+                if e.exit_code() == 2 || !many {
                     return Err(e);
                 }
-                eprintln!("error: {e}");
-                first_error.get_or_insert(e);
+                eprint!(
+                    "[variant {}] {}",
+                    label.as_deref().unwrap_or("(base)"),
+                    error_report(&e)
+                );
+                failed_variants.push(format!("  {}", label.as_deref().unwrap_or("(base)")));
             }
         }
     }
-    if let Some(e) = first_error {
-        return Err(e);
+    if !failed_variants.is_empty() {
+        return Err(CliError::VariantsFailed {
+            failed: failed_variants.len(),
+            list: failed_variants.join("\n"),
+        });
     }
     if args.check && !failed_checks.is_empty() {
         return Err(CliError::ExpectFailed {
@@ -449,13 +567,13 @@ fn run_monte_carlo_command(
     many: bool,
 ) -> Result<(PathBuf, Vec<run::ExpectResult>), CliError> {
     let cli = std::path::Path::new("<command line>");
-    if args.engine == Some(EngineKind::Processes)
-        || args.clock == Clock::Realtime
+    if args.engine() == Some(EngineKind::Processes)
+        || args.clock() == Clock::Realtime
         || args.poll_us > 0
     {
         return Err(crate::error::InputError::at(
             cli,
-            if args.clock == Clock::Realtime {
+            if args.clock() == Clock::Realtime {
                 "--clock"
             } else if args.poll_us > 0 {
                 "--poll-us"
@@ -519,7 +637,7 @@ fn run_single(
     sc: &Scenario,
     many: bool,
 ) -> Result<(PathBuf, Vec<run::ExpectResult>), CliError> {
-    let engine = args.engine.unwrap_or(EngineKind::Processes);
+    let engine = args.engine().unwrap_or(EngineKind::Processes);
     if args.poll_us > 0 && engine != EngineKind::Processes {
         return Err(crate::error::InputError::at(
             std::path::Path::new("<command line>"),
@@ -528,7 +646,7 @@ fn run_single(
         )
         .into());
     }
-    if args.clock == Clock::Realtime {
+    if args.clock() == Clock::Realtime {
         let cli = std::path::Path::new("<command line>");
         if engine != EngineKind::Processes || sc.algorithm.mode != Mode::Async {
             return Err(crate::error::InputError::at(
@@ -554,7 +672,7 @@ fn run_single(
         &format!(
             "{}{}-{}",
             sc.algorithm.mode.as_str(),
-            if args.clock == Clock::Realtime {
+            if args.clock() == Clock::Realtime {
                 "-realtime"
             } else {
                 ""
@@ -564,7 +682,7 @@ fn run_single(
     );
     let opts = RunOptions {
         engine,
-        clock: args.clock,
+        clock: args.clock(),
         out_dir,
         command_line: std::env::args().collect(),
         progress: !args.quiet && std::io::stdout().is_terminal(),
@@ -588,7 +706,7 @@ fn run_single(
                 poll_us: args.poll_us,
                 ..Default::default()
             };
-            let (rec, res, _) = match args.clock {
+            let (rec, res, _) = match args.clock() {
                 Clock::Logical => {
                     crate::engine::processes::run_logical(sc, &real, &popts, &mut tick)
                 }

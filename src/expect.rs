@@ -15,7 +15,37 @@
 //! Example: `"onm.ctte < ogd.ctte"`, `"ogd.ctte_rate < ogd.ctte_rate_mid"`,
 //! `"l0os.rmse < 0.9 * ls.rmse"`.
 
-use crate::scenario::ExpectCfg;
+use serde::{Deserialize, Serialize};
+
+/// `[expect]`: thresholds asserted by the scenario tests. Every key is optional.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ExpectCfg {
+    /// Upper bound on `rmse`.
+    #[serde(default)]
+    pub rmse_max: Option<f64>,
+    /// Upper bound on `rmse_after_burn_in`.
+    #[serde(default)]
+    pub rmse_after_burn_in_max: Option<f64>,
+    /// Upper bound on `median_error`.
+    #[serde(default)]
+    pub median_error_max: Option<f64>,
+    /// Upper bound on `final_error`.
+    #[serde(default)]
+    pub final_error_max: Option<f64>,
+    /// Upper bound on `max_disagreement`.
+    #[serde(default)]
+    pub max_disagreement_max: Option<f64>,
+    /// Upper bound on `ml_rmse`.
+    #[serde(default)]
+    pub ml_rmse_max: Option<f64>,
+    /// Relations that must hold, e.g. `"onm.ctte < ogd.ctte"` or
+    /// `"theta_bar.bounds.upp_maxdis.coverage >= 1"` (see [`crate::expect`]).
+    /// In a Monte Carlo run a metric is its mean across trials
+    /// (`NAME.METRIC.median`, `.p5`, `.p95` select other statistics).
+    #[serde(default)]
+    pub holds: Vec<String>,
+}
 
 /// The outcome of one expectation.
 #[derive(Debug, Clone, PartialEq)]

@@ -40,6 +40,7 @@ pub mod expect;
 pub mod geometry;
 pub mod graph;
 pub mod local;
+pub mod local_prox;
 pub mod measure;
 pub mod metrics;
 pub mod montecarlo;

@@ -20,12 +20,7 @@ fn main() -> ExitCode {
     match sonarnet::cli::dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
-            let mut src = std::error::Error::source(&e);
-            while let Some(s) = src {
-                eprintln!("  caused by: {s}");
-                src = s.source();
-            }
+            eprint!("{}", sonarnet::cli::error_report(&e));
             ExitCode::from(e.exit_code())
         }
     }

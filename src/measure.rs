@@ -34,6 +34,42 @@ pub struct Geometry {
     pub receivers: Vec<Vec2>,
 }
 
+impl Geometry {
+    /// The network of seed 002 Sec. III-C (Fig. 1): transmitters at `(0, 0)`
+    /// and `(2000, 2000)` m, six receivers around them. The one copy of it for
+    /// tests and benches (`scenarios/mourya2017-spiral.toml` states it too).
+    pub fn seed002() -> Self {
+        Geometry {
+            transmitters: vec![Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)],
+            receivers: vec![
+                Vec2::new(-1000.0, -1000.0),
+                Vec2::new(1500.0, -1000.0),
+                Vec2::new(-1000.0, 1000.0),
+                Vec2::new(1500.0, 1000.0),
+                Vec2::new(1500.0, 2500.0),
+                Vec2::new(2500.0, 1500.0),
+            ],
+        }
+    }
+
+    /// The body of a scenario's `[geometry]` table:
+    /// `transmitters = [[x, y], ...]` and `receivers = [[x, y], ...]`.
+    pub fn toml_table(&self) -> String {
+        let list = |ps: &[Vec2]| {
+            let items: Vec<String> = ps
+                .iter()
+                .map(|p| format!("[{:?}, {:?}]", p.x, p.y))
+                .collect();
+            format!("[{}]", items.join(", "))
+        };
+        format!(
+            "transmitters = {}\nreceivers = {}",
+            list(&self.transmitters),
+            list(&self.receivers)
+        )
+    }
+}
+
 /// Every receiver's measurements at one sample; `nodes[n]` belongs to receiver `n`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct SampleMeasurements {

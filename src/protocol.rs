@@ -22,11 +22,33 @@
 
 use crate::geometry::{Vec2, Vec3};
 use crate::local::LocalProblem;
+use crate::local_prox::{LocalSolver, prox};
 use crate::measure::NodeMeasurements;
-use crate::prox::{LocalSolver, ProxError, prox};
+use crate::prox::ProxError;
 use crate::rng::{SonarRng, Stream, stream_rng};
 use rand::RngExt;
+use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
+
+/// Gossip mode of the Douglas-Rachford engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Every node updates every iteration; positions averaged over all nodes.
+    Sync,
+    /// One random edge `(v, w)` per iteration (seed 002 eq. 11).
+    Async,
+}
+
+impl Mode {
+    /// Lower-case name as used in files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mode::Sync => "sync",
+            Mode::Async => "async",
+        }
+    }
+}
 
 /// Everything a node knows about the world: itself, its neighbours and the
 /// transmitters. It never learns another node's measurements or state except

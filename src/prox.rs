@@ -56,21 +56,6 @@
 
 use crate::geometry::{Mat3, Vec3};
 use crate::local::LocalProblem;
-use serde::{Deserialize, Serialize};
-
-/// Which local prox the Douglas-Rachford engine uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LocalSolver {
-    /// Exact prox on the cone surface `||theta~[0:2] - r_v|| = theta~[2]` (eq. 13).
-    Gtrs,
-    /// Unconstrained prox, a 3x3 SPD solve (eq. 11 without eq. 12).
-    Relaxed,
-    /// Exact prox on the cone with `l0` outlier separation of up to `kappa` rows
-    /// (seed 004 eq. 7, 19-20); see [`crate::robust_prox`].
-    #[serde(rename = "gtrs_l0")]
-    GtrsL0,
-}
 
 /// Why a prox could not be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -88,7 +73,8 @@ pub enum ProxError {
 
 /// Check `gamma`, `u` and the local problem data (`H`, `c`, anchor) for the prox of
 /// seed 002 eq. (11)/(13). Non-finite rows or `g` show up as non-finite `H` or `c`.
-fn validate(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<(), ProxError> {
+/// The one input check of every prox; [`crate::robust_prox`] adds its per-row check.
+pub(crate) fn validate(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<(), ProxError> {
     if !(gamma.is_finite() && gamma > 0.0) {
         return Err(ProxError::BadGamma(gamma));
     }
@@ -163,23 +149,6 @@ pub fn prox_gtrs(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxErr
         Ok(theta)
     } else {
         Err(ProxError::Degenerate("GTRS prox overflowed".into()))
-    }
-}
-
-/// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13), [`prox_relaxed`] (eq. 11) or
-/// [`crate::robust_prox::prox_gtrs_l0`] (eq. 13 with `l0` outlier separation of up to
-/// `kappa` rows, seed 004 eq. 7). `kappa` is ignored by the other two.
-pub fn prox(
-    solver: LocalSolver,
-    p: &LocalProblem,
-    u: &Vec3,
-    gamma: f64,
-    kappa: usize,
-) -> Result<Vec3, ProxError> {
-    match solver {
-        LocalSolver::Gtrs => prox_gtrs(p, u, gamma),
-        LocalSolver::Relaxed => prox_relaxed(p, u, gamma),
-        LocalSolver::GtrsL0 => crate::robust_prox::prox_gtrs_l0(p, u, gamma, kappa),
     }
 }
 
@@ -647,7 +616,6 @@ const CUBIC_CANCELLATION: f64 = 1e-3;
 pub(crate) mod tests {
     use super::*;
     use crate::geometry::Vec2;
-    use crate::local::RowKind;
     use crate::measure::NodeMeasurements;
     use proptest::prelude::*;
 
@@ -1044,17 +1012,10 @@ pub(crate) mod tests {
     /// The paper's geometry (seed 002 Sec. III-C): node `v` of 6, noise-free
     /// measurements of a target at `[520, 480]`.
     pub(crate) fn paper_problem(v: usize) -> LocalProblem {
-        let tx = [Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)];
-        let rx = [
-            Vec2::new(-1000.0, -1000.0),
-            Vec2::new(1500.0, -1000.0),
-            Vec2::new(-1000.0, 1000.0),
-            Vec2::new(1500.0, 1000.0),
-            Vec2::new(1500.0, 2500.0),
-            Vec2::new(2500.0, 1500.0),
-        ];
+        let geometry = crate::measure::Geometry::seed002();
+        let tx = &geometry.transmitters;
         let target = Vec2::new(520.0, 480.0);
-        let r = rx[v];
+        let r = geometry.receivers[v];
         let meas = NodeMeasurements {
             bistatic: tx
                 .iter()
@@ -1064,7 +1025,7 @@ pub(crate) mod tests {
             doa: Some((target.y - r.y).atan2(target.x - r.x)),
             range: None,
         };
-        LocalProblem::build(r, &tx, 1.0, &meas)
+        LocalProblem::build(r, tx, 1.0, &meas)
     }
 
     /// Check a GTRS answer against brute force and the constraint; returns an error
@@ -1314,98 +1275,6 @@ pub(crate) mod tests {
         // u at the apex: the apex.
         let th = prox_gtrs(&p, &Vec3::new(3.0, -2.0, 0.0), 0.1).unwrap();
         approx::assert_abs_diff_eq!(th, Vec3::new(3.0, -2.0, 0.0), epsilon = 1e-15);
-    }
-
-    #[test]
-    fn bad_gamma_is_an_error_for_every_solver() {
-        let p = paper_problem(0);
-        let u = Vec3::new(1.0, 2.0, 3.0);
-        for g in [0.0, -1e-8, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
-                assert!(
-                    matches!(prox(s, &p, &u, g, 1), Err(ProxError::BadGamma(_))),
-                    "{s:?} gamma {g}"
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn non_finite_inputs_are_errors_never_nan() {
-        let good = paper_problem(1);
-        let u = Vec3::new(1.0, 2.0, 3.0);
-        let mut cases: Vec<(LocalProblem, Vec3)> = Vec::new();
-        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            cases.push((good.clone(), Vec3::new(1.0, bad, 3.0)));
-            let mut rows = good.rows.clone();
-            rows[0][2] = bad;
-            cases.push((
-                LocalProblem::from_rows(good.anchor, rows, good.g.clone(), good.kinds.clone()),
-                u,
-            ));
-            let mut g = good.g.clone();
-            g[2] = bad;
-            cases.push((
-                LocalProblem::from_rows(good.anchor, good.rows.clone(), g, good.kinds.clone()),
-                u,
-            ));
-            // A zero row with a non-finite g still poisons c (0 * inf = NaN).
-            cases.push((
-                LocalProblem::from_rows(
-                    good.anchor,
-                    vec![[0.0, 0.0, 0.0]],
-                    vec![bad],
-                    vec![RowKind::Range],
-                ),
-                u,
-            ));
-            cases.push((LocalProblem::empty(Vec2::new(bad, 0.0)), u));
-        }
-        for (k, (p, u)) in cases.iter().enumerate() {
-            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
-                assert!(
-                    matches!(prox(s, p, u, 2e-8, 1), Err(ProxError::NonFinite(_))),
-                    "case {k} {s:?}"
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn overflowing_data_is_an_error_not_nan() {
-        let p = LocalProblem::from_rows(
-            Vec2::zeros(),
-            vec![[1e200, 1e200, 1e200]],
-            vec![1e200],
-            vec![RowKind::Range],
-        );
-        for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
-            assert!(
-                prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), 1.0, 1).is_err(),
-                "{s:?}"
-            );
-        }
-    }
-
-    #[test]
-    fn huge_gamma_gives_a_finite_answer_or_an_error_never_nan() {
-        // Rank-1 H: A = H + I/gamma is barely positive definite for huge gamma.
-        let p = LocalProblem::from_rows(
-            Vec2::new(1.0, 2.0),
-            vec![[2.0, -1.0, 0.5]],
-            vec![3.0],
-            vec![RowKind::Range],
-        );
-        for gamma in [1e10, 1e100, 1e300, f64::MAX] {
-            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
-                if let Ok(th) = prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), gamma, 1) {
-                    assert!(th.iter().all(|x| x.is_finite()), "{s:?} {gamma}: {th:?}");
-                }
-            }
-        }
-        // Tiny gamma: the prox is (almost) the projection of u, found exactly.
-        let th = prox_gtrs(&p, &Vec3::new(4.0, 6.0, 5.0), 1e-300).unwrap();
-        approx::assert_relative_eq!(th, Vec3::new(4.0, 6.0, 5.0), max_relative = 1e-12);
     }
 
     /// Monic-scaled quartic `lead * prod (t - r_i)` with the given complex roots

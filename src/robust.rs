@@ -440,28 +440,34 @@ impl Problem {
     }
 }
 
-/// Indices of the `kappa` largest `|beta|` (ties broken by lower index, so
-/// the result is deterministic; seed 004 allows any tie-break), returned in
-/// `keep` (true = kept as outlier). Seed 004 eq. (19)-(20).
-fn hard_threshold(beta: &[f64], kappa: usize, order: &mut Vec<usize>, keep: &mut [bool]) {
-    keep.fill(false);
-    if kappa == 0 {
-        return;
-    }
+/// Hard thresholding of seed 004 eq. (19)-(20), the one implementation for
+/// `l0-OS` here and the `gtrs_l0` prox ([`crate::robust_prox`]): the indices of
+/// the `kappa` largest `|beta|`, ascending. Ties go to the lower index, so the
+/// result is deterministic (seed 004 allows any tie-break); a NaN counts as
+/// infinitely large, so a poisoned entry is separated first. `order` is
+/// scratch and holds the result.
+pub(crate) fn hard_threshold<'a>(
+    beta: &[f64],
+    kappa: usize,
+    order: &'a mut Vec<usize>,
+) -> &'a [usize] {
     order.clear();
     order.extend(0..beta.len());
-    let cmp = |a: &usize, b: &usize| {
-        beta[*b]
-            .abs()
-            .total_cmp(&beta[*a].abs())
-            .then_with(|| a.cmp(b))
+    let k = kappa.min(order.len());
+    if k == 0 {
+        return &order[..0];
+    }
+    let mag = |i: usize| {
+        let m = beta[i].abs();
+        if m.is_nan() { f64::INFINITY } else { m }
     };
-    if kappa < order.len() {
-        order.select_nth_unstable_by(kappa - 1, cmp);
+    let cmp = |a: &usize, b: &usize| mag(*b).total_cmp(&mag(*a)).then_with(|| a.cmp(b));
+    if k < order.len() {
+        order.select_nth_unstable_by(k - 1, cmp);
     }
-    for &i in &order[..kappa.min(order.len())] {
-        keep[i] = true;
-    }
+    order.truncate(k);
+    order.sort_unstable();
+    &order[..]
 }
 
 /// Seed 004 Algorithm 1 (`l0`-norm outlier separation, `l0-OS`): minimise
@@ -552,7 +558,10 @@ pub fn l0os(
             dist_r[l] = (e_new - pb.r[l]).norm();
             beta[l] = pb.s[l] - dist_t[l] - dist_r[l];
         }
-        hard_threshold(&beta, cfg.kappa, &mut order, &mut keep);
+        keep.fill(false);
+        for &i in hard_threshold(&beta, cfg.kappa, &mut order) {
+            keep[i] = true;
+        }
         let mut f = 0.0;
         for l in 0..n {
             if keep[l] {
@@ -1149,13 +1158,24 @@ mod tests {
     fn hard_threshold_keeps_the_kappa_largest_magnitudes_with_index_tie_break() {
         let beta = [1.0, -5.0, 3.0, 5.0, -3.0, 0.5];
         let mut order = Vec::new();
-        let mut keep = vec![false; beta.len()];
-        hard_threshold(&beta, 3, &mut order, &mut keep);
-        assert_eq!(keep, [false, true, true, true, false, false]);
-        hard_threshold(&beta, 0, &mut order, &mut keep);
-        assert!(keep.iter().all(|&k| !k));
-        hard_threshold(&beta, 6, &mut order, &mut keep);
-        assert!(keep.iter().all(|&k| k));
+        let keep = |s: &[usize]| (0..beta.len()).map(|i| s.contains(&i)).collect::<Vec<_>>();
+        let s = hard_threshold(&beta, 3, &mut order).to_vec();
+        assert_eq!(keep(&s), [false, true, true, true, false, false]);
+        assert!(hard_threshold(&beta, 0, &mut order).is_empty());
+        let s = hard_threshold(&beta, 6, &mut order).to_vec();
+        assert!(keep(&s).iter().all(|&k| k));
+    }
+
+    #[test]
+    fn hard_thresholding_keeps_the_kappa_largest_magnitudes_with_ties_to_the_lower_row() {
+        let beta = [0.5, -3.0, 2.0, 3.0, f64::NAN, -0.1];
+        let mut order = Vec::new();
+        // NaN counts as the largest: it is deleted first.
+        assert_eq!(hard_threshold(&beta, 1, &mut order), [4]);
+        assert_eq!(hard_threshold(&beta, 2, &mut order), [1, 4]);
+        assert_eq!(hard_threshold(&beta, 3, &mut order), [1, 3, 4]);
+        assert_eq!(hard_threshold(&beta[..4], 2, &mut order), [1, 3]);
+        assert_eq!(hard_threshold(&beta, 0, &mut order), [0usize; 0]);
     }
 
     #[test]

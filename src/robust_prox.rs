@@ -62,6 +62,7 @@
 use crate::geometry::Vec3;
 use crate::local::LocalProblem;
 use crate::prox::{ProxError, prox_gtrs};
+use crate::robust::hard_threshold;
 
 /// Default outlier budget `kappa` per node (`algorithm.kappa`).
 pub const DEFAULT_KAPPA: usize = 1;
@@ -276,7 +277,7 @@ pub fn prox_gtrs_l0_alternate(
     let mut visited: Vec<Vec<usize>> = vec![support.clone()];
     let mut order = Vec::with_capacity(n);
     for _ in 0..max_iter {
-        support = hard_threshold(&p.residuals(&theta), k, &mut order);
+        support = hard_threshold(&p.residuals(&theta), k, &mut order).to_vec();
         if visited.contains(&support) {
             break;
         }
@@ -299,18 +300,6 @@ pub fn l0_objective(p: &LocalProblem, theta: &Vec3, u: &Vec3, gamma: f64, kappa:
     sq.sort_by(|a, b| b.total_cmp(a));
     let kept: f64 = sq.iter().skip(kappa).sum();
     nan_to_inf(0.5 * kept + (theta - u).norm_squared() / (2.0 * gamma))
-}
-
-/// The `kappa` rows of largest `|beta|` (seed 004 eq. 19-20), ties to the lower
-/// index, sorted. `order` is scratch.
-fn hard_threshold(beta: &[f64], kappa: usize, order: &mut Vec<usize>) -> Vec<usize> {
-    order.clear();
-    order.extend(0..beta.len());
-    let mag = |i: usize| nan_to_inf(beta[i].abs());
-    order.sort_by(|&a, &b| mag(b).total_cmp(&mag(a)).then_with(|| a.cmp(&b)));
-    let mut s: Vec<usize> = order[..kappa.min(order.len())].to_vec();
-    s.sort_unstable();
-    s
 }
 
 /// Advance `idx` (strictly increasing, values `< n`) to the next combination in
@@ -403,20 +392,12 @@ fn nan_to_inf(x: f64) -> f64 {
     if x.is_nan() { f64::INFINITY } else { x }
 }
 
-/// Check `gamma`, `u`, the anchor and every row and `g` entry (not only `H` and `c`:
-/// a deleted row must not hide a NaN).
+/// The checks of every prox ([`crate::prox::validate`]: `gamma`, `u`, `H`, `c`,
+/// the anchor), then every row and `g` entry on its own: a deleted row must
+/// not hide a NaN.
 fn validate(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<(), ProxError> {
-    if !(gamma.is_finite() && gamma > 0.0) {
-        return Err(ProxError::BadGamma(gamma));
-    }
-    if !u.iter().all(|x| x.is_finite()) {
-        return Err(ProxError::NonFinite("prox input u"));
-    }
-    if !p.anchor.iter().all(|x| x.is_finite()) {
-        return Err(ProxError::NonFinite("receiver position r_v"));
-    }
-    let rows_ok = p.rows.iter().flatten().chain(&p.g).all(|x| x.is_finite());
-    if !rows_ok || !p.h.iter().chain(p.c.iter()).all(|x| x.is_finite()) {
+    crate::prox::validate(p, u, gamma)?;
+    if !p.rows.iter().flatten().chain(&p.g).all(|x| x.is_finite()) {
         return Err(ProxError::NonFinite(
             "local problem rows B_v or g_v (H = B^T B or c = B^T g)",
         ));
@@ -603,11 +584,12 @@ mod tests {
 
     #[test]
     fn gtrs_l0_recovers_the_clean_row_prox_when_one_bistatic_row_is_grossly_corrupted() {
-        let txs = [Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)];
+        let geometry = crate::measure::Geometry::seed002();
+        let txs = &geometry.transmitters;
         let target = Vec2::new(520.0, 480.0);
         for v in 0..6 {
             let r = paper_problem(v).anchor;
-            let p = corrupted_node(r, &txs, target, &[(1, 1500.0)]);
+            let p = corrupted_node(r, txs, target, &[(1, 1500.0)]);
             assert_eq!(p.kinds[1], RowKind::Bistatic(1));
             let clean = drop_rows(&p, 1 << 1);
             for u in [
@@ -750,18 +732,6 @@ mod tests {
         assert_eq!(binomial(12, 2), MAX_ENUMERATED_SUPPORTS);
         assert_eq!(binomial(3, 5), 0);
         assert_eq!(binomial(200, 100), usize::MAX);
-    }
-
-    #[test]
-    fn hard_thresholding_keeps_the_kappa_largest_magnitudes_with_ties_to_the_lower_row() {
-        let beta = [0.5, -3.0, 2.0, 3.0, f64::NAN, -0.1];
-        let mut order = Vec::new();
-        // NaN counts as the largest: it is deleted first.
-        assert_eq!(hard_threshold(&beta, 1, &mut order), vec![4]);
-        assert_eq!(hard_threshold(&beta, 2, &mut order), vec![1, 4]);
-        assert_eq!(hard_threshold(&beta, 3, &mut order), vec![1, 3, 4]);
-        assert_eq!(hard_threshold(&beta[..4], 2, &mut order), vec![1, 3]);
-        assert_eq!(hard_threshold(&beta, 0, &mut order), Vec::<usize>::new());
     }
 
     #[test]

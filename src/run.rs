@@ -11,7 +11,7 @@
 //! * `truth.csv`: `sample,x,y,seed` when the truth is known;
 //! * `metrics.json`: the metrics, see [`RunMetrics`].
 
-use crate::engine::{self, EngineError, RunRecord};
+use crate::engine::{EngineError, RunRecord};
 use crate::error::InputError;
 use crate::geometry::Vec2;
 use crate::metrics;
@@ -24,7 +24,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Which engine runs the nodes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EngineKind {
     /// All nodes in one thread of this process.
@@ -44,7 +44,7 @@ impl EngineKind {
 }
 
 /// How a run is clocked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Clock {
     /// The coordinator sequences rounds/iterations; results are exact.
@@ -218,7 +218,7 @@ pub enum RunError {
     #[error(transparent)]
     Input(#[from] InputError),
     /// Could not write the results directory.
-    #[error("cannot write results to {path}: {source}")]
+    #[error("cannot write results to {}", path.display())]
     Output {
         /// The file.
         path: PathBuf,
@@ -230,18 +230,46 @@ pub enum RunError {
     Engine(String),
 }
 
-/// Run `sc` in-process.
-pub fn run_inprocess(
+pub use crate::engine::run_inprocess;
+
+/// The `distributed` baseline: the DR engine again, in-process, on the same
+/// realization, with the baseline's own local solver, mode and iteration
+/// count (the scenario's where it gives none), and no fixed schedule.
+fn distributed_run(
+    cfg: &crate::baselines::BaselineCfg,
     sc: &Scenario,
     real: &Realization,
-    progress: engine::Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>) {
-    let mode = engine::logical_mode(sc.algorithm.mode);
-    let configs = (0..sc.graph.len())
-        .map(|i| engine::node_config(sc, sc.seed, i, mode))
+    samples: usize,
+) -> (Vec<Option<Vec2>>, Option<String>) {
+    let crate::baselines::BaselineCfg::Distributed {
+        local_solver,
+        mode,
+        iterations_per_sample,
+        ..
+    } = cfg
+    else {
+        return (
+            vec![None; samples],
+            Some(format!("{} is not the distributed baseline", cfg.kind())),
+        );
+    };
+    let mut alt = sc.clone().with_trace_iterations(false);
+    alt.algorithm.schedule = None;
+    if let Some(s) = local_solver {
+        alt = alt.with_local_solver(*s);
+    }
+    if let Some(m) = mode {
+        alt.algorithm.mode = *m;
+    }
+    if let Some(n) = iterations_per_sample {
+        alt.algorithm.iterations_per_sample = *n;
+    }
+    alt.samples = samples;
+    let (rec, res) = run_inprocess(&alt, real, &mut |_, _| {});
+    let est = (0..samples)
+        .map(|k| rec.thetas.get(k).map(|t| metrics::theta_bar(t)))
         .collect();
-    let mut net = engine::inprocess::InProcess::new(configs);
-    engine::drive(sc, sc.seed, real, &mut net, progress)
+    (est, res.err().map(|e| e.to_string()))
 }
 
 /// Run the baselines and score every track of a record (no I/O).
@@ -270,7 +298,10 @@ pub fn evaluate(
     let baselines: Vec<_> = sc
         .baselines
         .iter()
-        .map(|b| crate::baselines::run_baseline(b, sc, real, done, (&ml, ml_seconds)))
+        .map(|b| {
+            let engine = |samples: usize| distributed_run(b, sc, real, samples);
+            crate::baselines::run_baseline(b, &sc.geometry, real, done, (&ml, ml_seconds), &engine)
+        })
         .collect();
     let scored = score::score(sc, real, &est, ml, baselines, done);
     let tb = &scored.tracks[0].metrics;

@@ -6,38 +6,21 @@
 //! schedule files it names (paths relative to the scenario file), and returns
 //! one [`InputError`] that names the file, the key or line, and the reason.
 
+pub use crate::expect::ExpectCfg;
+pub use crate::protocol::Mode;
+pub use crate::synth::{MeasurementsCfg, Realization};
+
 use crate::error::InputError;
 use crate::geometry::{Vec2, Vec3, v2};
 use crate::graph::Graph;
+use crate::local_prox::LocalSolver;
 use crate::measure::{Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
 use crate::motion::Motion;
-use crate::noise::NoiseModel;
-use crate::prox::LocalSolver;
 use crate::rng::{SonarRng, Stream, stream_rng};
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-
-/// Gossip mode of the Douglas-Rachford engine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum Mode {
-    /// Every node updates every iteration; positions averaged over all nodes.
-    Sync,
-    /// One random edge `(v, w)` per iteration (seed 002 eq. 11).
-    Async,
-}
-
-impl Mode {
-    /// Lower-case name as used in files.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Mode::Sync => "sync",
-            Mode::Async => "async",
-        }
-    }
-}
 
 /// The raw scenario file (`deny_unknown_fields` at every level).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -279,43 +262,6 @@ pub struct TargetCfg {
 fn default_true() -> bool {
     true
 }
-fn default_omega() -> f64 {
-    1.0
-}
-
-/// `[measurements]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MeasurementsCfg {
-    /// Synthesize a bistatic range for every transmitter-receiver pair.
-    #[serde(default = "default_true")]
-    pub bistatic: bool,
-    /// Synthesize a DOA at every receiver.
-    #[serde(default)]
-    pub doa: bool,
-    /// Synthesize a one-way range (TOA) at every receiver.
-    #[serde(default)]
-    pub range: bool,
-    /// DOA row weight `omega` of eq. (9).
-    #[serde(default = "default_omega")]
-    pub omega: f64,
-    /// Noise of bistatic and one-way ranges (metres).
-    #[serde(default)]
-    pub range_noise: Option<NoiseModel>,
-    /// Noise of DOAs (radians).
-    #[serde(default)]
-    pub doa_noise: Option<NoiseModel>,
-    /// Which links are NLOS (redrawn per run from the seed); the noise
-    /// models' `is_nlos` argument.
-    #[serde(default)]
-    pub nlos_links: crate::noise::NlosLinks,
-    /// A recorded trace CSV to use instead of synthesis.
-    #[serde(default)]
-    pub trace: Option<String>,
-    /// The true track of the trace (CSV `sample,x,y`).
-    #[serde(default)]
-    pub truth: Option<String>,
-}
 
 fn default_ips() -> usize {
     50
@@ -367,36 +313,6 @@ pub struct RealtimeCfg {
     pub sample_period_ms: f64,
     /// Poisson wake-up rate of every node (per second).
     pub wake_rate_hz: f64,
-}
-
-/// `[expect]`: thresholds asserted by the scenario tests. Every key is optional.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-pub struct ExpectCfg {
-    /// Upper bound on `rmse`.
-    #[serde(default)]
-    pub rmse_max: Option<f64>,
-    /// Upper bound on `rmse_after_burn_in`.
-    #[serde(default)]
-    pub rmse_after_burn_in_max: Option<f64>,
-    /// Upper bound on `median_error`.
-    #[serde(default)]
-    pub median_error_max: Option<f64>,
-    /// Upper bound on `final_error`.
-    #[serde(default)]
-    pub final_error_max: Option<f64>,
-    /// Upper bound on `max_disagreement`.
-    #[serde(default)]
-    pub max_disagreement_max: Option<f64>,
-    /// Upper bound on `ml_rmse`.
-    #[serde(default)]
-    pub ml_rmse_max: Option<f64>,
-    /// Relations that must hold, e.g. `"onm.ctte < ogd.ctte"` or
-    /// `"theta_bar.bounds.upp_maxdis.coverage >= 1"` (see [`crate::expect`]).
-    /// In a Monte Carlo run a metric is its mean across trials
-    /// (`NAME.METRIC.median`, `.p5`, `.p95` select other statistics).
-    #[serde(default)]
-    pub holds: Vec<String>,
 }
 
 /// Where the measurements come from.
@@ -479,19 +395,6 @@ pub struct Scenario {
     pub trials: Option<usize>,
     /// The variant's name, for a file with `[[variants]]`.
     pub variant: Option<String>,
-}
-
-/// The measurements and truth of one run (one seed).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Realization {
-    /// True positions per sample, if known.
-    pub truth: Option<Vec<Vec2>>,
-    /// Every receiver's measurements per sample.
-    pub measurements: Vec<SampleMeasurements>,
-    /// Nominal noise sigmas per sample (weights of the centralised estimators).
-    pub sigmas: Vec<Sigmas>,
-    /// The NLOS links of this run (all LOS for a trace).
-    pub nlos: crate::noise::NlosMask,
 }
 
 /// Check the baselines (parameters, unique names) and the `[bounds]` table

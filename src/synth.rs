@@ -7,10 +7,10 @@
 //! run seed, stream `Links`).
 
 use crate::geometry::Vec2;
-use crate::measure::{self, Geometry, NodeMeasurements, SampleMeasurements};
+use crate::measure::{self, Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
 use crate::noise::{NlosMask, NoiseModel};
 use crate::rng::{Stream, stream_rng};
-use crate::scenario::MeasurementsCfg;
+use serde::{Deserialize, Serialize};
 
 /// Synthesize every receiver's measurements along `truth` (seed 002 Sec. III-A:
 /// `rho_{m,n} = ||theta - t_m|| + ||theta - r_n|| + noise`,
@@ -61,4 +61,59 @@ pub fn synthesize(
                 .collect(),
         })
         .collect()
+}
+
+/// `[measurements]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementsCfg {
+    /// Synthesize a bistatic range for every transmitter-receiver pair.
+    #[serde(default = "crate::synth::default_true")]
+    pub bistatic: bool,
+    /// Synthesize a DOA at every receiver.
+    #[serde(default)]
+    pub doa: bool,
+    /// Synthesize a one-way range (TOA) at every receiver.
+    #[serde(default)]
+    pub range: bool,
+    /// DOA row weight `omega` of eq. (9).
+    #[serde(default = "default_omega")]
+    pub omega: f64,
+    /// Noise of bistatic and one-way ranges (metres).
+    #[serde(default)]
+    pub range_noise: Option<NoiseModel>,
+    /// Noise of DOAs (radians).
+    #[serde(default)]
+    pub doa_noise: Option<NoiseModel>,
+    /// Which links are NLOS (redrawn per run from the seed); the noise
+    /// models' `is_nlos` argument.
+    #[serde(default)]
+    pub nlos_links: crate::noise::NlosLinks,
+    /// A recorded trace CSV to use instead of synthesis.
+    #[serde(default)]
+    pub trace: Option<String>,
+    /// The true track of the trace (CSV `sample,x,y`).
+    #[serde(default)]
+    pub truth: Option<String>,
+}
+
+pub(crate) fn default_true() -> bool {
+    true
+}
+
+fn default_omega() -> f64 {
+    1.0
+}
+
+/// The measurements and truth of one run (one seed).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Realization {
+    /// True positions per sample, if known.
+    pub truth: Option<Vec<Vec2>>,
+    /// Every receiver's measurements per sample.
+    pub measurements: Vec<SampleMeasurements>,
+    /// Nominal noise sigmas per sample (weights of the centralised estimators).
+    pub sigmas: Vec<Sigmas>,
+    /// The NLOS links of this run (all LOS for a trace).
+    pub nlos: crate::noise::NlosMask,
 }

@@ -357,3 +357,17 @@ pub fn drive(
     rec.wall_seconds = start.elapsed().as_secs_f64();
     (rec, result)
 }
+
+/// Run `sc` in-process.
+pub fn run_inprocess(
+    sc: &Scenario,
+    real: &Realization,
+    progress: Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>) {
+    let mode = logical_mode(sc.algorithm.mode);
+    let configs = (0..sc.graph.len())
+        .map(|i| node_config(sc, sc.seed, i, mode))
+        .collect();
+    let mut net = inprocess::InProcess::new(configs);
+    drive(sc, sc.seed, real, &mut net, progress)
+}

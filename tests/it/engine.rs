@@ -5,7 +5,7 @@ use crate::util::scenario;
 use sonarnet::engine::Scheduler;
 use sonarnet::geometry::{Vec2, Vec3};
 use sonarnet::local::LocalProblem;
-use sonarnet::prox::{LocalSolver, prox};
+use sonarnet::local_prox::{LocalSolver, prox};
 use sonarnet::run;
 use sonarnet::scenario::{Mode, Scenario};
 

@@ -197,12 +197,12 @@ fn a_replayed_trace_and_schedule_give_the_same_nodes_over_processes() {
         first.to_str().unwrap(),
     ]);
     assert!(o.status.success());
+    let geometry = sonarnet::measure::Geometry::seed002().toml_table();
     let text = format!(
         r#"name = "replay"
 seed = 123
 [geometry]
-transmitters = [[0.0, 0.0], [2000.0, 2000.0]]
-receivers = [[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0], [1500.0, 1000.0], [1500.0, 2500.0], [2500.0, 1500.0]]
+{geometry}
 [network]
 edges = [[0, 1], [0, 2], [1, 3], [2, 3], [3, 4], [3, 5]]
 [measurements]

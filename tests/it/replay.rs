@@ -67,11 +67,11 @@ fn a_trace_without_truth_still_gives_estimates_and_says_why_errors_are_missing()
         .unwrap();
     let first = TempDir::new("notruth-a");
     run_inprocess(&sc, first.path());
+    let geometry = sonarnet::measure::Geometry::seed002().toml_table();
     let text = format!(
         r#"name = "no-truth"
 [geometry]
-transmitters = [[0.0, 0.0], [2000.0, 2000.0]]
-receivers = [[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0], [1500.0, 1000.0], [1500.0, 2500.0], [2500.0, 1500.0]]
+{geometry}
 [network]
 edges = [[0, 1], [0, 2], [1, 3], [2, 3], [3, 4], [3, 5]]
 [measurements]

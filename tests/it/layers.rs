@@ -1,0 +1,153 @@
+//! The library's modules import each other one way only: the graph of
+//! `crate::MODULE` references between the top-level modules of `src/` (a
+//! folder is one module) has no cycle. Doc comments, `#[cfg(test)]` modules
+//! and `tests.rs` files are not imports and are left out.
+
+use crate::util::root;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// The top-level module a file of `src/` belongs to.
+fn module_of(rel: &Path) -> Option<String> {
+    let first = rel.components().next()?.as_os_str().to_str()?.to_string();
+    let name = first.strip_suffix(".rs").unwrap_or(&first).to_string();
+    (name != "lib" && name != "main").then_some(name)
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    for e in std::fs::read_dir(dir).expect("read src") {
+        let p = e.expect("dir entry").path();
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs")
+            && p.file_name().is_some_and(|n| n != "tests.rs")
+        {
+            out.push(p);
+        }
+    }
+}
+
+/// The code of a file without its test module and comments.
+fn code(text: &str) -> String {
+    let end = text
+        .find("mod tests {")
+        .map(|i| text[..i].rfind("#[cfg(test)]").unwrap_or(i))
+        .unwrap_or(text.len());
+    text[..end]
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+fn graph() -> BTreeMap<String, BTreeSet<String>> {
+    let src = root().join("src");
+    let mut files = vec![];
+    rust_files(&src, &mut files);
+    let modules: BTreeSet<String> = files
+        .iter()
+        .filter_map(|f| module_of(f.strip_prefix(&src).expect("under src")))
+        .collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for f in &files {
+        let Some(from) = module_of(f.strip_prefix(&src).expect("under src")) else {
+            continue;
+        };
+        let text = code(&std::fs::read_to_string(f).expect("read source"));
+        let deps = g.entry(from.clone()).or_default();
+        for (i, _) in text.match_indices("crate::") {
+            let rest = &text[i + "crate::".len()..];
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if name != from && modules.contains(&name) {
+                deps.insert(name);
+            }
+        }
+        // `use crate::{a, b::c}` groups.
+        if let Some(i) = text.find("use crate::{") {
+            let group = &text[i + "use crate::{".len()..];
+            let group = &group[..group.find("};").unwrap_or(group.len())];
+            for part in group.split(',') {
+                let name: String = part
+                    .trim()
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                if name != from && modules.contains(&name) {
+                    deps.insert(name);
+                }
+            }
+        }
+    }
+    g
+}
+
+/// A cycle of the graph, if there is one.
+fn find_cycle(g: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        n: &str,
+        g: &BTreeMap<String, BTreeSet<String>>,
+        state: &mut BTreeMap<String, u8>,
+        stack: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        state.insert(n.to_string(), 1);
+        stack.push(n.to_string());
+        for m in g.get(n).into_iter().flatten() {
+            match state.get(m.as_str()).copied().unwrap_or(0) {
+                1 => {
+                    let at = stack.iter().position(|s| s == m).expect("on the stack");
+                    let mut cycle = stack[at..].to_vec();
+                    cycle.push(m.clone());
+                    return Some(cycle);
+                }
+                0 => {
+                    if let Some(c) = visit(m, g, state, stack) {
+                        return Some(c);
+                    }
+                }
+                _ => {}
+            }
+        }
+        stack.pop();
+        state.insert(n.to_string(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for n in g.keys() {
+        if state.get(n.as_str()).copied().unwrap_or(0) == 0 {
+            let mut stack = vec![];
+            if let Some(c) = visit(n, g, &mut state, &mut stack) {
+                return Some(c);
+            }
+        }
+    }
+    None
+}
+
+#[test]
+fn library_modules_import_each_other_without_cycles() {
+    let g = graph();
+    assert!(g.len() >= 25, "read only {} modules", g.len());
+    assert!(
+        g["run"].contains("engine") && g["engine"].contains("protocol"),
+        "the scan sees imports: {g:?}"
+    );
+    if let Some(c) = find_cycle(&g) {
+        panic!("import cycle between modules: {}", c.join(" -> "));
+    }
+}
+
+#[test]
+fn the_cycle_finder_finds_a_planted_cycle() {
+    let mut g = graph();
+    g.get_mut("protocol")
+        .expect("protocol")
+        .insert("run".into());
+    let c = find_cycle(&g).expect("protocol -> run -> ... -> protocol is a cycle");
+    assert!(
+        c.contains(&"protocol".to_string()) && c.contains(&"run".to_string()),
+        "{c:?}"
+    );
+}
