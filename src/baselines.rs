@@ -339,6 +339,16 @@ pub struct BaselineTrack {
     pub feasible: Option<usize>,
 }
 
+impl BaselineTrack {
+    /// Count a failed step; the first reason is kept.
+    fn fail(&mut self, why: String) {
+        self.failures += 1;
+        if self.first_failure.is_none() {
+            self.first_failure = Some(why);
+        }
+    }
+}
+
 /// One-way and bistatic range sets of a sample as discs and ellipses,
 /// enlarged by `rho` (seed 003 Remark 4): the feasible set of the bounds and
 /// of POCS. DOAs are not used.
@@ -398,107 +408,52 @@ pub fn run_baseline(
         step_seconds: 0.0,
         feasible: None,
     };
-    let fail = |t: &mut BaselineTrack, why: String| {
-        t.failures += 1;
-        if t.first_failure.is_none() {
-            t.first_failure = Some(why);
-        }
-    };
     if samples == 0 {
         return track;
     }
     match cfg {
-        BaselineCfg::Ogd { init, .. } | BaselineCfg::Onm { init, .. } => {
-            let start = Instant::now();
-            let truth0 = real.truth.as_ref().and_then(|t| t.first().copied());
-            let x0 = match (init, truth0) {
-                (online::Init::Exact, None) => Err(
-                    "init = \"exact\" needs the true first position (no truth): use init = \"ols\""
-                        .to_string(),
-                ),
-                (_, t0) => init
-                    .initial_estimate(geometry, &meas[0], t0.unwrap_or_else(Vec2::zeros))
-                    .map_err(|e| format!("initialisation: {e}")),
-            };
-            let tracker = x0.and_then(|x0| match cfg {
-                BaselineCfg::Ogd { step, .. } => online::OgdTracker::new(x0, *step)
+        BaselineCfg::Ogd { init, step, .. } => {
+            online_track(&mut track, geometry, real, meas, *init, |x0| {
+                online::OgdTracker::new(x0, *step)
                     .map(|t| Box::new(t) as Box<dyn Tracker>)
-                    .map_err(|e| e.to_string()),
-                BaselineCfg::Onm { damping, .. } => {
-                    online::OnmTracker::new(x0, damping.unwrap_or_default())
-                        .map(|t| Box::new(t) as Box<dyn Tracker>)
-                        .map_err(|e| e.to_string())
-                }
-                _ => unreachable!("matched above"),
-            });
-            let mut tracker = match tracker {
-                Ok(t) => t,
-                Err(e) => {
-                    fail(&mut track, e);
-                    track.failures = samples;
-                    track.est = vec![None; samples];
-                    return track;
-                }
-            };
-            let mut before = Vec::with_capacity(samples);
-            for (k, s) in meas.iter().enumerate() {
-                before.push(tracker.estimate());
-                match tracker.step(geometry, s, k + 1) {
-                    Ok(x) => track.est.push(Some(x)),
-                    Err(e) => {
-                        fail(&mut track, format!("sample {k}: {e}"));
-                        track.est.push(Some(tracker.estimate()));
-                    }
-                }
-            }
-            track.before = Some(before);
-            track.step_seconds = start.elapsed().as_secs_f64();
+                    .map_err(|e| e.to_string())
+            })
+        }
+        BaselineCfg::Onm { init, damping, .. } => {
+            online_track(&mut track, geometry, real, meas, *init, |x0| {
+                online::OnmTracker::new(x0, damping.unwrap_or_default())
+                    .map(|t| Box::new(t) as Box<dyn Tracker>)
+                    .map_err(|e| e.to_string())
+            })
         }
         BaselineCfg::Ml { .. } => {
             track.step_seconds = ml.1;
             track.est = ml.0.iter().take(samples).map(|x| Some(*x)).collect();
         }
-        BaselineCfg::Ls { .. }
-        | BaselineCfg::L0os { .. }
-        | BaselineCfg::LqIrls { .. }
-        | BaselineCfg::Lad { .. } => {
+        BaselineCfg::Ls { .. } => robust_track(&mut track, meas, |links| {
+            robust::ls(geometry, links, &Default::default())
+        }),
+        BaselineCfg::Lad { .. } => robust_track(&mut track, meas, |links| {
+            robust::lad(geometry, links, &Default::default())
+        }),
+        BaselineCfg::LqIrls { q, .. } => robust_track(&mut track, meas, |links| {
+            let cfg = robust::IrlsConfig {
+                q: *q,
+                ..Default::default()
+            };
+            robust::lq_irls(geometry, links, &cfg)
+        }),
+        BaselineCfg::L0os { p, kappa, .. } => {
             let n_links = geometry.transmitters.len() * geometry.receivers.len();
-            for (k, s) in meas.iter().enumerate() {
-                let links = robust::links_from_sample(s);
-                let start = Instant::now();
-                let r = match cfg {
-                    BaselineCfg::Ls { .. } => robust::ls(geometry, &links, &Default::default()),
-                    BaselineCfg::Lad { .. } => robust::lad(geometry, &links, &Default::default()),
-                    BaselineCfg::LqIrls { q, .. } => robust::lq_irls(
-                        geometry,
-                        &links,
-                        &robust::IrlsConfig {
-                            q: *q,
-                            ..Default::default()
-                        },
-                    ),
-                    BaselineCfg::L0os { p, kappa, .. } => {
-                        let k = match (p, kappa) {
-                            (_, Some(k)) => Ok(*k),
-                            (Some(p), None) => {
-                                // kappa scales with the links actually present.
-                                robust::kappa_from_fraction(*p, links.len().min(n_links))
-                            }
-                            (None, None) => Ok(0),
-                        };
-                        k.and_then(|k| robust::l0os(geometry, &links, &robust::L0osConfig::new(k)))
-                    }
-                    _ => unreachable!("matched above"),
+            robust_track(&mut track, meas, |links| {
+                let k = match (p, kappa) {
+                    (_, Some(k)) => Ok(*k),
+                    // kappa scales with the links actually present.
+                    (Some(p), None) => robust::kappa_from_fraction(*p, links.len().min(n_links)),
+                    (None, None) => Ok(0),
                 };
-                track.step_seconds += start.elapsed().as_secs_f64();
-                match r {
-                    Ok(e) => track.est.push(Some(e.position)),
-                    Err(e) => {
-                        fail(&mut track, format!("sample {k}: {e}"));
-                        track.est.push(None);
-                    }
-                }
-            }
+                k.and_then(|k| robust::l0os(geometry, links, &robust::L0osConfig::new(k)))
+            })
         }
         BaselineCfg::Pocs { max_iter, tol, .. } => {
             let mut x = centroid(geometry);
@@ -515,7 +470,7 @@ pub fn run_baseline(
                         track.est.push(Some(p.x));
                     }
                     Err(e) => {
-                        fail(&mut track, format!("sample {k}: {e}"));
+                        track.fail(format!("sample {k}: {e}"));
                         track.est.push(None);
                     }
                 }
@@ -530,7 +485,7 @@ pub fn run_baseline(
                 match r {
                     Ok(x) => track.est.push(Some(x)),
                     Err(e) => {
-                        fail(&mut track, format!("sample {k}: {e}"));
+                        track.fail(format!("sample {k}: {e}"));
                         track.est.push(None);
                     }
                 }
@@ -541,10 +496,79 @@ pub fn run_baseline(
             let (est, failure) = engine(samples);
             track.step_seconds = start.elapsed().as_secs_f64();
             if let Some(e) = failure {
-                fail(&mut track, e);
+                track.fail(e);
             }
             track.est = est;
         }
     }
     track
+}
+
+/// An online tracker of seeds 000/001 along the samples: `x_0` from `init`
+/// (the exact start needs the truth), one step per sample, the estimate
+/// before each step kept for the dynamic regret. `make` builds the tracker.
+fn online_track(
+    track: &mut BaselineTrack,
+    geometry: &Geometry,
+    real: &Realization,
+    meas: &[SampleMeasurements],
+    init: online::Init,
+    make: impl FnOnce(Vec2) -> Result<Box<dyn Tracker>, String>,
+) {
+    let samples = meas.len();
+    let start = Instant::now();
+    let truth0 = real.truth.as_ref().and_then(|t| t.first().copied());
+    let x0 = match (init, truth0) {
+        (online::Init::Exact, None) => Err(
+            "init = \"exact\" needs the true first position (no truth): use init = \"ols\""
+                .to_string(),
+        ),
+        (_, t0) => init
+            .initial_estimate(geometry, &meas[0], t0.unwrap_or_else(Vec2::zeros))
+            .map_err(|e| format!("initialisation: {e}")),
+    };
+    let mut tracker = match x0.and_then(make) {
+        Ok(t) => t,
+        Err(e) => {
+            track.fail(e);
+            track.failures = samples;
+            track.est = vec![None; samples];
+            return;
+        }
+    };
+    let mut before = Vec::with_capacity(samples);
+    for (k, s) in meas.iter().enumerate() {
+        before.push(tracker.estimate());
+        match tracker.step(geometry, s, k + 1) {
+            Ok(x) => track.est.push(Some(x)),
+            Err(e) => {
+                track.fail(format!("sample {k}: {e}"));
+                track.est.push(Some(tracker.estimate()));
+            }
+        }
+    }
+    track.before = Some(before);
+    track.step_seconds = start.elapsed().as_secs_f64();
+}
+
+/// A per-sample robust estimator of seed 004 on each sample's bistatic
+/// links; `solve` is the estimator (timed alone).
+fn robust_track(
+    track: &mut BaselineTrack,
+    meas: &[SampleMeasurements],
+    solve: impl Fn(&[robust::BistaticLink]) -> Result<robust::Estimate, robust::RobustError>,
+) {
+    for (k, s) in meas.iter().enumerate() {
+        let links = robust::links_from_sample(s);
+        let start = Instant::now();
+        let r = solve(&links);
+        track.step_seconds += start.elapsed().as_secs_f64();
+        match r {
+            Ok(e) => track.est.push(Some(e.position)),
+            Err(e) => {
+                track.fail(format!("sample {k}: {e}"));
+                track.est.push(None);
+            }
+        }
+    }
 }
