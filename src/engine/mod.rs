@@ -9,7 +9,9 @@
 //! coordinator and the same node core.
 
 pub mod inprocess;
+pub mod node;
 pub mod processes;
+pub mod threads;
 
 use crate::geometry::Vec3;
 use crate::protocol::{Command, Counters, NodeConfig, NodeMode, Report};

@@ -541,13 +541,20 @@ impl Network for Processes {
     }
 }
 
-/// Run `sc` with logical clocks on node processes.
-pub fn run_logical(
-    sc: &Scenario,
-    real: &Realization,
-    opts: &ProcessOptions,
-    progress: super::Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>, Option<Processes>) {
+/// The nodes and transport topology of a logical-clock run, for every engine
+/// that frames the protocol over a [`Transport`] (processes, threads).
+pub(crate) struct LogicalNetwork {
+    /// Node configurations, `configs[i].id == i`.
+    pub configs: Vec<NodeConfig>,
+    /// Who may send to whom: the gossip graph, plus every node to the sync root.
+    pub neighbours: Vec<Vec<u32>>,
+    /// Frames an inbox holds.
+    pub inbox: usize,
+    /// Sync runs answer rounds over the broadcast group.
+    pub broadcast: bool,
+}
+
+pub(crate) fn logical_network(sc: &Scenario) -> LogicalNetwork {
     let mode = super::logical_mode(sc.algorithm.mode);
     let n = sc.graph.len();
     let configs: Vec<NodeConfig> = (0..n)
@@ -570,6 +577,28 @@ pub fn run_logical(
     // gets one plan frame per iteration, plus its measurements), so that the
     // coordinator never waits for a full inbox.
     let inbox = super::LOOKAHEAD * (sc.algorithm.iterations_per_sample + m + 4) + 16;
+    LogicalNetwork {
+        configs,
+        neighbours,
+        inbox,
+        broadcast,
+    }
+}
+
+/// Run `sc` with logical clocks on node processes.
+pub fn run_logical(
+    sc: &Scenario,
+    real: &Realization,
+    opts: &ProcessOptions,
+    progress: super::Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>, Option<Processes>) {
+    let n = sc.graph.len();
+    let LogicalNetwork {
+        configs,
+        neighbours,
+        inbox,
+        broadcast,
+    } = logical_network(sc);
     let mut procs = match Processes::spawn(configs, neighbours, inbox, broadcast, opts) {
         Ok(p) => p,
         Err(e) => {

@@ -214,3 +214,52 @@ fn gtrs_l0_separates_one_nlos_bistatic_range_per_node_that_derails_gtrs() {
         );
     }
 }
+
+/// Run `f` on its own thread; panic if it takes longer than `limit`.
+fn with_watchdog<T: Send + 'static>(
+    what: &str,
+    limit: std::time::Duration,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> T {
+    let (send, recv) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = send.send(f());
+    });
+    recv.recv_timeout(limit)
+        .unwrap_or_else(|_| panic!("watchdog: {what} did not finish within {limit:?}"))
+}
+
+#[test]
+fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
+    for mode in [Mode::Async, Mode::Sync] {
+        let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+            .unwrap()
+            .with_samples(15)
+            .unwrap()
+            .with_mode(mode)
+            .unwrap();
+        let real = sc.realize(sc.seed);
+        let (want, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
+        res.unwrap();
+        let (sc2, real2) = (sc.clone(), real.clone());
+        let (got, res) = with_watchdog(
+            "threads run",
+            std::time::Duration::from_secs(120),
+            move || sonarnet::engine::threads::run_threads(&sc2, &real2, &mut |_, _| {}),
+        );
+        res.unwrap_or_else(|e| panic!("{mode:?}: {e}"));
+        assert_eq!(got.thetas.len(), 15, "{mode:?}");
+        for (k, (a, b)) in got.thetas.iter().zip(&want.thetas).enumerate() {
+            for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                assert!(
+                    x.iter()
+                        .zip(y.iter())
+                        .all(|(p, q)| p.to_bits() == q.to_bits()),
+                    "{mode:?} sample {k} node {i}: threads {x:?}, in-process {y:?}"
+                );
+            }
+        }
+        assert_eq!(got.schedule, want.schedule, "{mode:?}");
+        assert_eq!(got.iterations, want.iterations, "{mode:?}");
+    }
+}

@@ -1,0 +1,187 @@
+//! The node program's event loop, generic over the [`Transport`]: report
+//! READY, then feed every decoded frame (and, in realtime mode, the node's own
+//! Poisson clock ticks) to the I/O-free [`NodeCore`] and send what it returns.
+//! `sonarnet-node` (`nodes/main.rs`) runs it over iceoryx2; any transport that
+//! implements the trait runs the same loop. An idle node blocks in
+//! [`Transport::recv`] (no busy-spinning) for at most [`IDLE_CHECK`] before it
+//! looks at `term` and asks whether its coordinator is still there.
+
+use crate::codec::{self, Control, NodeDecoder, NodeInput, Timing};
+use crate::protocol::{Command, Input, NodeConfig, NodeCore, Output, Report};
+use crate::transport::{Endpoint, Transport, TransportError};
+use crate::wire::Frame;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// How long an idle node blocks before re-checking its coordinator and signals.
+pub const IDLE_CHECK: Duration = Duration::from_millis(200);
+
+/// What the loop needs from its process besides the transport.
+pub struct NodeLoop<'a> {
+    /// Log commands, reports and the stop to stderr, tagged `[node ID]`.
+    pub verbose: bool,
+    /// Set (e.g. by SIGTERM or SIGINT) to make the loop return `Ok` at its next
+    /// wake-up.
+    pub term: &'a AtomicBool,
+    /// Asked only when idle (a system call per message would cost more than the
+    /// message): `false` once the coordinator is gone, which fails the loop.
+    pub coordinator_alive: &'a dyn Fn() -> bool,
+}
+
+/// Why a node stopped other than by STOP or `term`.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// The transport failed.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// A frame did not decode.
+    #[error("bad frame from {from}: {reason}")]
+    BadFrame {
+        /// The sender.
+        from: u32,
+        /// The decoder's reason.
+        reason: String,
+    },
+    /// The coordinator went away while the node was idle.
+    #[error("the coordinator is gone")]
+    CoordinatorGone,
+}
+
+/// Run node `node` over `tx` until STOP, `opts.term` or an error. Sends READY
+/// first.
+pub fn run_node<T: Transport>(
+    tx: &mut T,
+    node: NodeConfig,
+    opts: &NodeLoop<'_>,
+) -> Result<(), NodeError> {
+    let id = node.id;
+    tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
+    tx.flush()?;
+    if opts.verbose {
+        eprintln!("[node {id}] up, neighbours {:?}", node.neighbours);
+    }
+
+    let mut core = NodeCore::new(node);
+    let mut decoder = NodeDecoder::default();
+    let mut frames: Vec<Frame> = Vec::new();
+    let mut outputs: Vec<Output> = Vec::new();
+    let mut encoded: Vec<Frame> = Vec::new();
+    let mut iteration_reports: Vec<Frame> = Vec::new();
+    let mut timing = Timing::default();
+    // Realtime clock: rate and next wake-up.
+    let mut clock: Option<(f64, Instant)> = None;
+
+    loop {
+        if opts.term.load(Ordering::Relaxed) {
+            if opts.verbose {
+                eprintln!("[node {id}] terminated by signal");
+            }
+            return Ok(());
+        }
+        let timeout = match clock {
+            Some((_, next)) => next
+                .saturating_duration_since(Instant::now())
+                .min(IDLE_CHECK),
+            None => IDLE_CHECK,
+        };
+        frames.clear();
+        let waited = Instant::now();
+        tx.recv(&mut frames, Some(timeout))?;
+        // Only an idle node (nothing arrived) checks its parent: a system call per
+        // message would cost more than the message.
+        if frames.is_empty() && !(opts.coordinator_alive)() {
+            return Err(NodeError::CoordinatorGone);
+        }
+        let busy = Instant::now();
+        timing.wait_seconds += (busy - waited).as_secs_f64();
+
+        for f in &frames {
+            let input = decoder.feed(f).map_err(|e| NodeError::BadFrame {
+                from: f.from,
+                reason: e.to_string(),
+            })?;
+            match input {
+                None => {}
+                Some(NodeInput::Peer(m)) => core.handle(Input::Peer(m), &mut outputs),
+                Some(NodeInput::Control(Control::Command(c))) => {
+                    if opts.verbose {
+                        log_command(id, &c);
+                    }
+                    core.handle(Input::Command(c), &mut outputs)
+                }
+                Some(NodeInput::Control(Control::StartClock(rate))) => {
+                    let wait = core.draw_wait(rate);
+                    clock = Some((rate, Instant::now() + Duration::from_secs_f64(wait)));
+                }
+                Some(NodeInput::Control(Control::Stop)) => {
+                    if opts.verbose {
+                        eprintln!("[node {id}] stop: {:?}", core.counters());
+                    }
+                    return Ok(());
+                }
+            }
+        }
+        if let Some((rate, next)) = clock
+            && Instant::now() >= next
+        {
+            core.handle(Input::Command(Command::Tick), &mut outputs);
+            let wait = core.draw_wait(rate);
+            clock = Some((
+                rate,
+                next.max(Instant::now()) + Duration::from_secs_f64(wait),
+            ));
+        }
+        if outputs.is_empty() {
+            timing.busy_seconds += busy.elapsed().as_secs_f64();
+            continue;
+        }
+        for o in outputs.drain(..) {
+            match o {
+                Output::Peer { to, msg } => {
+                    tx.send(Endpoint::Node(to), &codec::encode_peer(&msg))?
+                }
+                Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
+                Output::Report(r @ Report::IterationDone { .. }) => {
+                    // Batched: sent with the sample's final report, so the
+                    // coordinator is woken once per sample, not per iteration.
+                    codec::encode_report(&r, &mut iteration_reports);
+                }
+                Output::Report(r) => {
+                    if opts.verbose {
+                        eprintln!("[node {id}] report {r:?}");
+                    }
+                    encoded.clear();
+                    encoded.append(&mut iteration_reports);
+                    if matches!(r, Report::SampleDone { .. } | Report::Snapshot { .. }) {
+                        let snapshot = Timing {
+                            busy_seconds: timing.busy_seconds + busy.elapsed().as_secs_f64(),
+                            wait_seconds: timing.wait_seconds,
+                        };
+                        encoded.push(codec::encode_timing(id, &snapshot));
+                    }
+                    codec::encode_report(&r, &mut encoded);
+                    for f in &encoded {
+                        tx.send(Endpoint::Coordinator, f)?;
+                    }
+                }
+            }
+        }
+        tx.flush()?;
+        timing.busy_seconds += busy.elapsed().as_secs_f64();
+    }
+}
+
+fn log_command(id: u32, c: &Command) {
+    match c {
+        Command::Sample { sample, meas } => {
+            eprintln!(
+                "[node {id}] sample {sample}: {} measurements",
+                meas.bistatic.len() + meas.doa.is_some() as usize + meas.range.is_some() as usize
+            )
+        }
+        Command::AsyncPlan { sample, steps } => {
+            eprintln!("[node {id}] sample {sample}: plan of {} steps", steps.len())
+        }
+        other => eprintln!("[node {id}] {other:?}"),
+    }
+}

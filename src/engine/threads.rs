@@ -1,0 +1,177 @@
+//! Every node a thread of this process over the in-memory transport
+//! ([`MemTransport`]): the node program's own loop ([`super::node::run_node`])
+//! and the same frames, topology and coordinator as the processes engine,
+//! without processes or shared memory. It gives the in-process numbers bit
+//! for bit, and it is how a second [`crate::transport::Transport`] runs the
+//! real node loop. Library only (no `--engine` value).
+
+use super::node::{NodeError, NodeLoop, run_node};
+use super::processes::{LogicalNetwork, logical_network};
+use super::{EngineError, Network, Progress, RunRecord};
+use crate::codec::{self, Control, CoordinatorInput, ReportDecoder};
+use crate::protocol::{Command, Counters, Report};
+use crate::scenario::{Realization, Scenario};
+use crate::transport::{Endpoint, MemNetwork, MemTransport, RunTopology, Transport};
+use crate::wire::Frame;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// The coordinator's side of a threads run.
+pub struct Threads {
+    tx: MemTransport,
+    decoder: ReportDecoder,
+    frames: Vec<Frame>,
+    encoded: Vec<Frame>,
+    nodes: Vec<Option<JoinHandle<Result<(), NodeError>>>>,
+    term: Arc<AtomicBool>,
+    sample: u32,
+}
+
+fn terr(e: impl std::fmt::Display) -> EngineError {
+    EngineError::Transport(e.to_string())
+}
+
+impl Threads {
+    /// Open the network and start one thread per node.
+    fn start(net: LogicalNetwork) -> Result<Threads, EngineError> {
+        let topology = RunTopology::new("threads", net.neighbours, net.inbox)
+            .and_then(|t| {
+                if net.broadcast {
+                    t.with_broadcast(4)
+                } else {
+                    Ok(t)
+                }
+            })
+            .map_err(terr)?;
+        let mem = MemNetwork::new(&topology);
+        let tx = mem.endpoint(Endpoint::Coordinator).map_err(terr)?;
+        let term = Arc::new(AtomicBool::new(false));
+        let mut nodes = Vec::with_capacity(net.configs.len());
+        for cfg in net.configs {
+            let mut node_tx = mem.endpoint(Endpoint::Node(cfg.id)).map_err(terr)?;
+            let term = Arc::clone(&term);
+            nodes.push(Some(std::thread::spawn(move || {
+                let alive = || true;
+                let opts = NodeLoop {
+                    verbose: false,
+                    term: &term,
+                    coordinator_alive: &alive,
+                };
+                run_node(&mut node_tx, cfg, &opts)
+            })));
+        }
+        Ok(Threads {
+            tx,
+            decoder: ReportDecoder::default(),
+            frames: Vec::new(),
+            encoded: Vec::new(),
+            nodes,
+            term,
+            sample: 0,
+        })
+    }
+
+    /// A node thread that has ended (it only ends on STOP or an error).
+    fn check_nodes(&mut self) -> Result<(), EngineError> {
+        for (i, h) in self.nodes.iter_mut().enumerate() {
+            if h.as_ref().is_some_and(JoinHandle::is_finished) {
+                let how = match h.take().map(JoinHandle::join) {
+                    Some(Ok(Ok(()))) => "it stopped".to_string(),
+                    Some(Ok(Err(e))) => e.to_string(),
+                    _ => "it panicked".to_string(),
+                };
+                return Err(EngineError::NodeDied {
+                    node: i as u32,
+                    sample: self.sample,
+                    how,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Stop every node and join its thread (idempotent; also done on drop).
+    fn shutdown(&mut self) {
+        self.encoded.clear();
+        codec::encode_control(&Control::Stop, &mut self.encoded);
+        for i in 0..self.nodes.len() {
+            for f in &self.encoded {
+                let _ = self.tx.send(Endpoint::Node(i as u32), f);
+            }
+        }
+        let _ = self.tx.flush();
+        self.term.store(true, Ordering::SeqCst);
+        for h in self.nodes.iter_mut().filter_map(Option::take) {
+            let _ = h.join();
+        }
+    }
+}
+
+impl Drop for Threads {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+impl Network for Threads {
+    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError> {
+        self.encoded.clear();
+        codec::encode_control(&Control::Command(cmd), &mut self.encoded);
+        for f in &self.encoded {
+            self.tx.send(Endpoint::Node(node), f).map_err(terr)?;
+        }
+        Ok(())
+    }
+
+    fn working_on(&mut self, sample: u32) {
+        self.sample = sample;
+    }
+
+    fn flush(&mut self) -> Result<(), EngineError> {
+        self.tx.flush().map_err(terr)
+    }
+
+    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError> {
+        loop {
+            self.frames.clear();
+            self.tx
+                .recv(&mut self.frames, Some(Duration::from_millis(50)))
+                .map_err(terr)?;
+            for f in &self.frames {
+                match self.decoder.feed(f) {
+                    Ok(Some(CoordinatorInput::Report(r))) => out.push(r),
+                    Ok(_) => {}
+                    Err(e) => return Err(EngineError::Transport(format!("bad frame: {e}"))),
+                }
+            }
+            if !out.is_empty() {
+                return Ok(());
+            }
+            self.check_nodes()?;
+        }
+    }
+}
+
+/// Run `sc` with logical clocks, every node a thread over [`MemTransport`].
+pub fn run_threads(
+    sc: &Scenario,
+    real: &Realization,
+    progress: Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>) {
+    let n = sc.graph.len();
+    let mut net = match Threads::start(logical_network(sc)) {
+        Ok(t) => t,
+        Err(e) => {
+            let rec = RunRecord {
+                counters: vec![Counters::default(); n],
+                ..Default::default()
+            };
+            return (rec, Err(e));
+        }
+    };
+    let out = super::drive(sc, sc.seed, real, &mut net, progress);
+    net.shutdown();
+    out
+}
