@@ -99,6 +99,8 @@ pub enum EngineArg {
     Inprocess,
     /// One `sonarnet-node` OS process per receiver, over iceoryx2.
     Processes,
+    /// One thread per node in this process, over the in-memory transport.
+    Threads,
 }
 
 impl From<EngineArg> for EngineKind {
@@ -106,6 +108,7 @@ impl From<EngineArg> for EngineKind {
         match e {
             EngineArg::Inprocess => EngineKind::Inprocess,
             EngineArg::Processes => EngineKind::Processes,
+            EngineArg::Threads => EngineKind::Threads,
         }
     }
 }
@@ -145,8 +148,8 @@ impl From<ClockArg> for Clock {
 
 /// `sonarnet run`.
 #[derive(Debug, clap::Args)]
-// `[expect]`, `[[variants]]`: see the note above `ReportArgs`.
-#[allow(rustdoc::broken_intra_doc_links)]
+// `[expect]`, `[[variants]]`, `<name>`: see the note above `ReportArgs`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 pub struct RunArgs {
     /// The scenario TOML file.
     pub scenario: PathBuf,
@@ -176,8 +179,9 @@ pub struct RunArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Which engine runs the nodes: one OS process per receiver over iceoryx2
-    /// shared memory, or all nodes in this process (exact same numbers)
-    /// [default: processes; inprocess for Monte Carlo runs].
+    /// shared memory, all nodes in this process, or one thread per node over
+    /// the in-memory transport (exact same numbers) [default: processes;
+    /// inprocess for Monte Carlo runs].
     #[arg(long, value_enum)]
     pub engine: Option<EngineArg>,
     /// Run only this variant of a scenario with [[variants]] (repeatable;
@@ -567,7 +571,7 @@ fn run_monte_carlo_command(
     many: bool,
 ) -> Result<(PathBuf, Vec<run::ExpectResult>), CliError> {
     let cli = std::path::Path::new("<command line>");
-    if args.engine() == Some(EngineKind::Processes)
+    if args.engine().is_some_and(|e| e != EngineKind::Inprocess)
         || args.clock() == Clock::Realtime
         || args.poll_us > 0
     {
@@ -581,7 +585,7 @@ fn run_monte_carlo_command(
                 "--engine"
             },
             "Monte Carlo trials run in-process with logical clocks (the engines give \
-             identical numbers); drop --engine processes / --clock realtime or use --trials 1",
+             identical numbers); drop --engine processes|threads / --clock realtime or use --trials 1",
         )
         .into());
     }
@@ -698,25 +702,12 @@ fn run_single(
             b.set_message(format!("{it} iterations, {:.0} it/s", it as f64 / secs));
         }
     };
-    let (record, result) = match engine {
-        EngineKind::Inprocess => run::run_inprocess(sc, &real, &mut tick),
-        EngineKind::Processes => {
-            let popts = crate::engine::processes::ProcessOptions {
-                verbose: args.verbose,
-                poll_us: args.poll_us,
-                ..Default::default()
-            };
-            let (rec, res, _) = match args.clock() {
-                Clock::Logical => {
-                    crate::engine::processes::run_logical(sc, &real, &popts, &mut tick)
-                }
-                Clock::Realtime => {
-                    crate::engine::processes::run_realtime(sc, &real, &popts, &mut tick)
-                }
-            };
-            (rec, res)
-        }
+    let popts = crate::engine::processes::ProcessOptions {
+        verbose: args.verbose,
+        poll_us: args.poll_us,
+        ..Default::default()
     };
+    let (record, result) = crate::engine::run(sc, &real, engine, opts.clock, &popts, &mut tick);
     if let Some(b) = bar {
         b.finish_and_clear();
     }

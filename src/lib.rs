@@ -4,21 +4,26 @@
 //! gossip (Mourya et al., CAMSAP 2017, "seed 002"), each local step an exact
 //! generalized trust-region subproblem (GTRS) solve.
 //!
-//! # Example: run a scenario in-process and score it
+//! # Example: a scenario-driven test
+//!
+//! The library's entry point is [`scenario::Scenario::run`]: it runs a
+//! scenario with its seed on the engine the options name, scores every track
+//! and checks the scenario's `[expect]` block, and writes nothing
+//! ([`scenario::Scenario::run_and_write`] writes the results directory too).
+//! `examples/scenario_test.rs` is a longer version.
 //!
 //! ```
+//! use sonarnet::run::RunOptions;
 //! use sonarnet::scenario::Scenario;
-//! use std::path::Path;
 //!
-//! let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml"));
-//! let sc = Scenario::load(path)?.with_samples(20)?;
-//! let real = sc.realize(sc.seed);
-//! let (record, result) = sonarnet::run::run_inprocess(&sc, &real, &mut |_, _| {});
-//! result?;
-//! assert_eq!(record.thetas.len(), 20);
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml");
+//! let sc = Scenario::from_file(path)?.with_samples(20)?;
+//! let out = sc.run(&RunOptions::inprocess());
+//! assert!(out.error.is_none());
+//! assert_eq!(out.record.thetas.len(), 20);
 //! // theta_bar of the last sample is within 50 m of the truth.
-//! let est = sonarnet::metrics::theta_bar(&record.thetas[19]);
-//! let truth = real.truth.as_ref().unwrap()[19];
+//! let est = sonarnet::metrics::theta_bar(&out.record.thetas[19]);
+//! let truth = sc.realize(sc.seed).truth.unwrap()[19];
 //! assert!((est - truth).norm() < 50.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -23,35 +23,7 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Which engine runs the nodes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EngineKind {
-    /// All nodes in one thread of this process.
-    Inprocess,
-    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
-    Processes,
-}
-
-impl EngineKind {
-    /// Name as written to outputs.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            EngineKind::Inprocess => "inprocess",
-            EngineKind::Processes => "processes",
-        }
-    }
-}
-
-/// How a run is clocked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Clock {
-    /// The coordinator sequences rounds/iterations; results are exact.
-    Logical,
-    /// Free-running nodes on Poisson clocks (multi-process async only).
-    Realtime,
-}
+pub use crate::engine::{Clock, EngineKind};
 
 /// Options of one run that are not part of the scenario.
 #[derive(Debug, Clone)]
@@ -73,6 +45,116 @@ pub struct RunOptions {
     /// Multi-process engine: node processes poll their inboxes for up to this many
     /// microseconds before blocking (0: block at once). Recorded in `run.json`.
     pub poll_us: u64,
+}
+
+impl RunOptions {
+    /// A run in this process with logical clocks, no progress bar, `[expect]`
+    /// checked; nothing is written unless [`Scenario::run_and_write`] is used
+    /// (then into `out_dir`, here `results/library-run`).
+    pub fn inprocess() -> Self {
+        RunOptions {
+            engine: EngineKind::Inprocess,
+            clock: Clock::Logical,
+            out_dir: PathBuf::from("results/library-run"),
+            command_line: vec![],
+            progress: false,
+            check_expect: true,
+            poll_us: 0,
+        }
+    }
+
+    /// The same options with engine `engine`.
+    pub fn with_engine(mut self, engine: EngineKind) -> Self {
+        self.engine = engine;
+        self
+    }
+
+    /// The same options writing into `dir` (used by [`Scenario::run_and_write`]).
+    pub fn with_out_dir(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.out_dir = dir.into();
+        self
+    }
+}
+
+/// What [`Scenario::run`] returns: every result of the run in memory.
+#[derive(Debug)]
+pub struct Outcome {
+    /// The run's metrics (those of `metrics.json`), `[expect]` included.
+    pub metrics: RunMetrics,
+    /// What the engine recorded: every node's `theta` per sample, the schedule.
+    pub record: RunRecord,
+    /// Every track (the distributed `theta_bar`, `ml`, the baselines), scored.
+    pub scored: Scored,
+    /// Why the run stopped early, if it did (the results above are then
+    /// those of the completed samples).
+    pub error: Option<EngineError>,
+}
+
+impl Outcome {
+    /// Every scalar metric by the names `[expect]` uses (`theta_bar.rmse`,
+    /// `ml.rmse`, `ogd.ctte`, ...).
+    pub fn flat(&self) -> BTreeMap<String, f64> {
+        flat_metrics(&self.metrics, &self.scored)
+    }
+}
+
+impl Scenario {
+    /// Load a scenario file (the first of its variants when it has
+    /// `[[variants]]`; see [`Scenario::load_all`] for all of them).
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Scenario, InputError> {
+        Scenario::load(path.as_ref())
+    }
+
+    /// Run this scenario with its seed and score it, writing nothing: the
+    /// library's entry point for scenario-driven tests. The engine comes
+    /// from `opts` (`[monte_carlo]` trials are not run here). An engine
+    /// failure is not an `Err`: it is [`Outcome::error`], with the results
+    /// of the samples completed before it.
+    ///
+    /// ```
+    /// use sonarnet::run::RunOptions;
+    /// use sonarnet::scenario::Scenario;
+    ///
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml");
+    /// let out = Scenario::from_file(path)?.with_seed(3).with_samples(30)?.run(&RunOptions::inprocess());
+    /// assert!(out.error.is_none());
+    /// assert!(out.metrics.rmse_after_burn_in.is_some_and(|r| r < 50.0));
+    /// assert!(out.metrics.expect.iter().all(|c| c.holds));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn run(&self, opts: &RunOptions) -> Outcome {
+        let real = self.realize(self.seed);
+        let popts = crate::engine::processes::ProcessOptions {
+            poll_us: opts.poll_us,
+            ..Default::default()
+        };
+        let (record, res) =
+            crate::engine::run(self, &real, opts.engine, opts.clock, &popts, &mut |_, _| {});
+        let error = res.err();
+        let (mut metrics, scored) = evaluate(self, &real, &record, error.as_ref(), opts);
+        if error.is_none() && opts.check_expect {
+            metrics.expect = check_expect(self, &flat_metrics(&metrics, &scored));
+        }
+        Outcome {
+            metrics,
+            record,
+            scored,
+            error,
+        }
+    }
+
+    /// [`Scenario::run`], then write the results directory `opts.out_dir`
+    /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
+    pub fn run_and_write(&self, opts: &RunOptions) -> Result<RunOutcome, RunError> {
+        let real = self.realize(self.seed);
+        let popts = crate::engine::processes::ProcessOptions {
+            poll_us: opts.poll_us,
+            ..Default::default()
+        };
+        let (record, res) =
+            crate::engine::run(self, &real, opts.engine, opts.clock, &popts, &mut |_, _| {});
+        finish(self, &real, record, res.err(), opts)
+    }
 }
 
 /// Per-node counters as written to `metrics.json`.

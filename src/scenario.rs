@@ -529,7 +529,7 @@ impl Scenario {
                 ),
             ));
         }
-        Self::from_file(file, path)
+        Self::from_parsed(file, path)
     }
 
     /// Parse and validate scenario text with any `[[variants]]`: each variant
@@ -537,7 +537,7 @@ impl Scenario {
     pub fn all_from_toml_str(text: &str, path: &Path) -> Result<Vec<Scenario>, InputError> {
         let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
         if file.variants.is_empty() {
-            return Ok(vec![Self::from_file(file, path)?]);
+            return Ok(vec![Self::from_parsed(file, path)?]);
         }
         let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
         base.remove("variants");
@@ -579,7 +579,7 @@ impl Scenario {
                             e.message().trim().to_string(),
                         )
                     })?;
-            let sc = Self::from_file(f, path).map_err(|mut e| {
+            let sc = Self::from_parsed(f, path).map_err(|mut e| {
                 e.location = Some(match e.location.take() {
                     Some(l) => format!("{key} ({vname}): {l}"),
                     None => format!("{key} ({vname})"),
@@ -595,7 +595,7 @@ impl Scenario {
     }
 
     /// Validate a parsed scenario file.
-    pub fn from_file(file: ScenarioFile, path: &Path) -> Result<Scenario, InputError> {
+    pub fn from_parsed(file: ScenarioFile, path: &Path) -> Result<Scenario, InputError> {
         let base = path.parent().unwrap_or(Path::new("."));
         if file.name.trim().is_empty() {
             return Err(InputError::at(path, "name", "must not be empty"));

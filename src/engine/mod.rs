@@ -18,6 +18,7 @@ use crate::protocol::{Command, Counters, NodeConfig, NodeMode, Report};
 use crate::rng::{Stream, stream_rng};
 use crate::scenario::{Mode, Realization, Scenario};
 use rand::RngExt;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Why a run stopped early.
@@ -52,6 +53,9 @@ pub enum EngineError {
     /// Transport or process-management failure.
     #[error("transport: {0}")]
     Transport(String),
+    /// The engine cannot run this combination (e.g. realtime clocks in-process).
+    #[error("unsupported: {0}")]
+    Unsupported(String),
     /// Internal inconsistency (a bug): the protocol stalled.
     #[error("protocol stalled: {0}")]
     Stalled(String),
@@ -372,4 +376,74 @@ pub fn run_inprocess(
         .collect();
     let mut net = inprocess::InProcess::new(configs);
     drive(sc, sc.seed, real, &mut net, progress)
+}
+
+/// Which engine runs the nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EngineKind {
+    /// All nodes in one thread of this process.
+    Inprocess,
+    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
+    Processes,
+    /// One thread per node in this process, over the in-memory transport
+    /// ([`threads`]): the node program's loop without processes.
+    Threads,
+}
+
+impl EngineKind {
+    /// Name as written to outputs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EngineKind::Inprocess => "inprocess",
+            EngineKind::Processes => "processes",
+            EngineKind::Threads => "threads",
+        }
+    }
+}
+
+/// How a run is clocked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Clock {
+    /// The coordinator sequences rounds/iterations; results are exact.
+    Logical,
+    /// Free-running nodes on Poisson clocks (multi-process async only).
+    Realtime,
+}
+
+/// The one entry point of the engines: run `sc` on `real` with the engine
+/// `kind` and clock `clock` (`popts` applies to node processes only).
+/// Realtime clocks need node processes; asking for them on another engine is
+/// an error before anything starts.
+pub fn run(
+    sc: &Scenario,
+    real: &Realization,
+    kind: EngineKind,
+    clock: Clock,
+    popts: &processes::ProcessOptions,
+    progress: Progress<'_>,
+) -> (RunRecord, Result<(), EngineError>) {
+    match (kind, clock) {
+        (EngineKind::Inprocess, Clock::Logical) => run_inprocess(sc, real, progress),
+        (EngineKind::Threads, Clock::Logical) => threads::run_threads(sc, real, progress),
+        (EngineKind::Processes, Clock::Logical) => {
+            let (rec, res, _) = processes::run_logical(sc, real, popts, progress);
+            (rec, res)
+        }
+        (EngineKind::Processes, Clock::Realtime) => {
+            let (rec, res, _) = processes::run_realtime(sc, real, popts, progress);
+            (rec, res)
+        }
+        (other, Clock::Realtime) => (
+            RunRecord {
+                counters: vec![Counters::default(); sc.graph.len()],
+                ..Default::default()
+            },
+            Err(EngineError::Unsupported(format!(
+                "realtime clocks need the processes engine, not {}",
+                other.as_str()
+            ))),
+        ),
+    }
 }

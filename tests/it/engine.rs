@@ -263,3 +263,51 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
         assert_eq!(got.iterations, want.iterations, "{mode:?}");
     }
 }
+
+#[test]
+fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
+    let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
+    let out = sc.run(&run::RunOptions::inprocess());
+    assert!(out.error.is_none());
+    assert_eq!(out.record.thetas.len(), sc.samples);
+    assert!(!out.metrics.expect.is_empty() && out.metrics.expect.iter().all(|c| c.holds));
+    // Written, the results are the golden ones of `sonarnet run --engine inprocess`.
+    let dir = crate::util::TempDir::new("library-pipeline");
+    let written = sc
+        .run_and_write(&run::RunOptions::inprocess().with_out_dir(dir.path()))
+        .unwrap();
+    assert_eq!(written.metrics.rmse, out.metrics.rmse);
+    let golden = crate::util::root().join("tests/golden/runs/spiral-async-inprocess");
+    for f in ["nodes.csv", "track.csv"] {
+        let now = crate::golden::canonical(&dir.path().join(f)).unwrap();
+        let want = std::fs::read_to_string(golden.join(format!("{f}.golden"))).unwrap();
+        assert!(now == want, "{f} differs from the golden run");
+    }
+    // The threads engine through the same entry point.
+    let threads = sc.run(&run::RunOptions::inprocess().with_engine(run::EngineKind::Threads));
+    assert_eq!(threads.record.thetas, out.record.thetas);
+    assert_eq!(threads.metrics.rmse, out.metrics.rmse);
+}
+
+#[test]
+fn realtime_clocks_on_an_engine_without_processes_are_refused_before_anything_runs() {
+    let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
+    let real = sc.realize(sc.seed);
+    for kind in [run::EngineKind::Inprocess, run::EngineKind::Threads] {
+        let (rec, res) = sonarnet::engine::run(
+            &sc,
+            &real,
+            kind,
+            run::Clock::Realtime,
+            &Default::default(),
+            &mut |_, _| {},
+        );
+        assert!(rec.thetas.is_empty());
+        let e = res.expect_err("realtime in-process must be refused");
+        assert!(
+            e.to_string()
+                .contains("realtime clocks need the processes engine"),
+            "{e}"
+        );
+    }
+}

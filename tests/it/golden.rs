@@ -156,7 +156,7 @@ fn without_timing_columns(text: &str) -> String {
 }
 
 /// The comparable content of one output file.
-fn canonical(path: &Path) -> Option<String> {
+pub(crate) fn canonical(path: &Path) -> Option<String> {
     let text = std::fs::read_to_string(path).ok()?;
     if path.extension().is_some_and(|e| e == "json") {
         let v: Value = serde_json::from_str(&text).expect("metrics.json parses");
