@@ -55,8 +55,12 @@
 //!   infinite entry of the referenced triangle as `info = 1`: LAPACK leaves
 //!   that case undefined, and a decomposition of it would be meaningless.
 //!   `isuppz` gives the first and last nonzero row of each eigenvector.
-//! * Both SVDs report a NaN entry of `A` as `info = -4`, as LAPACK 3.x
-//!   `dgesdd_` does, and an infinite entry as `info = 1` (no convergence).
+//! * Both SVDs report a NaN entry of `A` as the illegal argument `A`
+//!   (`info = -4` in `dgesdd_`, as LAPACK 3.x does; `-5` in `dgesvd_`), and
+//!   an infinite entry as `info = 1` (no convergence).
+//! * `dgesv_` on an exactly singular matrix returns LAPACK's `info`, but the
+//!   entries of `L` below a zero pivot are what faer computed (LAPACK leaves
+//!   them unscaled); `b` is left unchanged.
 //! * Results agree with reference LAPACK to rounding, not bit for bit.
 
 #![deny(clippy::float_cmp)]
