@@ -123,14 +123,7 @@ impl Scenario {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn run(&self, opts: &RunOptions) -> Outcome {
-        let real = self.realize(self.seed);
-        let popts = crate::engine::processes::ProcessOptions {
-            poll_us: opts.poll_us,
-            ..Default::default()
-        };
-        let (record, res) =
-            crate::engine::run(self, &real, opts.engine, opts.clock, &popts, &mut |_, _| {});
-        let error = res.err();
+        let (real, record, error) = self.realize_and_run(opts);
         let (mut metrics, scored) = evaluate(self, &real, &record, error.as_ref(), opts);
         if error.is_none() && opts.check_expect {
             metrics.expect = check_expect(self, &flat_metrics(&metrics, &scored));
@@ -146,6 +139,12 @@ impl Scenario {
     /// [`Scenario::run`], then write the results directory `opts.out_dir`
     /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
     pub fn run_and_write(&self, opts: &RunOptions) -> Result<RunOutcome, RunError> {
+        let (real, record, error) = self.realize_and_run(opts);
+        finish(self, &real, record, error, opts)
+    }
+
+    /// This scenario's realization with its seed, run on the engine of `opts`.
+    fn realize_and_run(&self, opts: &RunOptions) -> (Realization, RunRecord, Option<EngineError>) {
         let real = self.realize(self.seed);
         let popts = crate::engine::processes::ProcessOptions {
             poll_us: opts.poll_us,
@@ -153,7 +152,7 @@ impl Scenario {
         };
         let (record, res) =
             crate::engine::run(self, &real, opts.engine, opts.clock, &popts, &mut |_, _| {});
-        finish(self, &real, record, res.err(), opts)
+        (real, record, res.err())
     }
 }
 
