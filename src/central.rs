@@ -243,16 +243,11 @@ mod tests {
     use crate::measure::NodeMeasurements;
     use approx::assert_relative_eq;
 
+    /// The first four receivers of the seed 002 network.
     fn geom() -> Geometry {
-        Geometry {
-            transmitters: vec![Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)],
-            receivers: vec![
-                Vec2::new(-1000.0, -1000.0),
-                Vec2::new(1500.0, -1000.0),
-                Vec2::new(-1000.0, 1000.0),
-                Vec2::new(1500.0, 1000.0),
-            ],
-        }
+        let mut g = Geometry::seed002();
+        g.receivers.truncate(4);
+        g
     }
 
     fn exact(g: &Geometry, x: &Vec2) -> SampleMeasurements {

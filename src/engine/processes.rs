@@ -190,7 +190,7 @@ fn status_text(s: &ExitStatus) -> String {
     }
 }
 
-fn terr(e: TransportError) -> EngineError {
+pub(crate) fn terr(e: TransportError) -> EngineError {
     EngineError::Transport(e.to_string())
 }
 

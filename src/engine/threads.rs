@@ -6,7 +6,7 @@
 //! real node loop. Library only (no `--engine` value).
 
 use super::node::{NodeError, NodeLoop, run_node};
-use super::processes::{LogicalNetwork, logical_network};
+use super::processes::{LogicalNetwork, logical_network, terr};
 use super::{EngineError, Network, Progress, RunRecord};
 use crate::codec::{self, Control, CoordinatorInput, ReportDecoder};
 use crate::protocol::{Command, Counters, Report};
@@ -27,10 +27,6 @@ pub struct Threads {
     nodes: Vec<Option<JoinHandle<Result<(), NodeError>>>>,
     term: Arc<AtomicBool>,
     sample: u32,
-}
-
-fn terr(e: impl std::fmt::Display) -> EngineError {
-    EngineError::Transport(e.to_string())
 }
 
 impl Threads {
@@ -94,6 +90,9 @@ impl Threads {
 
     /// Stop every node and join its thread (idempotent; also done on drop).
     fn shutdown(&mut self) {
+        if self.nodes.iter().all(Option::is_none) {
+            return;
+        }
         self.encoded.clear();
         codec::encode_control(&Control::Stop, &mut self.encoded);
         for i in 0..self.nodes.len() {
