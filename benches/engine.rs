@@ -3,7 +3,7 @@
 //! whole 100-sample run in-process.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sonarnet::run;
+use sonarnet::engine::{Clock, RunPlan, run_inprocess};
 use sonarnet::scenario::{Mode, Scenario};
 use std::hint::black_box;
 use std::path::Path;
@@ -24,10 +24,11 @@ fn iterations(c: &mut Criterion) {
     let mut g = c.benchmark_group("dr_iteration_n6");
     for mode in [Mode::Async, Mode::Sync] {
         let sc = spiral(mode, 11);
-        let real = sc.realize(sc.seed);
+        let real = sc.realize();
+        let plan = RunPlan::new(&sc, Clock::Logical).expect("plan");
         g.throughput(Throughput::Elements(sc.total_iterations() as u64));
         g.bench_function(mode.as_str(), |b| {
-            b.iter(|| black_box(run::run_inprocess(&sc, &real, &mut |_, _| {})))
+            b.iter(|| black_box(run_inprocess(&plan, &real, &mut |_, _| {})))
         });
     }
     g.finish();
@@ -40,8 +41,9 @@ fn whole_run(c: &mut Criterion) {
         let sc = spiral(mode, 100);
         g.bench_function(mode.as_str(), |b| {
             b.iter(|| {
-                let real = sc.realize(sc.seed);
-                black_box(run::run_inprocess(&sc, &real, &mut |_, _| {}))
+                let real = sc.realize();
+                let plan = RunPlan::new(&sc, Clock::Logical).expect("plan");
+                black_box(run_inprocess(&plan, &real, &mut |_, _| {}))
             })
         });
     }

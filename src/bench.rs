@@ -13,8 +13,7 @@
 //!
 //! Results go to stdout as a table and to `bench.json` in the output directory.
 
-use crate::engine::processes::{self, ProcessOptions};
-use crate::run;
+use crate::run::{self, Clock, EngineKind, RunOptions};
 use crate::scenario::{Mode, Scenario};
 use serde::Serialize;
 use std::path::Path;
@@ -137,7 +136,7 @@ pub fn run_bench(
     repeats: usize,
     out: &Path,
 ) -> Result<BenchReport, BenchError> {
-    let popts = ProcessOptions::default();
+    let processes = RunOptions::inprocess().with_engine(EngineKind::Processes);
     let mut overhead = Vec::new();
     for (mode, poll_us) in [
         (Mode::Async, 0),
@@ -145,20 +144,17 @@ pub fn run_bench(
         (Mode::Async, POLL_US),
         (Mode::Sync, POLL_US),
     ] {
-        let popts = ProcessOptions {
-            poll_us,
-            ..popts.clone()
-        };
         let sc = spiral(scenarios)?.with_mode(mode)?;
-        let real = sc.realize(sc.seed);
+        let procs = RunOptions {
+            poll_us,
+            ..RunOptions::inprocess().with_engine(EngineKind::Processes)
+        };
         let mut best_in = f64::INFINITY;
         let mut best_proc = (f64::INFINITY, 0.0);
         for _ in 0..repeats.max(1) {
-            let (rec, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
-            res.map_err(|e| run_failed(e, out))?;
+            let rec = timed(&sc, &RunOptions::inprocess(), out)?;
             best_in = best_in.min(rec.wall_seconds);
-            let (rec, res, _) = processes::run_logical(&sc, &real, &popts, &mut |_, _| {});
-            res.map_err(|e| run_failed(e, out))?;
+            let rec = timed(&sc, &procs, out)?;
             if rec.wall_seconds < best_proc.0 {
                 best_proc = (rec.wall_seconds, rec.startup_seconds.unwrap_or(0.0));
             }
@@ -180,29 +176,30 @@ pub fn run_bench(
     let mut scale = Vec::new();
     for &n in nodes {
         let sc = ring(n)?;
-        let real = sc.realize(sc.seed);
-        let (rec, res, _) = processes::run_logical(&sc, &real, &popts, &mut |_, _| {});
+        let run = run::execute(&sc, &processes, &mut |_, _| {});
+        let (rec, res) = (run.record, run.error);
         let rss: Vec<f64> = rec
             .peak_rss_kib
             .iter()
             .flatten()
             .map(|k| *k as f64 / 1024.0)
             .collect();
-        eprintln!("scale {n}: {:?}", res.as_ref().err());
+        eprintln!("scale {n}: {res:?}");
         scale.push(Scale {
             nodes: n,
             startup_seconds: rec.startup_seconds.unwrap_or(f64::NAN),
             iterations_per_second: rec.iterations as f64 / rec.wall_seconds.max(1e-9),
             max_rss_mib: rss.iter().copied().fold(0.0, f64::max),
             mean_rss_mib: rss.iter().sum::<f64>() / rss.len().max(1) as f64,
-            completed: res.is_ok(),
+            completed: res.is_none(),
         });
     }
     let sc = spiral(scenarios)?;
-    let real = sc.realize(sc.seed);
-    let (rec, res, _) = processes::run_realtime(&sc, &real, &popts, &mut |_, _| {});
-    let (rt_ips, rt_med) = match res {
-        Ok(()) => {
+    let realtime = processes.clone().with_clock(Clock::Realtime);
+    let run = run::execute(&sc, &realtime, &mut |_, _| {});
+    let rec = run.record;
+    let (rt_ips, rt_med) = match run.error {
+        None => {
             let v: Vec<f64> = rec
                 .iterations_per_sample
                 .iter()
@@ -213,7 +210,7 @@ pub fn run_bench(
                 crate::metrics::median(&v),
             )
         }
-        Err(e) => {
+        Some(e) => {
             eprintln!("realtime run failed: {e}");
             (None, None)
         }
@@ -233,6 +230,19 @@ pub fn run_bench(
     run::write_json(&out.join("bench.json"), &report)?;
     print_report(&report, out);
     Ok(report)
+}
+
+/// One run of `sc` on the engine of `opts`, for its timings.
+fn timed(
+    sc: &Scenario,
+    opts: &RunOptions,
+    out: &Path,
+) -> Result<crate::engine::RunRecord, BenchError> {
+    let run = run::execute(sc, opts, &mut |_, _| {});
+    match run.error {
+        None => Ok(run.record),
+        Some(e) => Err(run_failed(e, out)),
+    }
 }
 
 fn run_failed(e: crate::engine::EngineError, out: &Path) -> BenchError {

@@ -603,6 +603,7 @@ fn run_monte_carlo_command(
         progress: !args.quiet && std::io::stdout().is_terminal(),
         check_expect: false,
         poll_us: 0,
+        verbose: false,
     };
     std::fs::create_dir_all(&opts.out_dir).map_err(|e| RunError::Output {
         path: opts.out_dir.clone(),
@@ -692,8 +693,8 @@ fn run_single(
         progress: !args.quiet && std::io::stdout().is_terminal(),
         check_expect: true,
         poll_us: args.poll_us,
+        verbose: args.verbose,
     };
-    let real = sc.realize(sc.seed);
     let bar = progress_bar(&opts, sc.samples as u64);
     let mut tick = |k: usize, it: u64| {
         if let Some(b) = &bar {
@@ -702,16 +703,11 @@ fn run_single(
             b.set_message(format!("{it} iterations, {:.0} it/s", it as f64 / secs));
         }
     };
-    let popts = crate::engine::processes::ProcessOptions {
-        verbose: args.verbose,
-        poll_us: args.poll_us,
-        ..Default::default()
-    };
-    let (record, result) = crate::engine::run(sc, &real, engine, opts.clock, &popts, &mut tick);
+    let run = run::execute(sc, &opts, &mut tick);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let outcome = run::finish(sc, &real, record, result.err(), &opts)?;
+    let outcome = run::finish(sc, &run.real, run.record, run.error, &opts)?;
     let plots = if args.report {
         crate::report::write_report(&outcome.out_dir, false).map(drop)
     } else {

@@ -23,7 +23,7 @@
 //! assert_eq!(out.record.thetas.len(), 20);
 //! // theta_bar of the last sample is within 50 m of the truth.
 //! let est = sonarnet::metrics::theta_bar(&out.record.thetas[19]);
-//! let truth = sc.realize(sc.seed).truth.unwrap()[19];
+//! let truth = sc.realize().truth.unwrap()[19];
 //! assert!((est - truth).norm() < 50.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

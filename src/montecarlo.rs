@@ -18,7 +18,6 @@
 //! * trial 0's full single-run outputs (`track.csv`, `nodes.csv`,
 //!   `metrics.json`, ...), so the track plots have a representative trial.
 
-use crate::engine::EngineError;
 use crate::metrics;
 use crate::run::{self, ExpectResult, RunError, RunOptions};
 use crate::scenario::Scenario;
@@ -208,9 +207,8 @@ pub fn run_monte_carlo(
         check_expect: false,
         ..opts.clone()
     };
-    let real0 = sc.realize(sc.seed);
-    let (rec0, res0) = run::run_inprocess(sc, &real0, &mut |_, _| {});
-    let out0 = run::finish(sc, &real0, rec0, res0.err(), &rep_opts)?;
+    let run0 = run::execute(sc, &rep_opts, &mut |_, _| {});
+    let out0 = run::finish(sc, &run0.real, run0.record, run0.error, &rep_opts)?;
     let first = trial_of(0, sc.seed, &out0.metrics, &out0.scored, &idx);
     on_trial(1);
 
@@ -232,12 +230,8 @@ pub fn run_monte_carlo(
                         break;
                     }
                     let seed = sc.seed.wrapping_add(i as u64);
-                    let sct = sc.clone().with_seed(seed);
-                    let real = sct.realize(seed);
-                    let (rec, res) = run::run_inprocess(&sct, &real, &mut |_, _| {});
-                    let err: Option<EngineError> = res.err();
-                    let (m, scored) = run::evaluate(&sct, &real, &rec, err.as_ref(), opts);
-                    let t = trial_of(i, seed, &m, &scored, &idx);
+                    let out = sc.clone().with_seed(seed).run(&rep_opts);
+                    let t = trial_of(i, seed, &out.metrics, &out.scored, &idx);
                     if let Ok(mut r) = results.lock() {
                         r[i] = Some(t);
                     }

@@ -45,6 +45,9 @@ pub struct RunOptions {
     /// Multi-process engine: node processes poll their inboxes for up to this many
     /// microseconds before blocking (0: block at once). Recorded in `run.json`.
     pub poll_us: u64,
+    /// Multi-process engine: log protocol events of the coordinator and the
+    /// nodes to stderr.
+    pub verbose: bool,
 }
 
 impl RunOptions {
@@ -60,7 +63,14 @@ impl RunOptions {
             progress: false,
             check_expect: true,
             poll_us: 0,
+            verbose: false,
         }
+    }
+
+    /// The same options with clock `clock`.
+    pub fn with_clock(mut self, clock: Clock) -> Self {
+        self.clock = clock;
+        self
     }
 
     /// The same options with engine `engine`.
@@ -123,7 +133,11 @@ impl Scenario {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn run(&self, opts: &RunOptions) -> Outcome {
-        let (real, record, error) = self.realize_and_run(opts);
+        let Executed {
+            real,
+            record,
+            error,
+        } = execute(self, opts, &mut |_, _| {});
         let (mut metrics, scored) = evaluate(self, &real, &record, error.as_ref(), opts);
         if error.is_none() && opts.check_expect {
             metrics.expect = check_expect(self, &flat_metrics(&metrics, &scored));
@@ -139,20 +153,50 @@ impl Scenario {
     /// [`Scenario::run`], then write the results directory `opts.out_dir`
     /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
     pub fn run_and_write(&self, opts: &RunOptions) -> Result<RunOutcome, RunError> {
-        let (real, record, error) = self.realize_and_run(opts);
+        let Executed {
+            real,
+            record,
+            error,
+        } = execute(self, opts, &mut |_, _| {});
         finish(self, &real, record, error, opts)
     }
+}
 
-    /// This scenario's realization with its seed, run on the engine of `opts`.
-    fn realize_and_run(&self, opts: &RunOptions) -> (Realization, RunRecord, Option<EngineError>) {
-        let real = self.realize(self.seed);
-        let popts = crate::engine::processes::ProcessOptions {
-            poll_us: opts.poll_us,
-            ..Default::default()
-        };
-        let (record, res) =
-            crate::engine::run(self, &real, opts.engine, opts.clock, &popts, &mut |_, _| {});
-        (real, record, res.err())
+/// What the engine side of one run produced.
+#[derive(Debug)]
+pub struct Executed {
+    /// The truth and measurements of the run's seed.
+    pub real: Realization,
+    /// What the engine recorded.
+    pub record: RunRecord,
+    /// Why the run stopped early, if it did.
+    pub error: Option<EngineError>,
+}
+
+/// The engine side of every run (single runs, Monte Carlo trials, the
+/// distributed baseline's engine run excepted, `sonarnet bench`): realize `sc`
+/// with its seed, build its [`RunPlan`](crate::engine::RunPlan) once and run it
+/// on the engine and clock of `opts`. `progress` hears of every completed
+/// sample.
+pub fn execute(
+    sc: &Scenario,
+    opts: &RunOptions,
+    progress: crate::engine::Progress<'_>,
+) -> Executed {
+    let real = sc.realize();
+    let popts = crate::engine::processes::ProcessOptions {
+        poll_us: opts.poll_us,
+        verbose: opts.verbose,
+        ..Default::default()
+    };
+    let (record, res) = match crate::engine::RunPlan::new(sc, opts.clock) {
+        Ok(plan) => crate::engine::run(&plan, &real, opts.engine, &popts, progress),
+        Err(e) => (RunRecord::empty(sc.graph.len()), Err(e)),
+    };
+    Executed {
+        real,
+        record,
+        error: res.err(),
     }
 }
 
@@ -346,7 +390,10 @@ fn distributed_run(
         alt.algorithm.iterations_per_sample = *n;
     }
     alt.samples = samples;
-    let (rec, res) = run_inprocess(&alt, real, &mut |_, _| {});
+    let (rec, res) = match crate::engine::RunPlan::new(&alt, Clock::Logical) {
+        Ok(plan) => run_inprocess(&plan, real, &mut |_, _| {}),
+        Err(e) => (RunRecord::empty(samples), Err(e)),
+    };
     let est = (0..samples)
         .map(|k| rec.thetas.get(k).map(|t| metrics::theta_bar(t)))
         .collect();

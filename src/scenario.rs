@@ -1061,9 +1061,11 @@ impl Scenario {
         }
     }
 
-    /// The truth and measurements of a run with `seed`: synthesized for
-    /// synthetic scenarios, read from the trace otherwise.
-    pub fn realize(&self, seed: u64) -> Realization {
+    /// The truth and measurements of a run with this scenario's seed
+    /// (`self.seed`, the one run seed): synthesized for synthetic scenarios,
+    /// read from the trace otherwise.
+    pub fn realize(&self) -> Realization {
+        let seed = self.seed;
         let sigmas = (0..self.samples).map(|k| self.sigmas_at(k)).collect();
         match &self.source {
             DataSource::Trace {

@@ -2,9 +2,11 @@
 //! routed through a FIFO queue. Exact and deterministic; the multi-process
 //! engine is held to bit-for-bit agreement with it.
 
-use super::{EngineError, Network};
-use crate::protocol::{Command, Input, NodeConfig, NodeCore, Output, Report};
+use super::{EngineError, Event, Network};
+use crate::codec::Control;
+use crate::protocol::{Input, NodeConfig, NodeCore, Output};
 use std::collections::VecDeque;
+use std::time::Duration;
 
 /// All nodes in one thread.
 pub struct InProcess {
@@ -30,8 +32,16 @@ impl InProcess {
 }
 
 impl Network for InProcess {
-    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError> {
-        self.queue.push_back((node, Input::Command(cmd)));
+    fn send(&mut self, node: u32, msg: &Control) -> Result<(), EngineError> {
+        match msg {
+            Control::Command(cmd) => self.queue.push_back((node, Input::Command(cmd.clone()))),
+            Control::StartClock(_) => {
+                return Err(EngineError::Unsupported(
+                    "the in-process engine runs logical clocks only".into(),
+                ));
+            }
+            Control::Stop => {}
+        }
         Ok(())
     }
 
@@ -39,7 +49,11 @@ impl Network for InProcess {
         Ok(())
     }
 
-    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError> {
+    fn recv(
+        &mut self,
+        _timeout: Option<Duration>,
+        out: &mut Vec<Event>,
+    ) -> Result<(), EngineError> {
         let n = self.nodes.len() as u32;
         let before = out.len();
         while let Some((to, input)) = self.queue.pop_front() {
@@ -57,7 +71,7 @@ impl Network for InProcess {
                             self.queue.push_back((i, Input::Peer(msg)));
                         }
                     }
-                    Output::Report(r) => out.push(r),
+                    Output::Report(r) => out.push(Event::Report(r)),
                 }
             }
         }

@@ -1,25 +1,31 @@
-//! The coordinator logic, shared by both engines.
+//! The engines: one coordinator, many ways to run the nodes.
 //!
-//! [`drive`] runs a scenario over any [`Network`]: it sends each node its own
-//! measurements, runs the sync rounds or hands out the async schedule, and
-//! collects every node's `theta` at the end of every sample. The in-process
-//! engine ([`inprocess::InProcess`]) implements [`Network`] with the
-//! [`NodeCore`](crate::protocol::NodeCore)s in one thread; the multi-process
-//! engine implements it over the transport. Both therefore run the same
-//! coordinator and the same node core.
+//! A run is a [`RunPlan`] (built once from a scenario) on a
+//! [`Realization`]. The I/O-free [`Coordinator`] turns events into actions;
+//! [`drive`] is its driver over any [`Network`]: the in-process engine
+//! ([`inprocess::InProcess`]) implements [`Network`] with the
+//! [`NodeCore`](crate::protocol::NodeCore)s in one thread, the threads engine
+//! ([`threads`]) with node threads over the in-memory transport, and the
+//! multi-process engine ([`processes`]) with node processes over iceoryx2. All
+//! of them run the same coordinator and the same node core, with logical or
+//! realtime clocks; [`run`] is the one entry point.
 
+pub mod coordinator;
 pub mod inprocess;
 pub mod node;
+pub mod plan;
 pub mod processes;
 pub mod threads;
 
+pub use coordinator::{Action, Coordinator, Event, Timer};
+pub use plan::{RealtimePlan, RunPlan, Scheduler, logical_mode};
+
+use crate::codec::Control;
 use crate::geometry::Vec3;
-use crate::protocol::{Command, Counters, NodeConfig, NodeMode, Report};
-use crate::rng::{Stream, stream_rng};
-use crate::scenario::{Mode, Realization, Scenario};
-use rand::RngExt;
+use crate::protocol::Counters;
+use crate::synth::Realization;
 use serde::{Deserialize, Serialize};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Why a run stopped early.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -61,17 +67,17 @@ pub enum EngineError {
     Stalled(String),
 }
 
-/// Where commands go and reports come from.
+/// Where the coordinator's messages go and the nodes' events come from.
 pub trait Network {
-    /// Queue a command for node `node`.
-    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError>;
+    /// Queue a message for node `node`.
+    fn send(&mut self, node: u32, msg: &Control) -> Result<(), EngineError>;
     /// Deliver everything queued.
     fn flush(&mut self) -> Result<(), EngineError>;
-    /// Block until at least one report is available; append them to `out`.
-    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError>;
-    /// The oldest sample not yet complete (errors such as a node death are
-    /// attributed to it). Called by [`drive`] whenever it changes.
-    fn working_on(&mut self, _sample: u32) {}
+    /// Wait until at least one event is available, or `timeout` has passed
+    /// (`None`: no limit); append the events to `out`.
+    fn recv(&mut self, timeout: Option<Duration>, out: &mut Vec<Event>) -> Result<(), EngineError>;
+    /// A line of the coordinator's verbose log.
+    fn log(&mut self, _line: &str) {}
 }
 
 /// What a run produced, complete or not.
@@ -127,67 +133,6 @@ impl RunRecord {
     }
 }
 
-/// The configuration of node `id` in `scenario` (what the node is allowed to know).
-pub fn node_config(sc: &Scenario, seed: u64, id: usize, mode: NodeMode) -> NodeConfig {
-    NodeConfig {
-        id: id as u32,
-        n_nodes: sc.graph.len() as u32,
-        anchor: sc.geometry.receivers[id],
-        transmitters: sc.geometry.transmitters.clone(),
-        neighbours: sc.graph.neighbours(id).iter().map(|&w| w as u32).collect(),
-        omega: sc.measurements.omega,
-        gamma: sc.algorithm.gamma,
-        solver: sc.algorithm.local_solver,
-        kappa: sc.algorithm.kappa,
-        init_u: sc.algorithm.init_u,
-        seed,
-        mode,
-        trace_iterations: sc.trace_iterations,
-    }
-}
-
-/// The node mode of a logical-clock run.
-pub fn logical_mode(mode: Mode) -> NodeMode {
-    match mode {
-        Mode::Sync => NodeMode::Sync,
-        Mode::Async => NodeMode::AsyncLogical,
-    }
-}
-
-/// Draws the async schedule: `v` uniform over nodes, `w` uniform over `v`'s
-/// neighbours (seed 002 Sec. II-B), from the run's schedule stream; or replays
-/// a given schedule.
-pub struct Scheduler<'a> {
-    sc: &'a Scenario,
-    rng: crate::rng::SonarRng,
-    next: usize,
-}
-
-impl<'a> Scheduler<'a> {
-    /// A scheduler for a run with `seed`.
-    pub fn new(sc: &'a Scenario, seed: u64) -> Self {
-        Scheduler {
-            sc,
-            rng: stream_rng(seed, Stream::Schedule, 0),
-            next: 0,
-        }
-    }
-
-    /// The edge of the next iteration.
-    pub fn next_pair(&mut self) -> (usize, usize) {
-        let it = self.next;
-        self.next += 1;
-        if let Some((_, s)) = &self.sc.algorithm.schedule {
-            return s[it];
-        }
-        let n = self.sc.graph.len();
-        let v = self.rng.random_range(0..n);
-        let nb = self.sc.graph.neighbours(v);
-        let w = nb[self.rng.random_range(0..nb.len())];
-        (v, w)
-    }
-}
-
 /// Progress callback: `(samples done, iterations done)`.
 pub type Progress<'a> = &'a mut dyn FnMut(usize, u64);
 
@@ -199,183 +144,80 @@ pub type Progress<'a> = &'a mut dyn FnMut(usize, u64);
 /// do not depend on it.
 pub const LOOKAHEAD: usize = 3;
 
-/// Run `scenario` with logical clocks over `net`. Returns the record of
-/// everything completed and, if the run stopped early, why.
-///
-/// Up to [`LOOKAHEAD`] samples are in flight; the async schedule is drawn sample
-/// by sample in order, exactly as without lookahead.
+/// Run `plan` on `real` over `net`: the driver of the [`Coordinator`] under
+/// the wall clock. Returns the record of everything completed and, if the run
+/// stopped early, why.
 pub fn drive(
-    sc: &Scenario,
-    seed: u64,
+    plan: &RunPlan,
     real: &Realization,
     net: &mut dyn Network,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
     let start = Instant::now();
-    let n = sc.graph.len();
-    let ips = sc.algorithm.iterations_per_sample;
-    let mut rec = RunRecord {
-        counters: vec![Counters::default(); n],
-        ..Default::default()
-    };
-    let mut sched = Scheduler::new(sc, seed);
-    let mut reports = Vec::new();
-    let result = (|| {
-        // thetas of the samples in flight, oldest first, with their count of reports.
-        let mut in_flight: std::collections::VecDeque<(Vec<Option<Vec3>>, usize)> =
-            std::collections::VecDeque::new();
-        let mut sent = 0usize;
-        let mut send_sample =
-            |k: usize, net: &mut dyn Network, rec: &mut RunRecord| -> Result<(), EngineError> {
-                let sample = k as u32;
-                for (i, meas) in real.measurements[k].nodes.iter().enumerate() {
-                    net.send(
-                        i as u32,
-                        Command::Sample {
-                            sample,
-                            meas: meas.clone(),
-                        },
-                    )?;
+    let mut coord = Coordinator::new(plan, real);
+    let mut actions = Vec::new();
+    let mut events = Vec::new();
+    let mut timers: Vec<(Duration, Timer)> = Vec::new();
+    coord.handle(Duration::ZERO, [Event::Start], &mut actions);
+    let result = loop {
+        let mut done = None;
+        for a in actions.drain(..) {
+            let r = match a {
+                Action::Send { node, msg } => net.send(node, &msg),
+                Action::Flush => net.flush(),
+                Action::SetTimer { at, timer } => {
+                    timers.push((at, timer));
+                    Ok(())
                 }
-                match sc.algorithm.mode {
-                    Mode::Sync => {
-                        for i in 0..n {
-                            net.send(
-                                i as u32,
-                                Command::SyncRounds {
-                                    sample,
-                                    first_round: (k * ips) as u64,
-                                    rounds: ips as u32,
-                                },
-                            )?;
-                        }
-                    }
-                    Mode::Async => {
-                        let mut steps: Vec<Vec<(u64, u32)>> = vec![Vec::new(); n];
-                        for j in 0..ips {
-                            let it = (k * ips + j) as u64;
-                            let (v, w) = sched.next_pair();
-                            rec.schedule.push((v, w));
-                            steps[v].push((it, w as u32));
-                            steps[w].push((it, v as u32));
-                        }
-                        for (i, s) in steps.into_iter().enumerate() {
-                            net.send(i as u32, Command::AsyncPlan { sample, steps: s })?;
-                        }
-                    }
+                Action::Progress {
+                    samples,
+                    iterations,
+                } => {
+                    progress(samples, iterations);
+                    Ok(())
                 }
-                Ok(())
+                Action::Log(line) => {
+                    net.log(&line);
+                    Ok(())
+                }
+                Action::Done(r) => r,
             };
-        net.working_on(0);
-        while sent < sc.samples.min(LOOKAHEAD) {
-            send_sample(sent, net, &mut rec)?;
-            in_flight.push_back((vec![None; n], 0));
-            sent += 1;
-        }
-        net.flush()?;
-        let mut completed = 0usize;
-        while completed < sc.samples {
-            reports.clear();
-            net.recv(&mut reports)?;
-            for r in reports.drain(..) {
-                match r {
-                    Report::SampleDone {
-                        node,
-                        sample: s,
-                        theta,
-                        counters,
-                    } => {
-                        let i = node as usize;
-                        let Some(slot) = (s as usize)
-                            .checked_sub(completed)
-                            .and_then(|d| in_flight.get_mut(d))
-                        else {
-                            continue;
-                        };
-                        if i < n && slot.0[i].is_none() {
-                            slot.0[i] = Some(theta);
-                            slot.1 += 1;
-                            // Reports of one node arrive in sample order.
-                            rec.counters[i] = counters;
-                        }
-                    }
-                    Report::IterationDone {
-                        node,
-                        iteration,
-                        theta,
-                    } if sc.trace_iterations => rec.iteration_trace.push((
-                        iteration,
-                        (iteration / ips.max(1) as u64) as u32,
-                        node,
-                        theta,
-                    )),
-                    Report::Failed {
-                        node,
-                        sample,
-                        reason,
-                    } => {
-                        return Err(EngineError::NodeFailed {
-                            node,
-                            sample,
-                            reason,
-                        });
-                    }
-                    _ => {}
-                }
-            }
-            let mut advanced = false;
-            while in_flight.front().is_some_and(|(_, done)| *done == n) {
-                let Some((thetas, _)) = in_flight.pop_front() else {
-                    break;
-                };
-                rec.thetas
-                    .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
-                completed += 1;
-                rec.iterations += ips as u64;
-                progress(completed, rec.iterations);
-                if sent < sc.samples {
-                    send_sample(sent, net, &mut rec)?;
-                    in_flight.push_back((vec![None; n], 0));
-                    sent += 1;
-                }
-                advanced = true;
-            }
-            if advanced {
-                net.working_on(completed as u32);
-                net.flush()?;
+            if let Err(e) = r {
+                done = Some(Err(e));
+                break;
             }
         }
-        Ok(())
-    })();
-    if result.is_err() {
-        // As without lookahead: the schedule of the completed samples and of the one
-        // in progress, not of the samples sent ahead.
-        let keep = ((rec.thetas.len() + 1) * ips).min(rec.schedule.len());
-        rec.schedule.truncate(keep);
-    }
-    if sc.trace_iterations {
-        // Arrival order differs between engines; the file is ordered.
-        rec.iteration_trace.sort_by_key(|e| (e.0, e.2));
-        // Iterations of samples that did not complete are not part of the record.
-        let done = rec.thetas.len() as u32;
-        rec.iteration_trace.retain(|e| e.1 < done);
-    }
+        if let Some(r) = done {
+            break r;
+        }
+        if coord.is_done() {
+            break Ok(());
+        }
+        timers.sort_by_key(|t| t.0);
+        let timeout = timers
+            .first()
+            .map(|(at, _)| at.saturating_sub(start.elapsed()));
+        if let Err(e) = net.recv(timeout, &mut events) {
+            break Err(e);
+        }
+        let now = start.elapsed();
+        let due = timers.partition_point(|(at, _)| *at <= now);
+        events.extend(timers.drain(..due).map(|(_, t)| Event::Timer(t)));
+        coord.handle(now, events.drain(..), &mut actions);
+    };
+    let mut rec = coord.into_record(result.is_err());
     rec.wall_seconds = start.elapsed().as_secs_f64();
     (rec, result)
 }
 
-/// Run `sc` in-process.
+/// Run `plan` in-process.
 pub fn run_inprocess(
-    sc: &Scenario,
+    plan: &RunPlan,
     real: &Realization,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    let mode = logical_mode(sc.algorithm.mode);
-    let configs = (0..sc.graph.len())
-        .map(|i| node_config(sc, sc.seed, i, mode))
-        .collect();
-    let mut net = inprocess::InProcess::new(configs);
-    drive(sc, sc.seed, real, &mut net, progress)
+    let mut net = inprocess::InProcess::new(plan.nodes.clone());
+    drive(plan, real, &mut net, progress)
 }
 
 /// Which engine runs the nodes.
@@ -412,34 +254,23 @@ pub enum Clock {
     Realtime,
 }
 
-/// The one entry point of the engines: run `sc` on `real` with the engine
-/// `kind` and clock `clock` (`popts` applies to node processes only).
-/// Realtime clocks need node processes; asking for them on another engine is
-/// an error before anything starts.
+/// The one entry point of the engines: run `plan` on `real` with the engine
+/// `kind` (`popts` applies to node processes only). Realtime clocks need node
+/// processes; asking for them on another engine is an error before anything
+/// starts.
 pub fn run(
-    sc: &Scenario,
+    plan: &RunPlan,
     real: &Realization,
     kind: EngineKind,
-    clock: Clock,
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    match (kind, clock) {
-        (EngineKind::Inprocess, Clock::Logical) => run_inprocess(sc, real, progress),
-        (EngineKind::Threads, Clock::Logical) => threads::run_threads(sc, real, progress),
-        (EngineKind::Processes, Clock::Logical) => {
-            let (rec, res, _) = processes::run_logical(sc, real, popts, progress);
-            (rec, res)
-        }
-        (EngineKind::Processes, Clock::Realtime) => {
-            let (rec, res, _) = processes::run_realtime(sc, real, popts, progress);
-            (rec, res)
-        }
+    match (kind, plan.clock) {
+        (EngineKind::Inprocess, Clock::Logical) => run_inprocess(plan, real, progress),
+        (EngineKind::Threads, Clock::Logical) => threads::run_threads(plan, real, progress),
+        (EngineKind::Processes, _) => processes::run_processes(plan, real, popts, progress),
         (other, Clock::Realtime) => (
-            RunRecord {
-                counters: vec![Counters::default(); sc.graph.len()],
-                ..Default::default()
-            },
+            RunRecord::empty(plan.n()),
             Err(EngineError::Unsupported(format!(
                 "realtime clocks need the processes engine, not {}",
                 other.as_str()

@@ -10,16 +10,17 @@
 //!    JSON, runs in its own process group (a terminal Ctrl-C reaches only the
 //!    coordinator) and receives SIGTERM if the coordinator dies
 //!    (`PR_SET_PDEATHSIG`).
-//! 3. Every node reports READY; the coordinator then drives the samples with
-//!    the shared [`drive`](super::drive) logic, or the realtime loop.
+//! 3. Every node reports READY; [`drive`](super::drive) then runs the
+//!    [`Coordinator`](super::Coordinator) over [`Processes`], with logical or
+//!    realtime clocks. A child that exits is an [`Event::NodeDied`].
 //! 4. On drop the coordinator sends STOP, waits for every child, kills the
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
-use super::{EngineError, Network, RunRecord};
+use super::{Clock, EngineError, Event, Network, RunPlan, RunRecord};
 use crate::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
-use crate::protocol::{Command, Counters, NodeConfig, Report};
-use crate::scenario::{Realization, Scenario};
+use crate::protocol::{Mode, NodeConfig};
+use crate::synth::Realization;
 use crate::transport::{Endpoint, IoxTransport, RunTopology, Transport, TransportError};
 use crate::wire::Frame;
 use serde::{Deserialize, Serialize};
@@ -173,8 +174,6 @@ pub struct Processes {
     pub timing: Vec<Timing>,
     /// Seconds from the start of spawning to the last READY.
     pub startup_seconds: f64,
-    /// Sample currently being driven (for error messages).
-    pub sample: u32,
     verbose: bool,
     /// The run's IPC namespace.
     pub run_id: String,
@@ -240,7 +239,6 @@ impl Processes {
             interrupt,
             timing: vec![Timing::default(); n],
             startup_seconds: 0.0,
-            sample: 0,
             verbose: opts.verbose,
             run_id,
             stopped: false,
@@ -345,22 +343,26 @@ impl Processes {
         None
     }
 
-    /// Receive and decode whatever arrives within `timeout`. Fails on a dead
-    /// child (unless `tolerate_death`), an interrupt, or a transport error.
+    /// Start-up: receive and decode whatever arrives within `timeout`. Fails on
+    /// a dead child, an interrupt, or a transport error.
     fn poll(&mut self, timeout: Duration) -> Result<Vec<CoordinatorInput>, EngineError> {
-        self.poll_inner(timeout, false)
-    }
-
-    fn poll_inner(
-        &mut self,
-        timeout: Duration,
-        tolerate_death: bool,
-    ) -> Result<Vec<CoordinatorInput>, EngineError> {
         if self.interrupt.load(Ordering::SeqCst) {
-            return Err(EngineError::Interrupted {
-                sample: self.sample,
+            return Err(EngineError::Interrupted { sample: 0 });
+        }
+        let out = self.receive(timeout)?;
+        if let Some((node, how)) = self.check_children() {
+            return Err(EngineError::NodeDied {
+                node,
+                sample: 0,
+                how,
             });
         }
+        Ok(out)
+    }
+
+    /// Receive and decode whatever arrives within `timeout`, keeping the
+    /// latest timing of every node.
+    fn receive(&mut self, timeout: Duration) -> Result<Vec<CoordinatorInput>, EngineError> {
         self.frames.clear();
         let tx = self
             .tx
@@ -380,13 +382,6 @@ impl Processes {
                 Err(e) => return Err(EngineError::Transport(format!("bad frame: {e}"))),
             }
         }
-        if !tolerate_death && let Some((node, how)) = self.check_children() {
-            return Err(EngineError::NodeDied {
-                node,
-                sample: self.sample,
-                how,
-            });
-        }
         Ok(out)
     }
 
@@ -405,19 +400,6 @@ impl Processes {
             tx.send(Endpoint::Node(node), f).map_err(terr)?;
         }
         Ok(())
-    }
-
-    /// Receive reports for up to `timeout`, tolerating dead children (the
-    /// caller inspects [`Processes::check_children`]).
-    pub fn poll_reports(&mut self, timeout: Duration) -> Result<Vec<Report>, EngineError> {
-        Ok(self
-            .poll_inner(timeout, true)?
-            .into_iter()
-            .filter_map(|x| match x {
-                CoordinatorInput::Report(r) => Some(r),
-                _ => None,
-            })
-            .collect())
     }
 
     /// Peak resident set size (`VmHWM`, KiB) of every live node process.
@@ -514,36 +496,49 @@ impl Drop for Processes {
 }
 
 impl Network for Processes {
-    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError> {
-        self.control(node, &Control::Command(cmd))
-    }
-
-    fn working_on(&mut self, sample: u32) {
-        self.sample = sample;
+    fn send(&mut self, node: u32, msg: &Control) -> Result<(), EngineError> {
+        self.control(node, msg)
     }
 
     fn flush(&mut self) -> Result<(), EngineError> {
         self.flush_all()
     }
 
-    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError> {
+    /// Reports as they arrive; a dead child or an interrupt is noticed within
+    /// 50 ms.
+    fn recv(&mut self, timeout: Option<Duration>, out: &mut Vec<Event>) -> Result<(), EngineError> {
+        let deadline = timeout.map(|t| Instant::now() + t);
         loop {
-            let got = self.poll(Duration::from_millis(50))?;
-            for x in got {
+            if self.interrupt.load(Ordering::SeqCst) {
+                out.push(Event::Interrupted);
+                return Ok(());
+            }
+            let slice = deadline.map_or(Duration::from_millis(50), |d| {
+                d.saturating_duration_since(Instant::now())
+                    .min(Duration::from_millis(50))
+            });
+            for x in self.receive(slice)? {
                 if let CoordinatorInput::Report(r) = x {
-                    out.push(r);
+                    out.push(Event::Report(r));
                 }
             }
-            if !out.is_empty() {
+            while let Some((node, how)) = self.check_children() {
+                out.push(Event::NodeDied { node, how });
+            }
+            if !out.is_empty() || deadline.is_some_and(|d| Instant::now() >= d) {
                 return Ok(());
             }
         }
     }
+
+    fn log(&mut self, line: &str) {
+        Processes::log(self, format_args!("{line}"));
+    }
 }
 
-/// The nodes and transport topology of a logical-clock run, for every engine
-/// that frames the protocol over a [`Transport`] (processes, threads).
-pub(crate) struct LogicalNetwork {
+/// The nodes and transport topology of a run, for every engine that frames
+/// the protocol over a [`Transport`] (processes, threads).
+pub(crate) struct NetworkLayout {
     /// Node configurations, `configs[i].id == i`.
     pub configs: Vec<NodeConfig>,
     /// Who may send to whom: the gossip graph, plus every node to the sync root.
@@ -554,14 +549,20 @@ pub(crate) struct LogicalNetwork {
     pub broadcast: bool,
 }
 
-pub(crate) fn logical_network(sc: &Scenario) -> LogicalNetwork {
-    let mode = super::logical_mode(sc.algorithm.mode);
-    let n = sc.graph.len();
-    let configs: Vec<NodeConfig> = (0..n)
-        .map(|i| super::node_config(sc, sc.seed, i, mode))
-        .collect();
-    let broadcast = sc.algorithm.mode == crate::scenario::Mode::Sync;
+pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
+    let configs = plan.nodes.clone();
     let mut neighbours: Vec<Vec<u32>> = configs.iter().map(|c| c.neighbours.clone()).collect();
+    let m = plan.transmitters;
+    if plan.clock == Clock::Realtime {
+        let max_deg = neighbours.iter().map(Vec::len).max().unwrap_or(1);
+        return NetworkLayout {
+            configs,
+            neighbours,
+            inbox: 4 * max_deg + m + 64,
+            broadcast: false,
+        };
+    }
+    let broadcast = plan.mode == Mode::Sync;
     if broadcast {
         // Sync rounds gather at the root (protocol::SYNC_ROOT), which answers over
         // the broadcast group.
@@ -572,12 +573,11 @@ pub(crate) fn logical_network(sc: &Scenario) -> LogicalNetwork {
             }
         }
     }
-    let m = sc.geometry.transmitters.len();
     // Room for every frame of LOOKAHEAD samples in flight (a node in every iteration
     // gets one plan frame per iteration, plus its measurements), so that the
     // coordinator never waits for a full inbox.
-    let inbox = super::LOOKAHEAD * (sc.algorithm.iterations_per_sample + m + 4) + 16;
-    LogicalNetwork {
+    let inbox = super::LOOKAHEAD * (plan.iterations_per_sample + m + 4) + 16;
+    NetworkLayout {
         configs,
         neighbours,
         inbox,
@@ -585,230 +585,35 @@ pub(crate) fn logical_network(sc: &Scenario) -> LogicalNetwork {
     }
 }
 
-/// Run `sc` with logical clocks on node processes.
-pub fn run_logical(
-    sc: &Scenario,
+/// Run `plan` on node processes, with logical or realtime clocks
+/// ([`super::Coordinator`] over [`Processes`]).
+///
+/// Realtime (`--clock realtime`, async): every node gossips on its own Poisson
+/// clock; measurements arrive every sample period; at each sample boundary the
+/// coordinator snapshots every live node's `theta`. A node that dies is left
+/// out from then on, and the run continues while the remaining graph is
+/// connected.
+pub fn run_processes(
+    plan: &RunPlan,
     real: &Realization,
     opts: &ProcessOptions,
     progress: super::Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>, Option<Processes>) {
-    let n = sc.graph.len();
-    let LogicalNetwork {
+) -> (RunRecord, Result<(), EngineError>) {
+    let NetworkLayout {
         configs,
         neighbours,
         inbox,
         broadcast,
-    } = logical_network(sc);
+    } = network_layout(plan);
     let mut procs = match Processes::spawn(configs, neighbours, inbox, broadcast, opts) {
         Ok(p) => p,
-        Err(e) => {
-            return (
-                RunRecord {
-                    counters: vec![Counters::default(); n],
-                    ..Default::default()
-                },
-                Err(e),
-                None,
-            );
-        }
+        Err(e) => return (RunRecord::empty(plan.n()), Err(e)),
     };
-    let (mut rec, res) = super::drive(sc, sc.seed, real, &mut procs, progress);
+    let (mut rec, res) = super::drive(plan, real, &mut procs, progress);
     rec.startup_seconds = Some(procs.startup_seconds);
     rec.run_id = Some(procs.run_id.clone());
     rec.timing = procs.timing.clone();
     rec.peak_rss_kib = procs.peak_rss_kib();
     procs.shutdown();
-    (rec, res, Some(procs))
-}
-
-/// Run `sc` free-running (`--clock realtime`, async): every node gossips on
-/// its own Poisson clock at `rate_hz`; measurements arrive every
-/// `period`; at each sample boundary the coordinator snapshots every live
-/// node's `theta`. A node that dies is left out from then on, and the run
-/// continues while the remaining graph is connected.
-pub fn run_realtime(
-    sc: &Scenario,
-    real: &Realization,
-    opts: &ProcessOptions,
-    progress: super::Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>, Option<Processes>) {
-    let n = sc.graph.len();
-    let mut rec = RunRecord {
-        counters: vec![Counters::default(); n],
-        ..Default::default()
-    };
-    let Some(rt) = sc.realtime.clone() else {
-        return (
-            rec,
-            Err(EngineError::Transport(
-                "--clock realtime needs a [realtime] table in the scenario".into(),
-            )),
-            None,
-        );
-    };
-    let configs: Vec<NodeConfig> = (0..n)
-        .map(|i| super::node_config(sc, sc.seed, i, crate::protocol::NodeMode::Realtime))
-        .collect();
-    let neighbours = configs.iter().map(|c| c.neighbours.clone()).collect();
-    let m = sc.geometry.transmitters.len();
-    let max_deg = (0..n).map(|i| sc.graph.degree(i)).max().unwrap_or(1);
-    let inbox = 4 * max_deg + m + 64;
-    let mut procs = match Processes::spawn(configs, neighbours, inbox, false, opts) {
-        Ok(p) => p,
-        Err(e) => return (rec, Err(e), None),
-    };
-    rec.startup_seconds = Some(procs.startup_seconds);
-    rec.run_id = Some(procs.run_id.clone());
-    let period = Duration::from_secs_f64(rt.sample_period_ms / 1000.0);
-    let start = Instant::now();
-    let result = realtime_loop(
-        sc,
-        real,
-        &mut procs,
-        &mut rec,
-        rt.wake_rate_hz,
-        period,
-        progress,
-    );
-    rec.wall_seconds = start.elapsed().as_secs_f64();
-    rec.timing = procs.timing.clone();
-    rec.peak_rss_kib = procs.peak_rss_kib();
-    procs.shutdown();
-    (rec, result, Some(procs))
-}
-
-fn realtime_loop(
-    sc: &Scenario,
-    real: &Realization,
-    procs: &mut Processes,
-    rec: &mut RunRecord,
-    rate_hz: f64,
-    period: Duration,
-    progress: super::Progress<'_>,
-) -> Result<(), EngineError> {
-    let n = sc.graph.len();
-    let mut last_theta = vec![sc.algorithm.init_u; n];
-    let mut updates_before = 0u64;
-    let t0 = Instant::now();
-    for k in 0..sc.samples {
-        let sample = k as u32;
-        procs.sample = sample;
-        for (i, meas) in real.measurements[k].nodes.iter().enumerate() {
-            procs.control(
-                i as u32,
-                &Control::Command(Command::Sample {
-                    sample,
-                    meas: meas.clone(),
-                }),
-            )?;
-            if k == 0 {
-                procs.control(i as u32, &Control::StartClock(rate_hz))?;
-            }
-        }
-        procs.flush_all()?;
-        // Let the network run until the sample boundary, watching for deaths.
-        let boundary = t0 + period * (k as u32 + 1);
-        loop {
-            let now = Instant::now();
-            if now >= boundary {
-                break;
-            }
-            procs.poll_reports((boundary - now).min(Duration::from_millis(50)))?;
-            handle_deaths(sc, procs, rec, sample)?;
-        }
-        // Snapshot every live node.
-        let alive: Vec<bool> = procs.dead().iter().map(|d| !d).collect();
-        for (i, _) in alive.iter().enumerate().filter(|(_, a)| **a) {
-            procs.control(i as u32, &Control::Command(Command::Snapshot { sample }))?;
-        }
-        procs.flush_all()?;
-        let mut got = vec![false; n];
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while (0..n).any(|i| alive[i] && !got[i] && !procs.dead()[i]) {
-            if Instant::now() > deadline {
-                return Err(EngineError::Stalled(format!(
-                    "snapshot of sample {sample} not answered within 10 s"
-                )));
-            }
-            for r in procs.poll_reports(Duration::from_millis(50))? {
-                if let Report::Snapshot {
-                    node,
-                    sample: s,
-                    theta,
-                    counters,
-                } = r
-                    && s == sample
-                    && (node as usize) < n
-                {
-                    got[node as usize] = true;
-                    last_theta[node as usize] = theta;
-                    rec.counters[node as usize] = counters;
-                }
-                if let Report::Failed {
-                    node,
-                    sample,
-                    reason,
-                } = r
-                {
-                    return Err(EngineError::NodeFailed {
-                        node,
-                        sample,
-                        reason,
-                    });
-                }
-            }
-            handle_deaths(sc, procs, rec, sample)?;
-        }
-        let alive_now: Vec<bool> = procs.dead().iter().map(|d| !d).collect();
-        rec.thetas.push(last_theta.clone());
-        if rec.deaths.is_empty() {
-            rec.alive.push(vec![true; n]);
-        } else {
-            // Backfill the all-alive masks of earlier samples.
-            while rec.alive.len() < k {
-                rec.alive.push(vec![true; n]);
-            }
-            rec.alive.push(alive_now);
-        }
-        let updates: u64 = rec.counters.iter().map(|c| c.updates).sum();
-        // Every completed exchange updates both ends.
-        let exchanges = (updates - updates_before.min(updates)) / 2;
-        updates_before = updates;
-        rec.iterations_per_sample.push(exchanges);
-        rec.iterations += exchanges;
-        progress(k + 1, rec.iterations);
-    }
-    if rec.deaths.is_empty() {
-        rec.alive.clear();
-    }
-    Ok(())
-}
-
-fn handle_deaths(
-    sc: &Scenario,
-    procs: &mut Processes,
-    rec: &mut RunRecord,
-    sample: u32,
-) -> Result<(), EngineError> {
-    while let Some((node, how)) = procs.check_children() {
-        procs.log(format_args!("node {node} died ({how}) at sample {sample}"));
-        rec.deaths.push((node, sample, how.clone()));
-        let dead: Vec<usize> = (0..sc.graph.len()).filter(|&i| procs.dead()[i]).collect();
-        let comps = sc.graph.components_without(&dead);
-        if comps.len() != 1 {
-            return Err(EngineError::NodeDied {
-                node,
-                sample,
-                how: format!(
-                    "{how}; the remaining network is disconnected ({} parts)",
-                    comps.len()
-                ),
-            });
-        }
-        for i in 0..sc.graph.len() {
-            procs.control(i as u32, &Control::Command(Command::NodeDown { node }))?;
-        }
-        procs.flush_all()?;
-    }
-    Ok(())
+    (rec, res)
 }

@@ -6,11 +6,10 @@
 //! real node loop. Library only (no `--engine` value).
 
 use super::node::{NodeError, NodeLoop, run_node};
-use super::processes::{LogicalNetwork, logical_network, terr};
-use super::{EngineError, Network, Progress, RunRecord};
+use super::processes::{NetworkLayout, network_layout, terr};
+use super::{EngineError, Event, Network, Progress, RunPlan, RunRecord};
 use crate::codec::{self, Control, CoordinatorInput, ReportDecoder};
-use crate::protocol::{Command, Counters, Report};
-use crate::scenario::{Realization, Scenario};
+use crate::synth::Realization;
 use crate::transport::{Endpoint, MemNetwork, MemTransport, RunTopology, Transport};
 use crate::wire::Frame;
 use std::sync::Arc;
@@ -26,12 +25,11 @@ pub struct Threads {
     encoded: Vec<Frame>,
     nodes: Vec<Option<JoinHandle<Result<(), NodeError>>>>,
     term: Arc<AtomicBool>,
-    sample: u32,
 }
 
 impl Threads {
     /// Open the network and start one thread per node.
-    fn start(net: LogicalNetwork) -> Result<Threads, EngineError> {
+    fn start(net: NetworkLayout) -> Result<Threads, EngineError> {
         let topology = RunTopology::new("threads", net.neighbours, net.inbox)
             .and_then(|t| {
                 if net.broadcast {
@@ -65,12 +63,11 @@ impl Threads {
             encoded: Vec::new(),
             nodes,
             term,
-            sample: 0,
         })
     }
 
-    /// A node thread that has ended (it only ends on STOP or an error).
-    fn check_nodes(&mut self) -> Result<(), EngineError> {
+    /// Node threads that have ended (they only end on STOP or an error).
+    fn check_nodes(&mut self, out: &mut Vec<Event>) {
         for (i, h) in self.nodes.iter_mut().enumerate() {
             if h.as_ref().is_some_and(JoinHandle::is_finished) {
                 let how = match h.take().map(JoinHandle::join) {
@@ -78,14 +75,12 @@ impl Threads {
                     Some(Ok(Err(e))) => e.to_string(),
                     _ => "it panicked".to_string(),
                 };
-                return Err(EngineError::NodeDied {
+                out.push(Event::NodeDied {
                     node: i as u32,
-                    sample: self.sample,
                     how,
                 });
             }
         }
-        Ok(())
     }
 
     /// Stop every node and join its thread (idempotent; also done on drop).
@@ -115,24 +110,21 @@ impl Drop for Threads {
 }
 
 impl Network for Threads {
-    fn send(&mut self, node: u32, cmd: Command) -> Result<(), EngineError> {
+    fn send(&mut self, node: u32, msg: &Control) -> Result<(), EngineError> {
         self.encoded.clear();
-        codec::encode_control(&Control::Command(cmd), &mut self.encoded);
+        codec::encode_control(msg, &mut self.encoded);
         for f in &self.encoded {
             self.tx.send(Endpoint::Node(node), f).map_err(terr)?;
         }
         Ok(())
     }
 
-    fn working_on(&mut self, sample: u32) {
-        self.sample = sample;
-    }
-
     fn flush(&mut self) -> Result<(), EngineError> {
         self.tx.flush().map_err(terr)
     }
 
-    fn recv(&mut self, out: &mut Vec<Report>) -> Result<(), EngineError> {
+    fn recv(&mut self, timeout: Option<Duration>, out: &mut Vec<Event>) -> Result<(), EngineError> {
+        let deadline = timeout.map(|t| std::time::Instant::now() + t);
         loop {
             self.frames.clear();
             self.tx
@@ -140,37 +132,32 @@ impl Network for Threads {
                 .map_err(terr)?;
             for f in &self.frames {
                 match self.decoder.feed(f) {
-                    Ok(Some(CoordinatorInput::Report(r))) => out.push(r),
+                    Ok(Some(CoordinatorInput::Report(r))) => out.push(Event::Report(r)),
                     Ok(_) => {}
                     Err(e) => return Err(EngineError::Transport(format!("bad frame: {e}"))),
                 }
             }
-            if !out.is_empty() {
+            if out.is_empty() {
+                self.check_nodes(out);
+            }
+            if !out.is_empty() || deadline.is_some_and(|d| std::time::Instant::now() >= d) {
                 return Ok(());
             }
-            self.check_nodes()?;
         }
     }
 }
 
-/// Run `sc` with logical clocks, every node a thread over [`MemTransport`].
+/// Run `plan` with logical clocks, every node a thread over [`MemTransport`].
 pub fn run_threads(
-    sc: &Scenario,
+    plan: &RunPlan,
     real: &Realization,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    let n = sc.graph.len();
-    let mut net = match Threads::start(logical_network(sc)) {
+    let mut net = match Threads::start(network_layout(plan)) {
         Ok(t) => t,
-        Err(e) => {
-            let rec = RunRecord {
-                counters: vec![Counters::default(); n],
-                ..Default::default()
-            };
-            return (rec, Err(e));
-        }
+        Err(e) => return (RunRecord::empty(plan.n()), Err(e)),
     };
-    let out = super::drive(sc, sc.seed, real, &mut net, progress);
+    let out = super::drive(plan, real, &mut net, progress);
     net.shutdown();
     out
 }

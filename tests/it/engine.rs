@@ -2,7 +2,7 @@
 //! seed 002 eq. (11) (async) and of the sync consensus update, bit for bit.
 
 use crate::util::scenario;
-use sonarnet::engine::Scheduler;
+use sonarnet::engine::{Clock, RunPlan};
 use sonarnet::geometry::{Vec2, Vec3};
 use sonarnet::local::LocalProblem;
 use sonarnet::local_prox::{LocalSolver, prox};
@@ -11,12 +11,13 @@ use sonarnet::scenario::{Mode, Scenario};
 
 /// The textbook loop: no messages, no actors.
 fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
-    let real = sc.realize(sc.seed);
+    let real = sc.realize();
     let n = sc.graph.len();
     let a = &sc.algorithm;
     let mut u = vec![a.init_u; n];
     let mut theta = u.clone();
-    let mut sched = Scheduler::new(sc, sc.seed);
+    let plan = RunPlan::new(sc, Clock::Logical).unwrap();
+    let mut sched = plan.scheduler();
     let mut out = Vec::new();
     for k in 0..sc.samples {
         let probs: Vec<LocalProblem> = (0..n)
@@ -83,8 +84,8 @@ fn check_with(mode: Mode, file: &str, solver: Option<LocalSolver>) {
         sc = sc.with_local_solver(s);
         sc.check_kappa().unwrap();
     }
-    let real = sc.realize(sc.seed);
-    let (rec, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
+    let real = sc.realize();
+    let (rec, res) = crate::util::record(&sc, &real);
     res.unwrap();
     let want = reference(&sc);
     assert_eq!(rec.thetas.len(), want.len());
@@ -152,8 +153,8 @@ fn gtrs_l0_runs_in_process_in_both_modes_and_tracks_the_spiral() {
             .with_local_solver(LocalSolver::GtrsL0);
         sc.check_kappa().unwrap();
         assert_eq!(sc.algorithm.kappa, 1);
-        let real = sc.realize(sc.seed);
-        let (rec, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
+        let real = sc.realize();
+        let (rec, res) = crate::util::record(&sc, &real);
         res.unwrap();
         assert_eq!(rec.thetas.len(), 40);
         let truth = real.truth.as_ref().unwrap();
@@ -167,7 +168,7 @@ fn gtrs_l0_runs_in_process_in_both_modes_and_tracks_the_spiral() {
         );
         // It is a different prox: the plain GTRS run differs.
         let plain = sc.clone().with_local_solver(LocalSolver::Gtrs);
-        let (rec_g, res_g) = run::run_inprocess(&plain, &real, &mut |_, _| {});
+        let (rec_g, res_g) = crate::util::record(&plain, &real);
         res_g.unwrap();
         assert_ne!(rec.thetas, rec_g.thetas, "{mode:?}");
     }
@@ -175,8 +176,8 @@ fn gtrs_l0_runs_in_process_in_both_modes_and_tracks_the_spiral() {
 
 /// RMSE of theta_bar after the burn-in of `sc` run in-process.
 fn rmse(sc: &Scenario) -> f64 {
-    let real = sc.realize(sc.seed);
-    let (rec, res) = run::run_inprocess(sc, &real, &mut |_, _| {});
+    let real = sc.realize();
+    let (rec, res) = crate::util::record(sc, &real);
     res.unwrap();
     let truth = real.truth.as_ref().unwrap();
     let burn = sc.algorithm.burn_in;
@@ -238,14 +239,15 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
             .unwrap()
             .with_mode(mode)
             .unwrap();
-        let real = sc.realize(sc.seed);
-        let (want, res) = run::run_inprocess(&sc, &real, &mut |_, _| {});
+        let real = sc.realize();
+        let (want, res) = crate::util::record(&sc, &real);
         res.unwrap();
-        let (sc2, real2) = (sc.clone(), real.clone());
+        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let real2 = real.clone();
         let (got, res) = with_watchdog(
             "threads run",
             std::time::Duration::from_secs(120),
-            move || sonarnet::engine::threads::run_threads(&sc2, &real2, &mut |_, _| {}),
+            move || sonarnet::engine::threads::run_threads(&plan, &real2, &mut |_, _| {}),
         );
         res.unwrap_or_else(|e| panic!("{mode:?}: {e}"));
         assert_eq!(got.thetas.len(), 15, "{mode:?}");
@@ -292,16 +294,11 @@ fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
 #[test]
 fn realtime_clocks_on_an_engine_without_processes_are_refused_before_anything_runs() {
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
-    let real = sc.realize(sc.seed);
+    let real = sc.realize();
+    let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
     for kind in [run::EngineKind::Inprocess, run::EngineKind::Threads] {
-        let (rec, res) = sonarnet::engine::run(
-            &sc,
-            &real,
-            kind,
-            run::Clock::Realtime,
-            &Default::default(),
-            &mut |_, _| {},
-        );
+        let (rec, res) =
+            sonarnet::engine::run(&plan, &real, kind, &Default::default(), &mut |_, _| {});
         assert!(rec.thetas.is_empty());
         let e = res.expect_err("realtime in-process must be refused");
         assert!(

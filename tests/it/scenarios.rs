@@ -59,6 +59,7 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
                         progress: false,
                         check_expect: false,
                         poll_us: 0,
+                        verbose: false,
                     };
                     match sonarnet::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
                         Ok(mc) if mc.failed == 0 => mc.expect,

@@ -1,8 +1,8 @@
 //! Shared helpers for the integration tests.
 
-use sonarnet::engine::RunRecord;
-use sonarnet::run::{self, Clock, EngineKind, RunOptions, RunOutcome};
-use sonarnet::scenario::Scenario;
+use sonarnet::engine::{Clock, EngineError, RunPlan, RunRecord};
+use sonarnet::run::{self, RunOptions, RunOutcome};
+use sonarnet::scenario::{Realization, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -51,18 +51,18 @@ impl Drop for TempDir {
 
 /// Run a loaded scenario in-process and write its outputs to `out`.
 pub fn run_inprocess(sc: &Scenario, out: &Path) -> RunOutcome {
-    let real = sc.realize(sc.seed);
-    let (rec, res): (RunRecord, _) = run::run_inprocess(sc, &real, &mut |_, _| {});
     let opts = RunOptions {
-        engine: EngineKind::Inprocess,
-        clock: Clock::Logical,
-        out_dir: out.to_path_buf(),
         command_line: vec!["test".into()],
-        progress: false,
-        check_expect: true,
-        poll_us: 0,
+        ..RunOptions::inprocess().with_out_dir(out)
     };
-    run::finish(sc, &real, rec, res.err(), &opts).expect("write outputs")
+    let run = run::execute(sc, &opts, &mut |_, _| {});
+    run::finish(sc, &run.real, run.record, run.error, &opts).expect("write outputs")
+}
+
+/// The engine record of `sc` run in-process with logical clocks on `real`.
+pub fn record(sc: &Scenario, real: &Realization) -> (RunRecord, Result<(), EngineError>) {
+    let plan = RunPlan::new(sc, Clock::Logical).expect("plan");
+    sonarnet::engine::run_inprocess(&plan, real, &mut |_, _| {})
 }
 
 /// Run the `sonarnet` binary with a watchdog; kills it and panics with a

@@ -1,0 +1,815 @@
+//! The I/O-free coordinator of a run, the counterpart of the node's
+//! [`NodeCore`](crate::protocol::NodeCore).
+//!
+//! A [`Coordinator`] takes events (the start of the run, node reports, node
+//! deaths, an interrupt, its own timers) and returns [`Action`]s: messages to
+//! nodes, flushes, timers to set, progress, and finally the run's result. It
+//! never touches a transport, a process or a clock: the time of every event is
+//! passed in, so the same coordinator runs under a wall clock (node
+//! processes) and could run under a virtual one. [`drive`](super::drive) is its
+//! driver over any [`Network`](super::Network).
+//!
+//! It covers every clock:
+//! * **logical, sync**: per sample, the node's measurements and its rounds
+//!   ([`Command::SyncRounds`]);
+//! * **logical, async**: per sample, each node's share of the schedule drawn by
+//!   the plan's [`Scheduler`] ([`Command::AsyncPlan`]);
+//!   with both, up to [`LOOKAHEAD`] samples are in flight, and a sample is
+//!   complete when every node reported [`Report::SampleDone`];
+//! * **realtime**: free-running nodes on Poisson clocks. Measurements arrive
+//!   every sample period; at each sample boundary (a timer) the coordinator
+//!   asks every live node for a [`Command::Snapshot`]. A dead node is left out
+//!   from then on ([`Command::NodeDown`] to the others) while the remaining
+//!   graph stays connected.
+
+use super::plan::{RunPlan, SNAPSHOT_TIMEOUT, Scheduler};
+use super::{EngineError, LOOKAHEAD, RunRecord};
+use crate::codec::Control;
+use crate::geometry::Vec3;
+use crate::protocol::{Command, Counters, Mode, Report};
+use crate::synth::Realization;
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// What happens to the coordinator.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// The run starts (every node is up).
+    Start,
+    /// A node reported.
+    Report(Report),
+    /// A node is gone (its process exited or was killed, its thread ended).
+    NodeDied {
+        /// The node.
+        node: u32,
+        /// How it ended (exit status, signal, error).
+        how: String,
+    },
+    /// The user asked the run to stop (SIGINT/SIGTERM).
+    Interrupted,
+    /// A timer the coordinator set ([`Action::SetTimer`]) is due.
+    Timer(Timer),
+}
+
+/// The coordinator's timers (realtime clocks only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Timer {
+    /// The end of sample `k`'s period: time to snapshot.
+    SampleBoundary(u32),
+    /// The snapshot answers of sample `k` are overdue.
+    SnapshotDeadline(u32),
+}
+
+/// What the coordinator wants done.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Action {
+    /// Queue a message for one node.
+    Send {
+        /// The node.
+        node: u32,
+        /// The message.
+        msg: Control,
+    },
+    /// Deliver everything queued.
+    Flush,
+    /// Deliver [`Event::Timer`] at `at` (measured from [`Event::Start`]).
+    SetTimer {
+        /// When, from the start of the run.
+        at: Duration,
+        /// Which timer.
+        timer: Timer,
+    },
+    /// `samples` samples and `iterations` DR iterations are complete.
+    Progress {
+        /// Samples complete.
+        samples: usize,
+        /// Iterations complete.
+        iterations: u64,
+    },
+    /// A line for the verbose log.
+    Log(String),
+    /// The run is over: complete, or stopped early and why.
+    Done(Result<(), EngineError>),
+}
+
+enum Phase {
+    Logical {
+        /// Thetas of the samples in flight, oldest first, with their count of reports.
+        in_flight: VecDeque<(Vec<Option<Vec3>>, usize)>,
+        sent: usize,
+        completed: usize,
+    },
+    Realtime {
+        /// The sample being run.
+        sample: usize,
+        /// `Some(asked)` while the snapshot of `sample` is awaited.
+        snapshot: Option<Vec<bool>>,
+        got: Vec<bool>,
+        last_theta: Vec<Vec3>,
+        updates_before: u64,
+    },
+}
+
+/// The coordinator of one run of a [`RunPlan`] on a [`Realization`].
+pub struct Coordinator<'a> {
+    plan: &'a RunPlan,
+    real: &'a Realization,
+    sched: Scheduler<'a>,
+    rec: RunRecord,
+    dead: Vec<bool>,
+    done: bool,
+    phase: Phase,
+}
+
+impl<'a> Coordinator<'a> {
+    /// A coordinator for `plan`, sending the measurements of `real`.
+    pub fn new(plan: &'a RunPlan, real: &'a Realization) -> Self {
+        let n = plan.n();
+        let phase = match plan.realtime {
+            None => Phase::Logical {
+                in_flight: VecDeque::new(),
+                sent: 0,
+                completed: 0,
+            },
+            Some(_) => Phase::Realtime {
+                sample: 0,
+                snapshot: None,
+                got: vec![false; n],
+                last_theta: vec![plan.init_u(); n],
+                updates_before: 0,
+            },
+        };
+        Coordinator {
+            plan,
+            real,
+            sched: plan.scheduler(),
+            rec: RunRecord::empty(n),
+            dead: vec![false; n],
+            done: false,
+            phase,
+        }
+    }
+
+    /// The run is over ([`Action::Done`] was returned).
+    pub fn is_done(&self) -> bool {
+        self.done
+    }
+
+    /// The oldest sample not yet complete.
+    pub fn sample(&self) -> u32 {
+        match &self.phase {
+            Phase::Logical { completed, .. } => *completed as u32,
+            Phase::Realtime { sample, .. } => *sample as u32,
+        }
+    }
+
+    /// Handle a batch of events that happened by `now` (from the start of the
+    /// run), appending the actions to `out`. After [`Action::Done`] every event
+    /// is ignored.
+    pub fn handle(
+        &mut self,
+        now: Duration,
+        events: impl IntoIterator<Item = Event>,
+        out: &mut Vec<Action>,
+    ) {
+        if self.done {
+            return;
+        }
+        let result = match self.plan.realtime {
+            None => self.handle_logical(events, out),
+            Some(_) => self.handle_realtime(now, events, out),
+        };
+        match result {
+            Ok(true) => self.finish_with(Ok(()), out),
+            Ok(false) => {}
+            Err(e) => self.finish_with(Err(e), out),
+        }
+    }
+
+    fn finish_with(&mut self, r: Result<(), EngineError>, out: &mut Vec<Action>) {
+        self.done = true;
+        out.push(Action::Done(r));
+    }
+
+    /// The record of everything completed. `failed`: the run stopped early
+    /// (the schedule then keeps the completed samples and the one in progress,
+    /// not the samples sent ahead).
+    pub fn into_record(self, failed: bool) -> RunRecord {
+        let mut rec = self.rec;
+        let ips = self.plan.iterations_per_sample;
+        if failed {
+            let keep = ((rec.thetas.len() + 1) * ips).min(rec.schedule.len());
+            rec.schedule.truncate(keep);
+        }
+        if self.plan.trace_iterations {
+            // Arrival order differs between engines; the file is ordered.
+            rec.iteration_trace.sort_by_key(|e| (e.0, e.2));
+            // Iterations of samples that did not complete are not part of the record.
+            let done = rec.thetas.len() as u32;
+            rec.iteration_trace.retain(|e| e.1 < done);
+        }
+        if self.plan.realtime.is_some() && rec.deaths.is_empty() {
+            rec.alive.clear();
+        }
+        rec
+    }
+
+    /// Queue sample `k`'s measurements and, on logical clocks, its work.
+    fn send_sample(&mut self, k: usize, out: &mut Vec<Action>) {
+        let sample = k as u32;
+        let n = self.plan.n();
+        let ips = self.plan.iterations_per_sample;
+        let start_clock = self.plan.realtime.filter(|_| k == 0);
+        for (i, meas) in self.real.measurements[k].nodes.iter().enumerate() {
+            if self.dead[i] {
+                continue;
+            }
+            let meas = meas.clone();
+            out.push(send(i, Command::Sample { sample, meas }));
+            if let Some(rt) = start_clock {
+                out.push(Action::Send {
+                    node: i as u32,
+                    msg: Control::StartClock(rt.wake_rate_hz),
+                });
+            }
+        }
+        if self.plan.realtime.is_some() {
+            return;
+        }
+        match self.plan.mode {
+            Mode::Sync => {
+                for i in 0..n {
+                    let first_round = (k * ips) as u64;
+                    let rounds = ips as u32;
+                    out.push(send(
+                        i,
+                        Command::SyncRounds {
+                            sample,
+                            first_round,
+                            rounds,
+                        },
+                    ));
+                }
+            }
+            Mode::Async => {
+                let mut steps: Vec<Vec<(u64, u32)>> = vec![Vec::new(); n];
+                for j in 0..ips {
+                    let it = (k * ips + j) as u64;
+                    let (v, w) = self.sched.next_pair();
+                    self.rec.schedule.push((v, w));
+                    steps[v].push((it, w as u32));
+                    steps[w].push((it, v as u32));
+                }
+                for (i, steps) in steps.into_iter().enumerate() {
+                    out.push(send(i, Command::AsyncPlan { sample, steps }));
+                }
+            }
+        }
+    }
+
+    /// Logical clocks; `Ok(true)` when every sample is complete.
+    fn handle_logical(
+        &mut self,
+        events: impl IntoIterator<Item = Event>,
+        out: &mut Vec<Action>,
+    ) -> Result<bool, EngineError> {
+        let n = self.plan.n();
+        let samples = self.plan.samples;
+        let ips = self.plan.iterations_per_sample;
+        let mut advanced = false;
+        for e in events {
+            let Phase::Logical {
+                in_flight,
+                sent,
+                completed,
+            } = &mut self.phase
+            else {
+                return Err(EngineError::Stalled(
+                    "logical event on a realtime run".into(),
+                ));
+            };
+            match e {
+                Event::Start => {
+                    let first = samples.min(LOOKAHEAD);
+                    *sent = first;
+                    in_flight.extend((0..first).map(|_| (vec![None; n], 0)));
+                    for k in 0..first {
+                        self.send_sample(k, out);
+                    }
+                    out.push(Action::Flush);
+                    if samples == 0 {
+                        return Ok(true);
+                    }
+                }
+                Event::Report(Report::SampleDone {
+                    node,
+                    sample,
+                    theta,
+                    counters,
+                }) => {
+                    let i = node as usize;
+                    let Some(slot) = (sample as usize)
+                        .checked_sub(*completed)
+                        .and_then(|d| in_flight.get_mut(d))
+                    else {
+                        continue;
+                    };
+                    if i < n && slot.0[i].is_none() {
+                        slot.0[i] = Some(theta);
+                        slot.1 += 1;
+                        // Reports of one node arrive in sample order.
+                        self.rec.counters[i] = counters;
+                    }
+                }
+                Event::Report(Report::IterationDone {
+                    node,
+                    iteration,
+                    theta,
+                }) if self.plan.trace_iterations => {
+                    let sample = (iteration / ips.max(1) as u64) as u32;
+                    self.rec
+                        .iteration_trace
+                        .push((iteration, sample, node, theta));
+                }
+                Event::Report(Report::Failed {
+                    node,
+                    sample,
+                    reason,
+                }) => {
+                    return Err(EngineError::NodeFailed {
+                        node,
+                        sample,
+                        reason,
+                    });
+                }
+                Event::NodeDied { node, how } => {
+                    let sample = *completed as u32;
+                    return Err(EngineError::NodeDied { node, sample, how });
+                }
+                Event::Interrupted => {
+                    return Err(EngineError::Interrupted {
+                        sample: *completed as u32,
+                    });
+                }
+                Event::Report(_) | Event::Timer(_) => {}
+            }
+        }
+        while let Some(thetas) = self.pop_complete() {
+            self.rec
+                .thetas
+                .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
+            self.rec.iterations += ips as u64;
+            out.push(Action::Progress {
+                samples: self.rec.thetas.len(),
+                iterations: self.rec.iterations,
+            });
+            if let Phase::Logical {
+                in_flight, sent, ..
+            } = &mut self.phase
+                && *sent < samples
+            {
+                let k = *sent;
+                *sent += 1;
+                in_flight.push_back((vec![None; n], 0));
+                self.send_sample(k, out);
+            }
+            advanced = true;
+        }
+        if advanced {
+            out.push(Action::Flush);
+        }
+        Ok(self.sample() as usize >= samples)
+    }
+
+    /// Logical clocks: the oldest sample in flight, taken out if every node
+    /// reported it.
+    fn pop_complete(&mut self) -> Option<Vec<Option<Vec3>>> {
+        let n = self.plan.n();
+        let Phase::Logical {
+            in_flight,
+            completed,
+            ..
+        } = &mut self.phase
+        else {
+            return None;
+        };
+        if in_flight.front().is_none_or(|(_, done)| *done != n) {
+            return None;
+        }
+        *completed += 1;
+        in_flight.pop_front().map(|(thetas, _)| thetas)
+    }
+
+    /// Realtime clocks; `Ok(true)` when every sample is complete.
+    fn handle_realtime(
+        &mut self,
+        now: Duration,
+        events: impl IntoIterator<Item = Event>,
+        out: &mut Vec<Action>,
+    ) -> Result<bool, EngineError> {
+        let period = self
+            .plan
+            .realtime
+            .map_or(Duration::ZERO, |rt| rt.sample_period);
+        let n = self.plan.n();
+        for e in events {
+            let k = self.sample();
+            match e {
+                Event::Start => {
+                    self.send_sample(0, out);
+                    out.push(Action::Flush);
+                    out.push(boundary(0, period));
+                }
+                Event::Timer(Timer::SampleBoundary(s)) if s == k => {
+                    let asked: Vec<bool> = self.dead.iter().map(|d| !d).collect();
+                    for i in (0..n).filter(|&i| asked[i]) {
+                        out.push(send(i, Command::Snapshot { sample: k }));
+                    }
+                    out.push(Action::Flush);
+                    out.push(Action::SetTimer {
+                        at: now + SNAPSHOT_TIMEOUT,
+                        timer: Timer::SnapshotDeadline(k),
+                    });
+                    if let Phase::Realtime { snapshot, got, .. } = &mut self.phase {
+                        *snapshot = Some(asked);
+                        got.fill(false);
+                    }
+                }
+                Event::Timer(Timer::SnapshotDeadline(s)) if s == k => {
+                    if matches!(
+                        &self.phase,
+                        Phase::Realtime {
+                            snapshot: Some(_),
+                            ..
+                        }
+                    ) {
+                        return Err(EngineError::Stalled(format!(
+                            "snapshot of sample {k} not answered within {} s",
+                            SNAPSHOT_TIMEOUT.as_secs()
+                        )));
+                    }
+                }
+                Event::Report(Report::Snapshot {
+                    node,
+                    sample,
+                    theta,
+                    counters,
+                }) => {
+                    let i = node as usize;
+                    if let Phase::Realtime {
+                        snapshot: Some(_),
+                        got,
+                        last_theta,
+                        ..
+                    } = &mut self.phase
+                        && sample == k
+                        && i < n
+                    {
+                        got[i] = true;
+                        last_theta[i] = theta;
+                        self.rec.counters[i] = counters;
+                    }
+                }
+                Event::Report(Report::Failed {
+                    node,
+                    sample,
+                    reason,
+                }) => {
+                    return Err(EngineError::NodeFailed {
+                        node,
+                        sample,
+                        reason,
+                    });
+                }
+                Event::NodeDied { node, how } => self.node_died(node, how, out)?,
+                Event::Interrupted => return Err(EngineError::Interrupted { sample: k }),
+                Event::Report(_) | Event::Timer(_) => {}
+            }
+        }
+        let Phase::Realtime {
+            sample,
+            snapshot,
+            got,
+            last_theta,
+            updates_before,
+        } = &mut self.phase
+        else {
+            return Ok(false);
+        };
+        let complete = snapshot
+            .as_ref()
+            .is_some_and(|asked| (0..n).all(|i| !asked[i] || got[i] || self.dead[i]));
+        if !complete {
+            return Ok(false);
+        }
+        let k = *sample;
+        *snapshot = None;
+        self.rec.thetas.push(last_theta.clone());
+        if self.rec.deaths.is_empty() {
+            self.rec.alive.push(vec![true; n]);
+        } else {
+            // Backfill the all-alive masks of earlier samples.
+            while self.rec.alive.len() < k {
+                self.rec.alive.push(vec![true; n]);
+            }
+            self.rec.alive.push(self.dead.iter().map(|d| !d).collect());
+        }
+        let updates: u64 = self.rec.counters.iter().map(|c| c.updates).sum();
+        // Every completed exchange updates both ends.
+        let exchanges = (updates - (*updates_before).min(updates)) / 2;
+        *updates_before = updates;
+        self.rec.iterations_per_sample.push(exchanges);
+        self.rec.iterations += exchanges;
+        *sample += 1;
+        out.push(Action::Progress {
+            samples: k + 1,
+            iterations: self.rec.iterations,
+        });
+        if k + 1 >= self.plan.samples {
+            return Ok(true);
+        }
+        self.send_sample(k + 1, out);
+        out.push(Action::Flush);
+        out.push(boundary(k + 1, period));
+        Ok(false)
+    }
+
+    /// A node died during a realtime run: leave it out while the rest of the
+    /// graph is connected.
+    fn node_died(
+        &mut self,
+        node: u32,
+        how: String,
+        out: &mut Vec<Action>,
+    ) -> Result<(), EngineError> {
+        let i = node as usize;
+        if self.dead.get(i).is_none_or(|d| *d) {
+            return Ok(());
+        }
+        let sample = self.sample();
+        self.dead[i] = true;
+        out.push(Action::Log(format!(
+            "node {node} died ({how}) at sample {sample}"
+        )));
+        self.rec.deaths.push((node, sample, how.clone()));
+        let dead: Vec<usize> = (0..self.plan.n()).filter(|&j| self.dead[j]).collect();
+        let comps = self.plan.graph.components_without(&dead);
+        if comps.len() != 1 {
+            return Err(EngineError::NodeDied {
+                node,
+                sample,
+                how: format!(
+                    "{how}; the remaining network is disconnected ({} parts)",
+                    comps.len()
+                ),
+            });
+        }
+        for j in (0..self.plan.n()).filter(|&j| !self.dead[j]) {
+            out.push(send(j, Command::NodeDown { node }));
+        }
+        out.push(Action::Flush);
+        Ok(())
+    }
+}
+
+fn send(node: usize, cmd: Command) -> Action {
+    Action::Send {
+        node: node as u32,
+        msg: Control::Command(cmd),
+    }
+}
+
+/// The timer at the end of sample `k`'s period.
+fn boundary(k: usize, period: Duration) -> Action {
+    Action::SetTimer {
+        at: period * (k as u32 + 1),
+        timer: Timer::SampleBoundary(k as u32),
+    }
+}
+
+impl RunRecord {
+    /// The record of a run that has not started: `n` nodes, nothing done.
+    pub fn empty(n: usize) -> RunRecord {
+        RunRecord {
+            counters: vec![Counters::default(); n],
+            ..Default::default()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::Clock;
+    use crate::scenario::Scenario;
+
+    fn spiral(samples: usize) -> Scenario {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/scenarios/mourya2017-spiral.toml"
+        );
+        let mut sc = Scenario::load(std::path::Path::new(path)).unwrap();
+        sc.algorithm.burn_in = 0;
+        sc.with_samples(samples).unwrap()
+    }
+
+    fn sends(out: &[Action]) -> Vec<(u32, &Control)> {
+        out.iter()
+            .filter_map(|a| match a {
+                Action::Send { node, msg } => Some((*node, msg)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn snapshot(node: u32, sample: u32, x: f64, updates: u64) -> Event {
+        Event::Report(Report::Snapshot {
+            node,
+            sample,
+            theta: Vec3::new(x, 0.0, 0.0),
+            counters: Counters {
+                updates,
+                ..Default::default()
+            },
+        })
+    }
+
+    #[test]
+    fn realtime_starts_the_clocks_snapshots_at_each_boundary_and_counts_exchanges() {
+        let sc = spiral(2);
+        let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
+        let real = sc.realize();
+        let period = Duration::from_millis(20);
+        let mut c = Coordinator::new(&plan, &real);
+        let mut out = vec![];
+        c.handle(Duration::ZERO, [Event::Start], &mut out);
+        let s = sends(&out);
+        // Every node: its measurements, then its clock.
+        assert_eq!(s.len(), 12);
+        assert!(matches!(s[1].1, Control::StartClock(r) if (r - 2000.0).abs() < 1e-12));
+        let timer = Timer::SampleBoundary(0);
+        assert_eq!(out.last(), Some(&Action::SetTimer { at: period, timer }));
+        out.clear();
+        c.handle(period, [Event::Timer(timer)], &mut out);
+        let s = sends(&out);
+        assert_eq!(s.len(), 6);
+        assert!(
+            s.iter()
+                .all(|(_, m)| **m == Control::Command(Command::Snapshot { sample: 0 }))
+        );
+        out.clear();
+        // Five answers: not complete; the sixth completes the sample.
+        c.handle(
+            period,
+            (0..5).map(|i| snapshot(i, 0, i as f64, 10)),
+            &mut out,
+        );
+        assert!(!out.iter().any(|a| matches!(a, Action::Progress { .. })));
+        c.handle(period, [snapshot(5, 0, 5.0, 10)], &mut out);
+        // 6 nodes x 10 updates, two per exchange.
+        assert!(out.contains(&Action::Progress {
+            samples: 1,
+            iterations: 30
+        }));
+        assert!(out.contains(&Action::SetTimer {
+            at: 2 * period,
+            timer: Timer::SampleBoundary(1)
+        }));
+        out.clear();
+        c.handle(
+            2 * period,
+            [Event::Timer(Timer::SampleBoundary(1))],
+            &mut out,
+        );
+        c.handle(
+            2 * period,
+            (0..6).map(|i| snapshot(i, 1, 1.0, 12)),
+            &mut out,
+        );
+        assert_eq!(out.last(), Some(&Action::Done(Ok(()))));
+        assert!(c.is_done());
+        let rec = c.into_record(false);
+        assert_eq!(rec.iterations_per_sample, vec![30, 6]);
+        assert_eq!(rec.thetas[0][3], Vec3::new(3.0, 0.0, 0.0));
+        // No death: no alive masks.
+        assert!(rec.alive.is_empty());
+    }
+
+    #[test]
+    fn realtime_leaves_a_dead_leaf_out_and_fails_when_a_cut_node_dies() {
+        let sc = spiral(3);
+        let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
+        let real = sc.realize();
+        let mut c = Coordinator::new(&plan, &real);
+        let mut out = vec![];
+        let t = Duration::from_millis(20);
+        c.handle(Duration::ZERO, [Event::Start], &mut out);
+        c.handle(t, [Event::Timer(Timer::SampleBoundary(0))], &mut out);
+        out.clear();
+        // Node 4 hangs off node 3 only: the rest stays connected.
+        let died = Event::NodeDied {
+            node: 4,
+            how: "killed by signal 9".into(),
+        };
+        c.handle(t, [died], &mut out);
+        let s = sends(&out);
+        assert_eq!(s.len(), 5);
+        assert!(
+            s.iter()
+                .all(|(i, m)| *i != 4 && **m == Control::Command(Command::NodeDown { node: 4 }))
+        );
+        // The sample completes without node 4's answer.
+        out.clear();
+        c.handle(t, [0, 1, 2, 3, 5].map(|i| snapshot(i, 0, 0.0, 0)), &mut out);
+        assert!(out.contains(&Action::Progress {
+            samples: 1,
+            iterations: 0
+        }));
+        // Measurements of the next sample go to the live nodes only.
+        assert!(sends(&out).iter().all(|(i, _)| *i != 4));
+        // Node 3 is a cut vertex: its death disconnects 5 from the rest.
+        out.clear();
+        c.handle(
+            t,
+            [Event::NodeDied {
+                node: 3,
+                how: "exit code 1".into(),
+            }],
+            &mut out,
+        );
+        let Some(Action::Done(Err(EngineError::NodeDied { node, sample, how }))) = out.last()
+        else {
+            panic!("{out:?}");
+        };
+        assert_eq!((*node, *sample), (3, 1));
+        assert!(how.contains("disconnected (2 parts)"), "{how}");
+        let rec = c.into_record(true);
+        assert_eq!(rec.deaths.len(), 2);
+        assert_eq!(rec.alive, vec![vec![true, true, true, true, false, true]]);
+    }
+
+    #[test]
+    fn realtime_declares_a_stall_when_a_snapshot_is_not_answered_in_time() {
+        let sc = spiral(2);
+        let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
+        let real = sc.realize();
+        let mut c = Coordinator::new(&plan, &real);
+        let mut out = vec![];
+        let t = Duration::from_millis(20);
+        c.handle(Duration::ZERO, [Event::Start], &mut out);
+        c.handle(t, [Event::Timer(Timer::SampleBoundary(0))], &mut out);
+        let deadline = t + SNAPSHOT_TIMEOUT;
+        assert!(out.contains(&Action::SetTimer {
+            at: deadline,
+            timer: Timer::SnapshotDeadline(0)
+        }));
+        out.clear();
+        c.handle(
+            deadline,
+            [Event::Timer(Timer::SnapshotDeadline(0))],
+            &mut out,
+        );
+        assert!(matches!(
+            out.last(),
+            Some(Action::Done(Err(EngineError::Stalled(_))))
+        ));
+        // Nothing after the end.
+        out.clear();
+        c.handle(deadline, [Event::Start], &mut out);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn a_logical_run_stops_at_a_death_or_an_interrupt_naming_the_sample_in_progress() {
+        let sc = spiral(5);
+        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let real = sc.realize();
+        for (event, want) in [
+            (
+                Event::NodeDied {
+                    node: 2,
+                    how: "exit code 3".into(),
+                },
+                EngineError::NodeDied {
+                    node: 2,
+                    sample: 0,
+                    how: "exit code 3".into(),
+                },
+            ),
+            (Event::Interrupted, EngineError::Interrupted { sample: 0 }),
+        ] {
+            let mut c = Coordinator::new(&plan, &real);
+            let mut out = vec![];
+            c.handle(Duration::ZERO, [Event::Start], &mut out);
+            // LOOKAHEAD samples of measurements and plans, then one flush.
+            assert_eq!(sends(&out).len(), LOOKAHEAD * 2 * plan.n());
+            assert_eq!(out.last(), Some(&Action::Flush));
+            out.clear();
+            c.handle(Duration::ZERO, [event], &mut out);
+            assert_eq!(out, vec![Action::Done(Err(want))]);
+            // The schedule keeps the sample in progress only.
+            let rec = c.into_record(true);
+            assert_eq!(rec.schedule.len(), plan.iterations_per_sample);
+        }
+    }
+}

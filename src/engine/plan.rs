@@ -1,0 +1,179 @@
+//! The [`RunPlan`]: everything an engine needs to run a scenario, built once.
+//!
+//! A plan is made from a [`Scenario`] and a [`Clock`] by [`RunPlan::new`]. It
+//! holds the node configurations (what each node may know), the gossip graph,
+//! the async schedule source, the mode, the clock and the one run seed. Every
+//! engine and the [`Coordinator`](super::coordinator::Coordinator) read the
+//! plan, never the scenario.
+
+use super::{Clock, EngineError};
+use crate::geometry::Vec3;
+use crate::graph::Graph;
+use crate::protocol::{Mode, NodeConfig, NodeMode};
+use crate::rng::{SonarRng, Stream, stream_rng};
+use crate::scenario::Scenario;
+use rand::RngExt;
+use std::time::Duration;
+
+/// The free-running clock of a realtime run (`[realtime]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RealtimePlan {
+    /// Poisson wake-up rate of every node (Hz).
+    pub wake_rate_hz: f64,
+    /// Time between two samples.
+    pub sample_period: Duration,
+}
+
+/// How long the coordinator waits for the snapshot answers of one sample in a
+/// realtime run before it declares the protocol stalled.
+pub const SNAPSHOT_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// One run of one scenario, as the engines see it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunPlan {
+    /// The run seed: every random stream of the run derives from it
+    /// ([`crate::rng::stream_rng`]).
+    pub seed: u64,
+    /// Sync rounds or async pairwise gossip.
+    pub mode: Mode,
+    /// Logical (exact, sequenced by the coordinator) or realtime clocks.
+    pub clock: Clock,
+    /// Samples to run.
+    pub samples: usize,
+    /// DR iterations (sync: rounds) per sample.
+    pub iterations_per_sample: usize,
+    /// Collect every node's `theta` after every iteration.
+    pub trace_iterations: bool,
+    /// `nodes[i]`: node `i`'s configuration (`nodes[i].id == i`).
+    pub nodes: Vec<NodeConfig>,
+    /// The gossip graph (the async schedule and the liveness check use it).
+    pub graph: Graph,
+    /// A replayed async schedule, `(v, w)` per iteration, instead of drawing one.
+    pub replay: Option<Vec<(usize, usize)>>,
+    /// Number of transmitters (frames per measurement command).
+    pub transmitters: usize,
+    /// Realtime clock parameters (`Some` exactly when `clock` is realtime).
+    pub realtime: Option<RealtimePlan>,
+}
+
+impl RunPlan {
+    /// The plan of `sc` (with its own seed `sc.seed`) on `clock`.
+    ///
+    /// A realtime clock needs async mode and a `[realtime]` table
+    /// ([`EngineError::Unsupported`] otherwise).
+    pub fn new(sc: &Scenario, clock: Clock) -> Result<RunPlan, EngineError> {
+        let mode = sc.algorithm.mode;
+        let (node_mode, realtime) = match clock {
+            Clock::Logical => (logical_mode(mode), None),
+            Clock::Realtime => {
+                if mode != Mode::Async {
+                    return Err(EngineError::Unsupported(
+                        "--clock realtime needs async mode".into(),
+                    ));
+                }
+                let Some(rt) = &sc.realtime else {
+                    return Err(EngineError::Unsupported(
+                        "--clock realtime needs a [realtime] table in the scenario".into(),
+                    ));
+                };
+                let rt = RealtimePlan {
+                    wake_rate_hz: rt.wake_rate_hz,
+                    sample_period: Duration::from_secs_f64(rt.sample_period_ms / 1000.0),
+                };
+                (NodeMode::Realtime, Some(rt))
+            }
+        };
+        let nodes = (0..sc.graph.len())
+            .map(|i| node_config(sc, i, node_mode))
+            .collect();
+        Ok(RunPlan {
+            seed: sc.seed,
+            mode,
+            clock,
+            samples: sc.samples,
+            iterations_per_sample: sc.algorithm.iterations_per_sample,
+            trace_iterations: sc.trace_iterations,
+            nodes,
+            graph: sc.graph.clone(),
+            replay: sc.algorithm.schedule.as_ref().map(|(_, s)| s.clone()),
+            transmitters: sc.geometry.transmitters.len(),
+            realtime,
+        })
+    }
+
+    /// Number of nodes.
+    pub fn n(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The state every node starts from (`algorithm.init_u`).
+    pub fn init_u(&self) -> Vec3 {
+        self.nodes.first().map(|c| c.init_u).unwrap_or_default()
+    }
+
+    /// A fresh async scheduler for this plan.
+    pub fn scheduler(&self) -> Scheduler<'_> {
+        Scheduler::new(self)
+    }
+}
+
+/// The configuration of node `id` in `sc` (what the node is allowed to know).
+fn node_config(sc: &Scenario, id: usize, mode: NodeMode) -> NodeConfig {
+    NodeConfig {
+        id: id as u32,
+        n_nodes: sc.graph.len() as u32,
+        anchor: sc.geometry.receivers[id],
+        transmitters: sc.geometry.transmitters.clone(),
+        neighbours: sc.graph.neighbours(id).iter().map(|&w| w as u32).collect(),
+        omega: sc.measurements.omega,
+        gamma: sc.algorithm.gamma,
+        solver: sc.algorithm.local_solver,
+        kappa: sc.algorithm.kappa,
+        init_u: sc.algorithm.init_u,
+        seed: sc.seed,
+        mode,
+        trace_iterations: sc.trace_iterations,
+    }
+}
+
+/// The node mode of a logical-clock run.
+pub fn logical_mode(mode: Mode) -> NodeMode {
+    match mode {
+        Mode::Sync => NodeMode::Sync,
+        Mode::Async => NodeMode::AsyncLogical,
+    }
+}
+
+/// Draws the async schedule: `v` uniform over nodes, `w` uniform over `v`'s
+/// neighbours (seed 002 Sec. II-B), from the run's schedule stream; or replays
+/// the plan's schedule.
+pub struct Scheduler<'a> {
+    plan: &'a RunPlan,
+    rng: SonarRng,
+    next: usize,
+}
+
+impl<'a> Scheduler<'a> {
+    /// A scheduler for `plan`, on the schedule stream of the plan's seed.
+    pub fn new(plan: &'a RunPlan) -> Self {
+        Scheduler {
+            plan,
+            rng: stream_rng(plan.seed, Stream::Schedule, 0),
+            next: 0,
+        }
+    }
+
+    /// The edge of the next iteration.
+    pub fn next_pair(&mut self) -> (usize, usize) {
+        let it = self.next;
+        self.next += 1;
+        if let Some(s) = &self.plan.replay {
+            return s[it];
+        }
+        let g = &self.plan.graph;
+        let v = self.rng.random_range(0..g.len());
+        let nb = g.neighbours(v);
+        let w = nb[self.rng.random_range(0..nb.len())];
+        (v, w)
+    }
+}
