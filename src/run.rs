@@ -350,9 +350,6 @@ pub enum RunError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// The engine could not start.
-    #[error("engine: {0}")]
-    Engine(String),
 }
 
 pub use crate::engine::run_inprocess;

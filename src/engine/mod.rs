@@ -56,9 +56,51 @@ pub enum EngineError {
         /// Sample.
         sample: u32,
     },
-    /// Transport or process-management failure.
+    /// The transport failed (its error is part of this message, not a
+    /// separate cause, so that it is printed once).
     #[error("transport: {0}")]
-    Transport(String),
+    Transport(crate::transport::TransportError),
+    /// A frame from a node could not be decoded.
+    #[error("bad frame: {0}")]
+    BadFrame(crate::codec::DecodeError),
+    /// The coordinator's transport was already closed.
+    #[error("the coordinator's transport is closed")]
+    TransportClosed,
+    /// The node program does not exist.
+    #[error(
+        "node program {} not found (build it with `cargo build --release`, or set SONARNET_NODE_BIN)",
+        path.display()
+    )]
+    NodeProgramMissing {
+        /// Where it was looked for.
+        path: std::path::PathBuf,
+    },
+    /// A node process could not be started.
+    #[error("cannot start {} for node {node}: {reason}", program.display())]
+    Spawn {
+        /// The node.
+        node: u32,
+        /// The program.
+        program: std::path::PathBuf,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// A node's launch configuration could not be encoded.
+    #[error("cannot encode the launch configuration of node {node}: {reason}")]
+    Launch {
+        /// The node.
+        node: u32,
+        /// The encoder's reason.
+        reason: String,
+    },
+    /// Nodes did not report READY in time.
+    #[error("nodes {missing:?} did not come up within {waited:?}")]
+    Startup {
+        /// The nodes that never reported.
+        missing: Vec<u32>,
+        /// How long the coordinator waited.
+        waited: Duration,
+    },
     /// The engine cannot run this combination (e.g. realtime clocks in-process).
     #[error("unsupported: {0}")]
     Unsupported(String),

@@ -35,12 +35,12 @@ pub enum NodeError {
     #[error(transparent)]
     Transport(#[from] TransportError),
     /// A frame did not decode.
-    #[error("bad frame from {from}: {reason}")]
+    #[error("bad frame from {from}: {error}")]
     BadFrame {
         /// The sender.
         from: u32,
-        /// The decoder's reason.
-        reason: String,
+        /// What the decoder found.
+        error: crate::codec::DecodeError,
     },
     /// The coordinator went away while the node was idle.
     #[error("the coordinator is gone")]
@@ -96,9 +96,9 @@ pub fn run_node<T: Transport>(
         timing.wait_seconds += (busy - waited).as_secs_f64();
 
         for f in &frames {
-            let input = decoder.feed(f).map_err(|e| NodeError::BadFrame {
+            let input = decoder.feed(f).map_err(|error| NodeError::BadFrame {
                 from: f.from,
-                reason: e.to_string(),
+                error,
             })?;
             match input {
                 None => {}

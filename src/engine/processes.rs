@@ -189,10 +189,6 @@ fn status_text(s: &ExitStatus) -> String {
     }
 }
 
-pub(crate) fn terr(e: TransportError) -> EngineError {
-    EngineError::Transport(e.to_string())
-}
-
 impl Processes {
     /// Create the run's services and spawn one node process per receiver;
     /// returns once every node reported READY.
@@ -205,10 +201,9 @@ impl Processes {
     ) -> Result<Processes, EngineError> {
         let prog = &opts.node_program;
         if !prog.program.exists() {
-            return Err(EngineError::Transport(format!(
-                "node program {} not found (build it with `cargo build --release`, or set SONARNET_NODE_BIN)",
-                prog.program.display()
-            )));
+            return Err(EngineError::NodeProgramMissing {
+                path: prog.program.clone(),
+            });
         }
         let interrupt = interrupt_flag();
         let _ = crate::transport::cleanup_stale_resources();
@@ -226,8 +221,8 @@ impl Processes {
             verbose: opts.verbose,
             poll_us: opts.poll_us,
         };
-        let topo = launch0.run_topology().map_err(terr)?;
-        let tx = IoxTransport::coordinator(&topo).map_err(terr)?;
+        let topo = launch0.run_topology().map_err(EngineError::Transport)?;
+        let tx = IoxTransport::coordinator(&topo).map_err(EngineError::Transport)?;
         let start = Instant::now();
         let mut p = Processes {
             tx: Some(tx),
@@ -249,8 +244,10 @@ impl Processes {
                 node: cfg,
                 ..launch0.clone()
             };
-            let json = serde_json::to_string(&launch)
-                .map_err(|e| EngineError::Transport(format!("encode launch of node {id}: {e}")))?;
+            let json = serde_json::to_string(&launch).map_err(|e| EngineError::Launch {
+                node: id,
+                reason: e.to_string(),
+            })?;
             let mut cmd = Proc::new(&prog.program);
             cmd.args(&prog.args)
                 .arg("--launch")
@@ -275,10 +272,11 @@ impl Processes {
             match cmd.spawn() {
                 Ok(child) => p.children.push(Some(child)),
                 Err(e) => {
-                    return Err(EngineError::Transport(format!(
-                        "cannot start {} for node {id}: {e}",
-                        prog.program.display()
-                    )));
+                    return Err(EngineError::Spawn {
+                        node: id,
+                        program: prog.program.clone(),
+                        reason: e.to_string(),
+                    });
                 }
             }
         }
@@ -291,11 +289,11 @@ impl Processes {
         let mut count = 0;
         while count < n {
             if start.elapsed() > opts.startup_timeout {
-                let missing: Vec<usize> = (0..n).filter(|&i| !ready[i]).collect();
-                return Err(EngineError::Transport(format!(
-                    "nodes {missing:?} did not come up within {:?}",
-                    opts.startup_timeout
-                )));
+                let missing = (0..n).filter(|&i| !ready[i]).map(|i| i as u32).collect();
+                return Err(EngineError::Startup {
+                    missing,
+                    waited: opts.startup_timeout,
+                });
             }
             for input in p.poll(Duration::from_millis(50))? {
                 if let CoordinatorInput::Ready { node } = input {
@@ -364,11 +362,9 @@ impl Processes {
     /// latest timing of every node.
     fn receive(&mut self, timeout: Duration) -> Result<Vec<CoordinatorInput>, EngineError> {
         self.frames.clear();
-        let tx = self
-            .tx
-            .as_mut()
-            .ok_or_else(|| EngineError::Transport("transport closed".into()))?;
-        tx.recv(&mut self.frames, Some(timeout)).map_err(terr)?;
+        let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
+        tx.recv(&mut self.frames, Some(timeout))
+            .map_err(EngineError::Transport)?;
         let mut out = Vec::new();
         for f in &self.frames {
             match self.decoder.feed(f) {
@@ -379,7 +375,7 @@ impl Processes {
                 }
                 Ok(Some(x)) => out.push(x),
                 Ok(None) => {}
-                Err(e) => return Err(EngineError::Transport(format!("bad frame: {e}"))),
+                Err(e) => return Err(EngineError::BadFrame(e)),
             }
         }
         Ok(out)
@@ -392,12 +388,10 @@ impl Processes {
         }
         self.encoded.clear();
         codec::encode_control(c, &mut self.encoded);
-        let tx = self
-            .tx
-            .as_mut()
-            .ok_or_else(|| EngineError::Transport("transport closed".into()))?;
+        let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
         for f in &self.encoded {
-            tx.send(Endpoint::Node(node), f).map_err(terr)?;
+            tx.send(Endpoint::Node(node), f)
+                .map_err(EngineError::Transport)?;
         }
         Ok(())
     }
@@ -422,13 +416,11 @@ impl Processes {
 
     /// Flush queued frames.
     pub fn flush_all(&mut self) -> Result<(), EngineError> {
-        self.tx()?.flush().map_err(terr)
+        self.tx()?.flush().map_err(EngineError::Transport)
     }
 
     fn tx(&mut self) -> Result<&mut IoxTransport, EngineError> {
-        self.tx
-            .as_mut()
-            .ok_or_else(|| EngineError::Transport("transport closed".into()))
+        self.tx.as_mut().ok_or(EngineError::TransportClosed)
     }
 
     /// Stop every node and reap it (idempotent; also done on drop).
@@ -616,4 +608,36 @@ pub fn run_processes(
     rec.peak_rss_kib = procs.peak_rss_kib();
     procs.shutdown();
     (rec, res)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_node_program_is_a_typed_error_before_anything_is_created() {
+        let opts = ProcessOptions {
+            node_program: NodeProgram::binary("/nonexistent/sonarnet-node"),
+            ..Default::default()
+        };
+        let Err(e) = Processes::spawn(vec![], vec![], 8, false, &opts) else {
+            panic!("spawned without a node program");
+        };
+        assert_eq!(
+            e,
+            EngineError::NodeProgramMissing {
+                path: "/nonexistent/sonarnet-node".into()
+            }
+        );
+        assert!(e.to_string().contains("set SONARNET_NODE_BIN"), "{e}");
+    }
+
+    #[test]
+    fn a_transport_failure_keeps_its_type_and_is_printed_once() {
+        let t = TransportError::Closed(Endpoint::Node(3));
+        let e = EngineError::Transport(t.clone());
+        assert!(matches!(&e, EngineError::Transport(x) if *x == t));
+        let report = crate::cli::error_report(&e);
+        assert_eq!(report, format!("error: transport: {t}\n"));
+    }
 }

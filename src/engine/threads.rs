@@ -6,7 +6,7 @@
 //! real node loop. Library only (no `--engine` value).
 
 use super::node::{NodeError, NodeLoop, run_node};
-use super::processes::{NetworkLayout, network_layout, terr};
+use super::processes::{NetworkLayout, network_layout};
 use super::{EngineError, Event, Network, Progress, RunPlan, RunRecord};
 use crate::codec::{self, Control, CoordinatorInput, ReportDecoder};
 use crate::synth::Realization;
@@ -38,13 +38,17 @@ impl Threads {
                     Ok(t)
                 }
             })
-            .map_err(terr)?;
+            .map_err(EngineError::Transport)?;
         let mem = MemNetwork::new(&topology);
-        let tx = mem.endpoint(Endpoint::Coordinator).map_err(terr)?;
+        let tx = mem
+            .endpoint(Endpoint::Coordinator)
+            .map_err(EngineError::Transport)?;
         let term = Arc::new(AtomicBool::new(false));
         let mut nodes = Vec::with_capacity(net.configs.len());
         for cfg in net.configs {
-            let mut node_tx = mem.endpoint(Endpoint::Node(cfg.id)).map_err(terr)?;
+            let mut node_tx = mem
+                .endpoint(Endpoint::Node(cfg.id))
+                .map_err(EngineError::Transport)?;
             let term = Arc::clone(&term);
             nodes.push(Some(std::thread::spawn(move || {
                 let alive = || true;
@@ -114,13 +118,15 @@ impl Network for Threads {
         self.encoded.clear();
         codec::encode_control(msg, &mut self.encoded);
         for f in &self.encoded {
-            self.tx.send(Endpoint::Node(node), f).map_err(terr)?;
+            self.tx
+                .send(Endpoint::Node(node), f)
+                .map_err(EngineError::Transport)?;
         }
         Ok(())
     }
 
     fn flush(&mut self) -> Result<(), EngineError> {
-        self.tx.flush().map_err(terr)
+        self.tx.flush().map_err(EngineError::Transport)
     }
 
     fn recv(&mut self, timeout: Option<Duration>, out: &mut Vec<Event>) -> Result<(), EngineError> {
@@ -129,12 +135,12 @@ impl Network for Threads {
             self.frames.clear();
             self.tx
                 .recv(&mut self.frames, Some(Duration::from_millis(50)))
-                .map_err(terr)?;
+                .map_err(EngineError::Transport)?;
             for f in &self.frames {
                 match self.decoder.feed(f) {
                     Ok(Some(CoordinatorInput::Report(r))) => out.push(Event::Report(r)),
                     Ok(_) => {}
-                    Err(e) => return Err(EngineError::Transport(format!("bad frame: {e}"))),
+                    Err(e) => return Err(EngineError::BadFrame(e)),
                 }
             }
             if out.is_empty() {
