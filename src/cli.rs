@@ -703,30 +703,28 @@ fn run_single(
             b.set_message(format!("{it} iterations, {:.0} it/s", it as f64 / secs));
         }
     };
-    let run = run::execute(sc, &opts, &mut tick);
+    let outcome = run::run(sc, &opts, &mut tick);
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let outcome = run::finish(sc, &run.real, run.record, run.error, &opts)?;
+    outcome.write(sc, &opts)?;
+    let dir = opts.out_dir;
     let plots = if args.report {
-        crate::report::write_report(&outcome.out_dir, false).map(drop)
+        crate::report::write_report(&dir, false).map(drop)
     } else {
-        crate::plot::write_run_plots(&outcome.out_dir).map(drop)
+        crate::plot::write_run_plots(&dir).map(drop)
     };
-    print_summary(&outcome);
+    print_summary(&outcome, &dir);
     match outcome.error {
         Some(error) => {
             if let Err(e) = plots {
                 eprintln!("warning: plots were not written: {e}");
             }
-            Err(CliError::RunFailed {
-                error,
-                dir: outcome.out_dir,
-            })
+            Err(CliError::RunFailed { error, dir })
         }
         None => {
             plots.map_err(CliError::from)?;
-            Ok((outcome.out_dir, outcome.metrics.expect))
+            Ok((dir, outcome.metrics.expect))
         }
     }
 }
@@ -748,7 +746,7 @@ fn fmt_opt(x: Option<f64>) -> String {
     x.map_or("-".into(), |v| format!("{v:.3}"))
 }
 
-fn print_summary(o: &run::RunOutcome) {
+fn print_summary(o: &run::Outcome, dir: &std::path::Path) {
     let m = &o.metrics;
     println!(
         "sonarnet run: {} / {} / {} clock, seed {}",
@@ -771,7 +769,7 @@ fn print_summary(o: &run::RunOutcome) {
     }
     print_tracks(&o.scored);
     print_expect(&m.expect);
-    println!("  results in {}", o.out_dir.display());
+    println!("  results in {}", dir.display());
 }
 
 fn print_tracks(s: &crate::score::Scored) {

@@ -207,8 +207,7 @@ pub fn run_monte_carlo(
         check_expect: false,
         ..opts.clone()
     };
-    let run0 = run::execute(sc, &rep_opts, &mut |_, _| {});
-    let out0 = run::finish(sc, &run0.real, run0.record, run0.error, &rep_opts)?;
+    let out0 = sc.run_and_write(&rep_opts)?;
     let first = trial_of(0, sc.seed, &out0.metrics, &out0.scored, &idx);
     on_trial(1);
 

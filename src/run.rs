@@ -95,6 +95,8 @@ pub struct Outcome {
     pub record: RunRecord,
     /// Every track (the distributed `theta_bar`, `ml`, the baselines), scored.
     pub scored: Scored,
+    /// The truth and measurements the run was given.
+    pub real: Realization,
     /// Why the run stopped early, if it did (the results above are then
     /// those of the completed samples).
     pub error: Option<EngineError>,
@@ -133,32 +135,38 @@ impl Scenario {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn run(&self, opts: &RunOptions) -> Outcome {
-        let Executed {
-            real,
-            record,
-            error,
-        } = execute(self, opts, &mut |_, _| {});
-        let (mut metrics, scored) = evaluate(self, &real, &record, error.as_ref(), opts);
-        if error.is_none() && opts.check_expect {
-            metrics.expect = check_expect(self, &flat_metrics(&metrics, &scored));
-        }
-        Outcome {
-            metrics,
-            record,
-            scored,
-            error,
-        }
+        run(self, opts, &mut |_, _| {})
     }
 
     /// [`Scenario::run`], then write the results directory `opts.out_dir`
     /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
-    pub fn run_and_write(&self, opts: &RunOptions) -> Result<RunOutcome, RunError> {
-        let Executed {
-            real,
-            record,
-            error,
-        } = execute(self, opts, &mut |_, _| {});
-        finish(self, &real, record, error, opts)
+    pub fn run_and_write(&self, opts: &RunOptions) -> Result<Outcome, RunError> {
+        let out = self.run(opts);
+        out.write(self, opts)?;
+        Ok(out)
+    }
+}
+
+/// The pipeline of every run (single runs, every Monte Carlo trial, the
+/// library's [`Scenario::run`]): [`execute`] it, run the baselines and score
+/// every track ([`evaluate`]), and check `[expect]` when `opts` asks for it
+/// and the run completed. Writes nothing ([`Outcome::write`] does).
+pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'_>) -> Outcome {
+    let Executed {
+        real,
+        record,
+        error,
+    } = execute(sc, opts, progress);
+    let (mut metrics, scored) = evaluate(sc, &real, &record, error.as_ref(), opts);
+    if error.is_none() && opts.check_expect {
+        metrics.expect = check_expect(sc, &flat_metrics(&metrics, &scored));
+    }
+    Outcome {
+        metrics,
+        record,
+        scored,
+        real,
+        error,
     }
 }
 
@@ -321,21 +329,6 @@ pub struct ExpectResult {
     pub holds: bool,
 }
 
-/// A finished (or stopped) run.
-#[derive(Debug, Clone)]
-pub struct RunOutcome {
-    /// Metrics as written.
-    pub metrics: RunMetrics,
-    /// The record.
-    pub record: RunRecord,
-    /// Every track, scored.
-    pub scored: Scored,
-    /// Where the results are.
-    pub out_dir: PathBuf,
-    /// Why it stopped early.
-    pub error: Option<EngineError>,
-}
-
 /// Errors of a run that prevent writing results at all.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -389,7 +382,7 @@ fn distributed_run(
     alt.samples = samples;
     let (rec, res) = match crate::engine::RunPlan::new(&alt, Clock::Logical) {
         Ok(plan) => run_inprocess(&plan, real, &mut |_, _| {}),
-        Err(e) => (RunRecord::empty(samples), Err(e)),
+        Err(e) => (RunRecord::empty(alt.graph.len()), Err(e)),
     };
     let est = (0..samples)
         .map(|k| rec.thetas.get(k).map(|t| metrics::theta_bar(t)))
@@ -575,106 +568,97 @@ pub fn unknown_metric<'a>(name: &str, keys: impl Iterator<Item = &'a String>) ->
     }
 }
 
-/// Score a record and write the results directory. Always writes what there
-/// is, even for a run that stopped early.
-pub fn finish(
-    sc: &Scenario,
-    real: &Realization,
-    record: RunRecord,
-    error: Option<EngineError>,
-    opts: &RunOptions,
-) -> Result<RunOutcome, RunError> {
-    let (mut m, scored) = evaluate(sc, real, &record, error.as_ref(), opts);
-    let done = record.thetas.len();
-    let status = m.status.clone();
-    let status = status.as_str();
-    if error.is_none() && opts.check_expect {
-        let flat = flat_metrics(&m, &scored);
-        m.expect = check_expect(sc, &flat);
-    }
-    let dir = &opts.out_dir;
-    std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
-        path: dir.clone(),
-        source: e,
-    })?;
-    write_run_json(
-        dir,
-        sc,
-        opts,
-        status,
-        error.as_ref(),
-        record.run_id.as_deref(),
-    )?;
-    write_track_csv(&dir.join("track.csv"), sc, real, &scored, done)?;
-    write_csv(
-        &dir.join("nodes.csv"),
-        &["sample", "node", "x", "y", "d", "seed"],
-        record.thetas.iter().enumerate().flat_map(|(k, ts)| {
-            ts.iter().enumerate().map(move |(i, t)| {
-                vec![
-                    k.to_string(),
-                    i.to_string(),
-                    num(t[0]),
-                    num(t[1]),
-                    num(t[2]),
-                    sc.seed.to_string(),
-                ]
-            })
-        }),
-    )?;
-    if !record.schedule.is_empty() {
+impl Outcome {
+    /// Write the results directory `opts.out_dir` of this run of `sc`. Always
+    /// writes what there is, even for a run that stopped early.
+    pub fn write(&self, sc: &Scenario, opts: &RunOptions) -> Result<(), RunError> {
+        let Outcome {
+            metrics: m,
+            record,
+            scored,
+            real,
+            error,
+        } = self;
+        let done = record.thetas.len();
+        let status = m.status.as_str();
+        let dir = &opts.out_dir;
+        std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
+            path: dir.clone(),
+            source: e,
+        })?;
+        write_run_json(
+            dir,
+            sc,
+            opts,
+            status,
+            error.as_ref(),
+            record.run_id.as_deref(),
+        )?;
+        write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
         write_csv(
-            &dir.join("schedule.csv"),
-            &["iteration", "v", "w", "seed"],
-            record.schedule.iter().enumerate().map(|(it, (v, w))| {
-                vec![
-                    it.to_string(),
-                    v.to_string(),
-                    w.to_string(),
-                    sc.seed.to_string(),
-                ]
+            &dir.join("nodes.csv"),
+            &["sample", "node", "x", "y", "d", "seed"],
+            record.thetas.iter().enumerate().flat_map(|(k, ts)| {
+                ts.iter().enumerate().map(move |(i, t)| {
+                    vec![
+                        k.to_string(),
+                        i.to_string(),
+                        num(t[0]),
+                        num(t[1]),
+                        num(t[2]),
+                        sc.seed.to_string(),
+                    ]
+                })
             }),
         )?;
-    }
-    if !record.iteration_trace.is_empty() {
-        write_csv(
-            &dir.join("iterations.csv"),
-            &["iteration", "sample", "node", "x", "y", "d", "seed"],
-            record.iteration_trace.iter().map(|(it, k, i, t)| {
-                vec![
-                    it.to_string(),
-                    k.to_string(),
-                    i.to_string(),
-                    num(t[0]),
-                    num(t[1]),
-                    num(t[2]),
-                    sc.seed.to_string(),
-                ]
-            }),
+        if !record.schedule.is_empty() {
+            write_csv(
+                &dir.join("schedule.csv"),
+                &["iteration", "v", "w", "seed"],
+                record.schedule.iter().enumerate().map(|(it, (v, w))| {
+                    vec![
+                        it.to_string(),
+                        v.to_string(),
+                        w.to_string(),
+                        sc.seed.to_string(),
+                    ]
+                }),
+            )?;
+        }
+        if !record.iteration_trace.is_empty() {
+            write_csv(
+                &dir.join("iterations.csv"),
+                &["iteration", "sample", "node", "x", "y", "d", "seed"],
+                record.iteration_trace.iter().map(|(it, k, i, t)| {
+                    vec![
+                        it.to_string(),
+                        k.to_string(),
+                        i.to_string(),
+                        num(t[0]),
+                        num(t[1]),
+                        num(t[2]),
+                        sc.seed.to_string(),
+                    ]
+                }),
+            )?;
+        }
+        write_trace(
+            &dir.join("measurements.csv"),
+            &real.measurements[..done],
+            sc.seed,
         )?;
+        if let Some(t) = real.truth.as_ref().map(|t| &t[..done]) {
+            write_csv(
+                &dir.join("truth.csv"),
+                &["sample", "x", "y", "seed"],
+                t.iter()
+                    .enumerate()
+                    .map(|(k, p)| vec![k.to_string(), num(p.x), num(p.y), sc.seed.to_string()]),
+            )?;
+        }
+        write_json(&dir.join("metrics.json"), m)?;
+        Ok(())
     }
-    write_trace(
-        &dir.join("measurements.csv"),
-        &real.measurements[..done],
-        sc.seed,
-    )?;
-    if let Some(t) = real.truth.as_ref().map(|t| &t[..done]) {
-        write_csv(
-            &dir.join("truth.csv"),
-            &["sample", "x", "y", "seed"],
-            t.iter()
-                .enumerate()
-                .map(|(k, p)| vec![k.to_string(), num(p.x), num(p.y), sc.seed.to_string()]),
-        )?;
-    }
-    write_json(&dir.join("metrics.json"), &m)?;
-    Ok(RunOutcome {
-        metrics: m,
-        record,
-        scored,
-        out_dir: dir.clone(),
-        error,
-    })
 }
 
 /// Write `track.csv`: the distributed track's columns, then per baseline

@@ -1,8 +1,8 @@
 //! Scoring of a run: every track (the distributed `theta_bar`, the ML
 //! reference, each baseline) against the truth, with CTTE, dynamic regret and
-//! certified error bounds. One implementation used by single runs
-//! ([`crate::run::finish`]) and by every Monte Carlo trial
-//! ([`crate::montecarlo`]).
+//! certified error bounds. One implementation, called by the one run
+//! pipeline ([`crate::run::run`]) of single runs and of every Monte Carlo
+//! trial ([`crate::montecarlo`]).
 //!
 //! * **Error, RMSE, CTTE** ([`crate::metrics`]): `e_k = ||x_k - x_k*||`,
 //!   `CTTE = sum_k e_k` (seed 000 Sec. II).

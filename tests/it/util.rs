@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests.
 
 use sonarnet::engine::{Clock, EngineError, RunPlan, RunRecord};
-use sonarnet::run::{self, RunOptions, RunOutcome};
+use sonarnet::run::{Outcome, RunOptions};
 use sonarnet::scenario::{Realization, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -50,13 +50,12 @@ impl Drop for TempDir {
 }
 
 /// Run a loaded scenario in-process and write its outputs to `out`.
-pub fn run_inprocess(sc: &Scenario, out: &Path) -> RunOutcome {
+pub fn run_inprocess(sc: &Scenario, out: &Path) -> Outcome {
     let opts = RunOptions {
         command_line: vec!["test".into()],
         ..RunOptions::inprocess().with_out_dir(out)
     };
-    let run = run::execute(sc, &opts, &mut |_, _| {});
-    run::finish(sc, &run.real, run.record, run.error, &opts).expect("write outputs")
+    sc.run_and_write(&opts).expect("write outputs")
 }
 
 /// The engine record of `sc` run in-process with logical clocks on `real`.
