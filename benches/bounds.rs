@@ -3,8 +3,10 @@
 //! ratios to `upp_rbbox` are printed once at the end (median of 200 runs).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use sonarnet::bounds::{Intersection, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox};
-use sonarnet::geometry::Vec2;
+use sonarnet::estimators::bounds::{
+    Intersection, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox,
+};
+use sonarnet::model::geometry::Vec2;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -46,8 +48,13 @@ fn instances() -> Vec<(&'static str, Vec<Region>, Vec2)> {
     vec![("8 discs", discs, x_d), ("8 ellipses", ells, x_e)]
 }
 
-type BoundFn =
-    fn(&[Region], &Vec2) -> Result<sonarnet::bounds::BoundOutcome, sonarnet::bounds::BoundError>;
+type BoundFn = fn(
+    &[Region],
+    &Vec2,
+) -> Result<
+    sonarnet::estimators::bounds::BoundOutcome,
+    sonarnet::estimators::bounds::BoundError,
+>;
 
 fn bench(c: &mut Criterion) {
     let fns: [(&str, BoundFn); 4] = [

@@ -3,11 +3,11 @@
 //! ~5.2 us (OGD) vs ~13 us (ONM) per iteration in MATLAB.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use sonarnet::geometry::Vec2;
-use sonarnet::measure::{Geometry, NodeMeasurements, SampleMeasurements};
-use sonarnet::online::{
+use sonarnet::estimators::online::{
     NewtonDamping, OgdTracker, OnmTracker, StepSize, Tracker, loss_grad, loss_grad_hess,
 };
+use sonarnet::model::geometry::Vec2;
+use sonarnet::model::measure::{Geometry, NodeMeasurements, SampleMeasurements};
 use std::hint::black_box;
 
 fn setup() -> (Geometry, SampleMeasurements) {

@@ -5,13 +5,13 @@
 //! on the same instances with `kappa = 1`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use sonarnet::geometry::{Vec2, Vec3};
-use sonarnet::local::LocalProblem;
-use sonarnet::measure::{Geometry, NodeMeasurements};
-use sonarnet::noise::NoiseModel;
-use sonarnet::prox::{prox_gtrs, prox_relaxed};
-use sonarnet::rng::{Stream, stream_rng};
-use sonarnet::robust_prox::prox_gtrs_l0;
+use sonarnet::estimators::local::LocalProblem;
+use sonarnet::estimators::prox::gtrs::{prox_gtrs, prox_relaxed};
+use sonarnet::estimators::prox::l0::prox_gtrs_l0;
+use sonarnet::model::geometry::{Vec2, Vec3};
+use sonarnet::model::measure::{Geometry, NodeMeasurements};
+use sonarnet::model::noise::NoiseModel;
+use sonarnet::model::rng::{Stream, stream_rng};
 use std::hint::black_box;
 
 fn instances() -> Vec<(LocalProblem, Vec3)> {

@@ -8,14 +8,14 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group};
-use sonarnet::geometry::Vec2;
-use sonarnet::measure::{Geometry, bistatic_range};
-use sonarnet::noise::{NlosLinks, NoiseModel, SigmaSchedule};
-use sonarnet::rng::{Stream, stream_rng};
-use sonarnet::robust::{
+use sonarnet::estimators::robust::{
     BistaticLink, IrlsConfig, L0osConfig, LsConfig, kappa_from_fraction, l0os, lad, lq_irls, ls,
     seed004_geometry,
 };
+use sonarnet::model::geometry::Vec2;
+use sonarnet::model::measure::{Geometry, bistatic_range};
+use sonarnet::model::noise::{NlosLinks, NoiseModel, SigmaSchedule};
+use sonarnet::model::rng::{Stream, stream_rng};
 
 const INSTANCES: usize = 64;
 

@@ -5,7 +5,7 @@
 //!
 //! `cargo run --release --example scenario_test`
 
-use sonarnet::run::{EngineKind, RunOptions};
+use sonarnet::pipeline::{EngineKind, RunOptions};
 use sonarnet::scenario::Scenario;
 use std::process::ExitCode;
 

@@ -13,7 +13,7 @@
 //! `examples/scenario_test.rs` is a longer version.
 //!
 //! ```
-//! use sonarnet::run::RunOptions;
+//! use sonarnet::pipeline::RunOptions;
 //! use sonarnet::scenario::Scenario;
 //!
 //! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml");
@@ -22,7 +22,7 @@
 //! assert!(out.error.is_none());
 //! assert_eq!(out.record.thetas.len(), 20);
 //! // theta_bar of the last sample is within 50 m of the truth.
-//! let est = sonarnet::metrics::theta_bar(&out.record.thetas[19]);
+//! let est = sonarnet::model::metrics::theta_bar(&out.record.thetas[19]);
 //! let truth = sc.realize().truth.unwrap()[19];
 //! assert!((est - truth).norm() < 50.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -33,35 +33,13 @@
 // named here so that every binary linking the library links them.
 extern crate dense_lapack;
 
-pub mod baselines;
-pub mod bench;
-pub mod bounds;
-pub mod central;
 pub mod cli;
-pub mod codec;
 pub mod engine;
-pub mod error;
-pub mod expect;
-pub mod geometry;
-pub mod graph;
-pub mod local;
-pub mod local_prox;
-pub mod measure;
-pub mod metrics;
-pub mod montecarlo;
-pub mod motion;
-pub mod noise;
-pub mod online;
+pub mod estimators;
+pub mod model;
+pub mod pipeline;
 pub mod plot;
 pub mod protocol;
-pub mod prox;
 pub mod report;
-pub mod rng;
-pub mod robust;
-pub mod robust_prox;
-pub mod run;
 pub mod scenario;
-pub mod score;
-pub mod synth;
 pub mod transport;
-pub mod wire;

@@ -54,7 +54,7 @@ fn num(v: &Value) -> Option<f64> {
 /// Metrics of every track: `theta_bar` from the top level of `metrics.json`,
 /// the ML reference from `ml_rmse`, baselines from `baselines.NAME`; whatever
 /// is missing is computed from the error series of `track.csv` with
-/// [`crate::metrics::score`] (and marked as computed).
+/// [`crate::model::metrics::score`] (and marked as computed).
 pub fn track_metrics(data: &RunData) -> TrackMetrics {
     let mut columns: Vec<String> = Vec::new();
     let mut rows: Vec<(String, String, Map<String, Value>, bool)> = Vec::new();
@@ -122,10 +122,10 @@ pub fn track_metrics(data: &RunData) -> TrackMetrics {
         .into_iter()
         .map(|(name, label, given, _)| {
             let track = data.track.track(&name);
-            let computed: Option<crate::metrics::TrackScore> = track.and_then(|t| {
+            let computed: Option<crate::model::metrics::TrackScore> = track.and_then(|t| {
                 let e: Option<Vec<f64>> = t.error.iter().copied().collect();
                 let e = e.filter(|e| !e.is_empty())?;
-                crate::metrics::score(&e, burn_in.min(e.len() - 1))
+                crate::model::metrics::score(&e, burn_in.min(e.len() - 1))
             });
             let regret_last = track
                 .and_then(|t| t.regret.as_ref())
@@ -693,7 +693,7 @@ pub fn trial_stats(mc: &crate::plot::data::MonteCarlo) -> Vec<(String, usize, [f
         } else {
             0.0
         };
-        let q = |p| crate::metrics::quantile(&xs, p).unwrap_or(mean);
+        let q = |p| crate::model::metrics::quantile(&xs, p).unwrap_or(mean);
         out.push((
             c.clone(),
             xs.len(),
@@ -1076,7 +1076,7 @@ mod tests {
                 computed: false
             })
         );
-        let s = crate::metrics::score(&[10.0, 4.0, 2.0, 3.0], 1).unwrap();
+        let s = crate::model::metrics::score(&[10.0, 4.0, 2.0, 3.0], 1).unwrap();
         let c = tb[col("rmse_after_burn_in")].unwrap();
         assert!(c.computed);
         assert_abs_diff_eq!(c.value, s.rmse_after_burn_in, epsilon = 1e-12);

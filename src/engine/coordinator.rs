@@ -24,10 +24,11 @@
 
 use super::plan::{RunPlan, SNAPSHOT_TIMEOUT, Scheduler};
 use super::{EngineError, LOOKAHEAD, RunRecord};
-use crate::codec::Control;
-use crate::geometry::Vec3;
-use crate::protocol::{Command, Counters, Mode, Report};
-use crate::synth::Realization;
+use crate::estimators::gossip::Mode;
+use crate::model::geometry::Vec3;
+use crate::model::synth::Realization;
+use crate::protocol::codec::Control;
+use crate::protocol::{Command, Counters, Report};
 use std::collections::VecDeque;
 use std::time::Duration;
 

@@ -3,7 +3,7 @@
 //! engine is held to bit-for-bit agreement with it.
 
 use super::{EngineError, Event, Network};
-use crate::codec::Control;
+use crate::protocol::codec::Control;
 use crate::protocol::{Input, NodeConfig, NodeCore, Output};
 use std::collections::VecDeque;
 use std::time::Duration;

@@ -20,10 +20,10 @@ pub mod threads;
 pub use coordinator::{Action, Coordinator, Event, Timer};
 pub use plan::{RealtimePlan, RunPlan, Scheduler, logical_mode};
 
-use crate::codec::Control;
-use crate::geometry::Vec3;
+use crate::model::geometry::Vec3;
+use crate::model::synth::Realization;
 use crate::protocol::Counters;
-use crate::synth::Realization;
+use crate::protocol::codec::Control;
 use serde::{Deserialize, Serialize};
 use std::time::{Duration, Instant};
 
@@ -62,7 +62,7 @@ pub enum EngineError {
     Transport(crate::transport::TransportError),
     /// A frame from a node could not be decoded.
     #[error("bad frame: {0}")]
-    BadFrame(crate::codec::DecodeError),
+    BadFrame(crate::protocol::codec::DecodeError),
     /// The coordinator's transport was already closed.
     #[error("the coordinator's transport is closed")]
     TransportClosed,
@@ -143,7 +143,7 @@ pub struct RunRecord {
     /// Nodes that died, with the sample at which the coordinator noticed.
     pub deaths: Vec<(u32, u32, String)>,
     /// Multi-process: per-node busy/wait time split.
-    pub timing: Vec<crate::codec::Timing>,
+    pub timing: Vec<crate::protocol::codec::Timing>,
     /// Multi-process: seconds from spawning to all nodes ready.
     pub startup_seconds: Option<f64>,
     /// Multi-process: the run's IPC namespace.
@@ -157,7 +157,7 @@ pub struct RunRecord {
 
 impl RunRecord {
     /// The nodes counted in `theta_bar` at sample `k`.
-    pub fn alive_thetas(&self, k: usize) -> Vec<crate::geometry::Vec3> {
+    pub fn alive_thetas(&self, k: usize) -> Vec<crate::model::geometry::Vec3> {
         match self.alive.get(k) {
             Some(mask) => self.thetas[k]
                 .iter()

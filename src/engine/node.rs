@@ -6,10 +6,10 @@
 //! [`Transport::recv`] (no busy-spinning) for at most [`IDLE_CHECK`] before it
 //! looks at `term` and asks whether its coordinator is still there.
 
-use crate::codec::{self, Control, NodeDecoder, NodeInput, Timing};
+use crate::protocol::codec::{self, Control, NodeDecoder, NodeInput, Timing};
 use crate::protocol::{Command, Input, NodeConfig, NodeCore, Output, Report};
+use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, Transport, TransportError};
-use crate::wire::Frame;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -40,7 +40,7 @@ pub enum NodeError {
         /// The sender.
         from: u32,
         /// What the decoder found.
-        error: crate::codec::DecodeError,
+        error: crate::protocol::codec::DecodeError,
     },
     /// The coordinator went away while the node was idle.
     #[error("the coordinator is gone")]

@@ -7,10 +7,11 @@
 //! plan, never the scenario.
 
 use super::{Clock, EngineError};
-use crate::geometry::Vec3;
-use crate::graph::Graph;
-use crate::protocol::{Mode, NodeConfig, NodeMode};
-use crate::rng::{SonarRng, Stream, stream_rng};
+use crate::estimators::gossip::Mode;
+use crate::model::geometry::Vec3;
+use crate::model::graph::Graph;
+use crate::model::rng::{SonarRng, Stream, stream_rng};
+use crate::protocol::{NodeConfig, NodeMode};
 use crate::scenario::Scenario;
 use rand::RngExt;
 use std::time::Duration;
@@ -32,7 +33,7 @@ pub const SNAPSHOT_TIMEOUT: Duration = Duration::from_secs(10);
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunPlan {
     /// The run seed: every random stream of the run derives from it
-    /// ([`crate::rng::stream_rng`]).
+    /// ([`crate::model::rng::stream_rng`]).
     pub seed: u64,
     /// Sync rounds or async pairwise gossip.
     pub mode: Mode,

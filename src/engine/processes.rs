@@ -18,11 +18,12 @@
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
 use super::{Clock, EngineError, Event, Network, RunPlan, RunRecord};
-use crate::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
-use crate::protocol::{Mode, NodeConfig};
-use crate::synth::Realization;
+use crate::estimators::gossip::Mode;
+use crate::model::synth::Realization;
+use crate::protocol::NodeConfig;
+use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
+use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, IoxTransport, RunTopology, Transport, TransportError};
-use crate::wire::Frame;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command as Proc, ExitStatus, Stdio};

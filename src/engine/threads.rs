@@ -8,10 +8,10 @@
 use super::node::{NodeError, NodeLoop, run_node};
 use super::processes::{NetworkLayout, network_layout};
 use super::{EngineError, Event, Network, Progress, RunPlan, RunRecord};
-use crate::codec::{self, Control, CoordinatorInput, ReportDecoder};
-use crate::synth::Realization;
+use crate::model::synth::Realization;
+use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder};
+use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, MemNetwork, MemTransport, RunTopology, Transport};
-use crate::wire::Frame;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;

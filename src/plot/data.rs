@@ -3,7 +3,7 @@
 //! The loader is the only part of the plotting code that touches files; the
 //! figure builders take these structs, so they are unit-testable.
 
-use crate::error::InputError;
+use crate::model::error::InputError;
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
 

@@ -32,7 +32,7 @@ pub use data::{RunData, load_run};
 pub use figures::{comparison_figures, run_figures};
 pub use render::{render_png, render_svg};
 
-use crate::error::InputError;
+use crate::model::error::InputError;
 use std::path::{Path, PathBuf};
 
 /// A plotting or report failure.

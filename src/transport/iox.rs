@@ -104,11 +104,11 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use super::{Endpoint, RunTopology, Transport, TransportError};
-use crate::wire::Frame;
+use crate::transport::wire::Frame;
 
 // SAFETY: `Frame` is `#[repr(C)]`, `Copy`, and made only of integers and floats:
 // no pointers, references, handles or padding-dependent invariants, so the same
-// bytes are valid in every process. Its type name (`sonarnet::wire::Frame`) is
+// bytes are valid in every process. Its type name (`sonarnet::transport::wire::Frame`) is
 // identical in every process built from this crate.
 unsafe impl ZeroCopySend for Frame {}
 

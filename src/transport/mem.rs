@@ -10,7 +10,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::{Endpoint, RunTopology, Transport, TransportError};
-use crate::wire::Frame;
+use crate::transport::wire::Frame;
 
 #[derive(Debug, Default)]
 struct MailboxState {

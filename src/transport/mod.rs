@@ -44,10 +44,11 @@ use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use crate::wire::Frame;
+use crate::transport::wire::Frame;
 
 pub mod iox;
 mod mem;
+pub mod wire;
 
 pub use iox::{CleanupReport, IoxTransport, cleanup_stale_resources, run_resources};
 pub use mem::{MemNetwork, MemTransport};

@@ -284,7 +284,7 @@ fn replacing_the_baselines_must_keep_every_track_the_bounds_name() {
     let tmp = TempDir::new("rebase");
     let p = tmp.write("toa.toml", TOA);
     let sc = sonarnet::scenario::Scenario::load(&p).unwrap();
-    let ogd = sonarnet::baselines::BaselineCfg::default_of("ogd").unwrap();
+    let ogd = sonarnet::estimators::baselines::BaselineCfg::default_of("ogd").unwrap();
     let err = sc
         .clone()
         .with_baselines(vec![ogd])
@@ -294,6 +294,6 @@ fn replacing_the_baselines_must_keep_every_track_the_bounds_name() {
         err.contains("--baselines") && err.contains("bounds.tracks[0]") && err.contains("pocs"),
         "{err}"
     );
-    let pocs = sonarnet::baselines::BaselineCfg::default_of("pocs").unwrap();
+    let pocs = sonarnet::estimators::baselines::BaselineCfg::default_of("pocs").unwrap();
     assert!(sc.with_baselines(vec![pocs]).is_ok());
 }

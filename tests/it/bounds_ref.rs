@@ -9,9 +9,11 @@
 //! commit before the switch; README's performance section quotes the largest
 //! differences this test prints.
 
-use sonarnet::bounds::{BoundOutcome, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox};
-use sonarnet::geometry::Vec2;
-use sonarnet::rng::{Stream, stream_rng};
+use sonarnet::estimators::bounds::{
+    BoundOutcome, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox,
+};
+use sonarnet::model::geometry::Vec2;
+use sonarnet::model::rng::{Stream, stream_rng};
 use std::path::PathBuf;
 
 use rand::RngExt;
@@ -44,7 +46,7 @@ fn instance(i: u64) -> (Vec<Region>, Vec2) {
         .map(|_| Vec2::new(uni(-200.0, 200.0), uni(-200.0, 200.0)))
         .collect();
     let mut rng = stream_rng(2026, Stream::Links, i);
-    let err = |rng: &mut sonarnet::rng::SonarRng| -> f64 {
+    let err = |rng: &mut sonarnet::model::rng::SonarRng| -> f64 {
         if exponential {
             let e: f64 = Exp1.sample(rng);
             sigma * e

@@ -3,10 +3,10 @@
 
 use crate::util::scenario;
 use sonarnet::engine::{Clock, RunPlan};
-use sonarnet::geometry::{Vec2, Vec3};
-use sonarnet::local::LocalProblem;
-use sonarnet::local_prox::{LocalSolver, prox};
-use sonarnet::run;
+use sonarnet::estimators::local::LocalProblem;
+use sonarnet::estimators::prox::{LocalSolver, prox};
+use sonarnet::model::geometry::{Vec2, Vec3};
+use sonarnet::pipeline;
 use sonarnet::scenario::{Mode, Scenario};
 
 /// The textbook loop: no messages, no actors.
@@ -159,7 +159,7 @@ fn gtrs_l0_runs_in_process_in_both_modes_and_tracks_the_spiral() {
         assert_eq!(rec.thetas.len(), 40);
         let truth = real.truth.as_ref().unwrap();
         let errs: Vec<f64> = (20..40)
-            .map(|k| (sonarnet::metrics::theta_bar(&rec.thetas[k]) - truth[k]).norm())
+            .map(|k| (sonarnet::model::metrics::theta_bar(&rec.thetas[k]) - truth[k]).norm())
             .collect();
         let worst = errs.iter().cloned().fold(0.0, f64::max);
         assert!(
@@ -183,7 +183,7 @@ fn rmse(sc: &Scenario) -> f64 {
     let burn = sc.algorithm.burn_in;
     let n = (burn..sc.samples).len() as f64;
     let sq: f64 = (burn..sc.samples)
-        .map(|k| (sonarnet::metrics::theta_bar(&rec.thetas[k]) - truth[k]).norm_squared())
+        .map(|k| (sonarnet::model::metrics::theta_bar(&rec.thetas[k]) - truth[k]).norm_squared())
         .sum();
     (sq / n).sqrt()
 }
@@ -269,14 +269,14 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
 #[test]
 fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
-    let out = sc.run(&run::RunOptions::inprocess());
+    let out = sc.run(&pipeline::RunOptions::inprocess());
     assert!(out.error.is_none());
     assert_eq!(out.record.thetas.len(), sc.samples);
     assert!(!out.metrics.expect.is_empty() && out.metrics.expect.iter().all(|c| c.holds));
     // Written, the results are the golden ones of `sonarnet run --engine inprocess`.
     let dir = crate::util::TempDir::new("library-pipeline");
     let written = sc
-        .run_and_write(&run::RunOptions::inprocess().with_out_dir(dir.path()))
+        .run_and_write(&pipeline::RunOptions::inprocess().with_out_dir(dir.path()))
         .unwrap();
     assert_eq!(written.metrics.rmse, out.metrics.rmse);
     let golden = crate::util::root().join("tests/golden/runs/spiral-async-inprocess");
@@ -286,7 +286,8 @@ fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
         assert!(now == want, "{f} differs from the golden run");
     }
     // The threads engine through the same entry point.
-    let threads = sc.run(&run::RunOptions::inprocess().with_engine(run::EngineKind::Threads));
+    let threads =
+        sc.run(&pipeline::RunOptions::inprocess().with_engine(pipeline::EngineKind::Threads));
     assert_eq!(threads.record.thetas, out.record.thetas);
     assert_eq!(threads.metrics.rmse, out.metrics.rmse);
 }
@@ -296,7 +297,10 @@ fn realtime_clocks_on_an_engine_without_processes_are_refused_before_anything_ru
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
     let real = sc.realize();
     let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
-    for kind in [run::EngineKind::Inprocess, run::EngineKind::Threads] {
+    for kind in [
+        pipeline::EngineKind::Inprocess,
+        pipeline::EngineKind::Threads,
+    ] {
         let (rec, res) =
             sonarnet::engine::run(&plan, &real, kind, &Default::default(), &mut |_, _| {});
         assert!(rec.thetas.is_empty());

@@ -2,7 +2,7 @@
 //! with a burn-in of 10 samples.
 
 use crate::util::{TempDir, run_inprocess, scenario};
-use sonarnet::local_prox::LocalSolver;
+use sonarnet::estimators::prox::LocalSolver;
 use sonarnet::scenario::{Mode, Scenario};
 
 fn mean_rmse(mode: Mode, solver: LocalSolver) -> f64 {

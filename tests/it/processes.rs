@@ -197,7 +197,7 @@ fn a_replayed_trace_and_schedule_give_the_same_nodes_over_processes() {
         first.to_str().unwrap(),
     ]);
     assert!(o.status.success());
-    let geometry = sonarnet::measure::Geometry::seed002().toml_table();
+    let geometry = sonarnet::model::measure::Geometry::seed002().toml_table();
     let text = format!(
         r#"name = "replay"
 seed = 123
@@ -237,7 +237,7 @@ schedule = "{}"
 #[test]
 fn a_64_node_ring_completes_over_processes() {
     let tmp = TempDir::new("ring64");
-    let text = sonarnet::bench::ring_toml(64, 5, 40);
+    let text = sonarnet::pipeline::bench::ring_toml(64, 5, 40);
     let p = tmp.write("ring64.toml", &text);
     let out = tmp.path().join("out");
     let o = run(&[

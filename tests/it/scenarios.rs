@@ -2,7 +2,7 @@
 //! Monte Carlo run when it asks for trials), and meets its `[expect]` block.
 
 use crate::util::{TempDir, root, run_inprocess};
-use sonarnet::run::{Clock, EngineKind, ExpectResult, RunOptions};
+use sonarnet::pipeline::{Clock, EngineKind, ExpectResult, RunOptions};
 use sonarnet::scenario::Scenario;
 
 fn describe(name: &str, checks: &[ExpectResult]) -> Vec<String> {
@@ -61,7 +61,7 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
                         poll_us: 0,
                         verbose: false,
                     };
-                    match sonarnet::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
+                    match sonarnet::pipeline::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
                         Ok(mc) if mc.failed == 0 => mc.expect,
                         Ok(mc) => {
                             failures.push(format!("{name}: {} trials failed", mc.failed));

@@ -12,11 +12,11 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use sonarnet::transport::wire::{COORDINATOR_ID, Frame};
 use sonarnet::transport::{
     Endpoint, IoxTransport, RunTopology, Transport, TransportError, cleanup_stale_resources,
     run_resources, unique_run_id,
 };
-use sonarnet::wire::{COORDINATOR_ID, Frame};
 
 const CHILD_ENV: &str = "SONARNET_TRANSPORT_CHILD";
 const READY: &str = "SONARNET_CHILD_READY";

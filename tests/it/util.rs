@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests.
 
 use sonarnet::engine::{Clock, EngineError, RunPlan, RunRecord};
-use sonarnet::run::{Outcome, RunOptions};
+use sonarnet::pipeline::{Outcome, RunOptions};
 use sonarnet::scenario::{Realization, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,0 +1,420 @@
+//! Clarabel formulations of the convex steps (all in a normalised frame where
+//! the relaxed bounding box has unit half-width).
+
+use super::BoundError;
+use super::region::{Quadratic, Region};
+use crate::model::geometry::Vec2;
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    SupportedConeT::{NonnegativeConeT, PSDTriangleConeT, SecondOrderConeT, ZeroConeT},
+};
+
+/// A conic problem `min 1/2 v^T P v + q^T v  s.t.  b - A v in K` under construction.
+struct Conic {
+    ncols: usize,
+    rows: usize,
+    ti: Vec<usize>,
+    tj: Vec<usize>,
+    tv: Vec<f64>,
+    b: Vec<f64>,
+    cones: Vec<SupportedConeT<f64>>,
+}
+
+impl Conic {
+    fn new(ncols: usize) -> Self {
+        Self {
+            ncols,
+            rows: 0,
+            ti: vec![],
+            tj: vec![],
+            tv: vec![],
+            b: vec![],
+            cones: vec![],
+        }
+    }
+
+    /// Append the row `s = b - sum coef * v[col]`.
+    fn row(&mut self, coefs: &[(usize, f64)], b: f64) {
+        for &(j, v) in coefs {
+            self.ti.push(self.rows);
+            self.tj.push(j);
+            self.tv.push(v);
+        }
+        self.b.push(b);
+        self.rows += 1;
+    }
+
+    fn a(&self) -> CscMatrix<f64> {
+        CscMatrix::new_from_triplets(
+            self.rows,
+            self.ncols,
+            self.ti.clone(),
+            self.tj.clone(),
+            self.tv.clone(),
+        )
+    }
+
+    /// Cone rows for the set constraints on `y = (v[0], v[1])`, with an optional
+    /// slack column `t` that enlarges every region by `t` (violation form of
+    /// [`Region::violation`]). Ellipses use two extra columns `u1, u2` each:
+    /// `||y - f1|| <= u1, ||y - f2|| <= u2, u1 + u2 <= sum + 2t` (exact SOC form).
+    fn add_set(&mut self, regions: &[Region], slack: Option<usize>) {
+        for reg in regions {
+            match *reg {
+                Region::Disc { center, radius } => {
+                    let mut first = vec![];
+                    if let Some(t) = slack {
+                        first.push((t, -1.0));
+                    }
+                    self.row(&first, radius);
+                    self.row(&[(0, -1.0)], -center.x);
+                    self.row(&[(1, -1.0)], -center.y);
+                    self.cones.push(SecondOrderConeT(3));
+                }
+                Region::Ellipse { f1, f2, sum } => {
+                    let u1 = self.ncols;
+                    let u2 = self.ncols + 1;
+                    self.ncols += 2;
+                    for (u, f) in [(u1, f1), (u2, f2)] {
+                        self.row(&[(u, -1.0)], 0.0);
+                        self.row(&[(0, -1.0)], -f.x);
+                        self.row(&[(1, -1.0)], -f.y);
+                        self.cones.push(SecondOrderConeT(3));
+                    }
+                    let mut r = vec![(u1, 1.0), (u2, 1.0)];
+                    if let Some(t) = slack {
+                        r.push((t, -2.0));
+                    }
+                    self.row(&r, sum);
+                    self.cones.push(NonnegativeConeT(1));
+                }
+            }
+        }
+    }
+}
+
+fn settings() -> DefaultSettings<f64> {
+    DefaultSettings {
+        verbose: false,
+        presolve_enable: false,
+        chordal_decomposition_enable: false,
+        ..DefaultSettings::default()
+    }
+}
+
+/// Outcome of one solve.
+enum Solved {
+    /// Primal and dual objective values.
+    Optimal { primal: f64, dual: f64, x: Vec<f64> },
+    /// The problem is (numerically) primal infeasible, or, for the
+    /// minimisations over certificates (min-ball SDP), unbounded below: both
+    /// mean the feasible set of positions is empty.
+    Infeasible,
+}
+
+fn run(solver: &mut DefaultSolver<f64>, problem: &'static str) -> Result<Solved, BoundError> {
+    run_with(solver, problem, false)
+}
+
+fn run_with(
+    solver: &mut DefaultSolver<f64>,
+    problem: &'static str,
+    unbounded_means_empty: bool,
+) -> Result<Solved, BoundError> {
+    // clarabel's PSD cone `expect`s its LAPACK calls to succeed; dense-lapack
+    // reports NaN or infinite input through `info` rather than decompose it,
+    // so a diverging solve would panic inside clarabel. Report it as a solver
+    // failure of this bound instead.
+    if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| solver.solve())).is_err() {
+        return Err(BoundError::Solver {
+            problem,
+            status: "the conic solver panicked (non-finite iterate)".into(),
+        });
+    }
+    let sol = &solver.solution;
+    match sol.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => {
+            if !(sol.obj_val.is_finite() && sol.obj_val_dual.is_finite())
+                || sol.x.iter().any(|v| !v.is_finite())
+            {
+                return Err(BoundError::Solver {
+                    problem,
+                    status: "non-finite solution".into(),
+                });
+            }
+            Ok(Solved::Optimal {
+                primal: sol.obj_val,
+                dual: sol.obj_val_dual,
+                x: sol.x.clone(),
+            })
+        }
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+            Ok(Solved::Infeasible)
+        }
+        SolverStatus::DualInfeasible | SolverStatus::AlmostDualInfeasible
+            if unbounded_means_empty =>
+        {
+            Ok(Solved::Infeasible)
+        }
+        other => Err(BoundError::Solver {
+            problem,
+            status: format!("{other:?}"),
+        }),
+    }
+}
+
+fn build(
+    p: &CscMatrix<f64>,
+    q: &[f64],
+    c: &Conic,
+    problem: &'static str,
+) -> Result<DefaultSolver<f64>, BoundError> {
+    DefaultSolver::new(p, q, &c.a(), &c.b, &c.cones, settings()).map_err(|e| BoundError::Solver {
+        problem,
+        status: format!("setup: {e}"),
+    })
+}
+
+/// `min t` such that every region enlarged by `t` contains a common point: the
+/// minimal max-violation `t*` and its point. Always feasible and bounded below.
+pub(crate) fn min_max_violation(regions: &[Region]) -> Result<(f64, Vec2), BoundError> {
+    let mut c = Conic::new(3);
+    c.add_set(regions, Some(2));
+    let mut q = vec![0.0; c.ncols];
+    q[2] = 1.0;
+    let p = CscMatrix::zeros((c.ncols, c.ncols));
+    let mut s = build(&p, &q, &c, "feasibility SOCP")?;
+    match run(&mut s, "feasibility SOCP")? {
+        Solved::Optimal { primal, x, .. } => Ok((primal, Vec2::new(x[0], x[1]))),
+        Solved::Infeasible => Err(BoundError::Solver {
+            problem: "feasibility SOCP",
+            status: "reported infeasible (cannot happen for exact data)".into(),
+        }),
+    }
+}
+
+/// Exact axis-aligned bounding box of the intersection, seed 003 eq. (48a)-(48b):
+/// four SOCPs `max / min y_l` over the set (one solver, objective updated).
+/// Returns `None` when the solver finds the set empty. The reported extremes
+/// take the more conservative of the primal and dual objective values.
+pub(crate) fn bounding_box(regions: &[Region]) -> Result<Option<(Vec2, Vec2)>, BoundError> {
+    const PROBLEM: &str = "bounding-box SOCP (48)";
+    let mut c = Conic::new(2);
+    c.add_set(regions, None);
+    let p = CscMatrix::zeros((c.ncols, c.ncols));
+    let mut q = vec![0.0; c.ncols];
+    q[0] = 1.0;
+    let mut s = build(&p, &q, &c, PROBLEM)?;
+    let mut ext = [0.0; 4];
+    for (k, e) in ext.iter_mut().enumerate() {
+        let (axis, sign) = (k / 2, if k % 2 == 0 { 1.0 } else { -1.0 });
+        if k > 0 {
+            q.iter_mut().for_each(|v| *v = 0.0);
+            q[axis] = sign;
+            s.update_q(&q).map_err(|e| BoundError::Solver {
+                problem: PROBLEM,
+                status: format!("update: {e}"),
+            })?;
+        }
+        match run(&mut s, PROBLEM)? {
+            // min sign * y_axis: the optimum lies in [dual, primal]; keep the
+            // lower value (outer box).
+            Solved::Optimal { primal, dual, .. } => *e = sign * primal.min(dual),
+            Solved::Infeasible => return Ok(None),
+        }
+    }
+    Ok(Some((Vec2::new(ext[0], ext[2]), Vec2::new(ext[1], ext[3]))))
+}
+
+/// Upper triangle column-major index of `(i, j)`, `i <= j`, in Clarabel's
+/// scaled PSD triangle vector.
+fn tri(i: usize, j: usize) -> usize {
+    j * (j + 1) / 2 + i
+}
+
+/// Append the rows of a `dim x dim` PSD triangle cone; `entry(i, j)` gives the
+/// affine entry `M_ij = constant + sum coef * v[col]` as `(constant, coefs)`.
+fn add_psd(c: &mut Conic, dim: usize, entry: impl Fn(usize, usize) -> (f64, Vec<(usize, f64)>)) {
+    let sqrt2 = std::f64::consts::SQRT_2;
+    let mut order = vec![(0, 0); dim * (dim + 1) / 2];
+    for j in 0..dim {
+        for i in 0..=j {
+            order[tri(i, j)] = (i, j);
+        }
+    }
+    for &(i, j) in &order {
+        let w = if i == j { 1.0 } else { sqrt2 };
+        let (k, coefs) = entry(i, j);
+        let neg: Vec<(usize, f64)> = coefs.iter().map(|&(col, v)| (col, -w * v)).collect();
+        c.row(&neg, w * k);
+    }
+    c.cones.push(PSDTriangleConeT(dim));
+}
+
+/// SDP relaxation (seed 003 eq. (2), (25)-(26)) of `max ||x - x_hat||^2` over the
+/// quadratics: variables `v = [x1, x2, Z11, Z12, Z22]`,
+/// `max tr(Z) - 2 x_hat^T x + ||x_hat||^2` s.t. `tr(P_k Z) + 2 q_k^T x + r_k <= 0`,
+/// `[[Z, x], [x^T, 1]] >= 0` (3x3 PSD). Returns the conservative (larger of
+/// primal and dual) optimal value, or `None` if infeasible.
+pub(crate) fn maxdis_sdp(quads: &[Quadratic], x_hat: &Vec2) -> Result<Option<f64>, BoundError> {
+    const PROBLEM: &str = "Upp-MaxDis SDP (26)";
+    let mut c = Conic::new(5);
+    for qd in quads {
+        let p = &qd.p;
+        c.row(
+            &[
+                (0, 2.0 * qd.q.x),
+                (1, 2.0 * qd.q.y),
+                (2, p[(0, 0)]),
+                (3, p[(0, 1)] + p[(1, 0)]),
+                (4, p[(1, 1)]),
+            ],
+            -qd.r,
+        );
+    }
+    c.cones.push(NonnegativeConeT(quads.len()));
+    add_psd(&mut c, 3, |i, j| match (i, j) {
+        (0, 0) => (0.0, vec![(2, 1.0)]),
+        (0, 1) => (0.0, vec![(3, 1.0)]),
+        (1, 1) => (0.0, vec![(4, 1.0)]),
+        (0, 2) => (0.0, vec![(0, 1.0)]),
+        (1, 2) => (0.0, vec![(1, 1.0)]),
+        _ => (1.0, vec![]),
+    });
+    let q = [2.0 * x_hat.x, 2.0 * x_hat.y, -1.0, 0.0, -1.0];
+    let p = CscMatrix::zeros((5, 5));
+    let mut s = build(&p, &q, &c, PROBLEM)?;
+    match run(&mut s, PROBLEM)? {
+        Solved::Optimal { primal, dual, .. } => Ok(Some(-primal.min(dual) + x_hat.norm_squared())),
+        Solved::Infeasible => Ok(None),
+    }
+}
+
+/// Minimum-ball bound for discs only, seed 003 eq. (43) as a convex QP over the
+/// simplex: `v = [lambda_1..lambda_N, c1, c2]`,
+/// `min ||c||^2 - sum lambda_i (||a_i||^2 - d_i^2)` s.t. `c = sum lambda_i a_i`,
+/// `sum lambda_i = 1`, `lambda >= 0`. The returned `(c, R^2)` is re-evaluated
+/// exactly from the clipped, renormalised `lambda`, so it is a valid S-lemma
+/// certificate (eq. (35)) whatever the solver accuracy; `R^2 < 0` certifies an
+/// empty set.
+pub(crate) fn minball_qp(discs: &[(Vec2, f64)]) -> Result<(Vec2, f64), BoundError> {
+    const PROBLEM: &str = "Upp-MinBall QP (43)";
+    let n = discs.len();
+    let mut c = Conic::new(n + 2);
+    c.row(&(0..n).map(|i| (i, 1.0)).collect::<Vec<_>>(), 1.0);
+    for axis in 0..2 {
+        let mut r = vec![(n + axis, 1.0)];
+        r.extend(discs.iter().enumerate().map(|(i, (a, _))| (i, -a[axis])));
+        c.row(&r, 0.0);
+    }
+    c.cones.push(ZeroConeT(3));
+    for i in 0..n {
+        c.row(&[(i, -1.0)], 0.0);
+    }
+    c.cones.push(NonnegativeConeT(n));
+    let mut q: Vec<f64> = discs
+        .iter()
+        .map(|(a, d)| -(a.norm_squared() - d * d))
+        .collect();
+    q.extend([0.0, 0.0]);
+    let p =
+        CscMatrix::new_from_triplets(n + 2, n + 2, vec![n, n + 1], vec![n, n + 1], vec![2.0, 2.0]);
+    let mut s = build(&p, &q, &c, PROBLEM)?;
+    let lam = match run(&mut s, PROBLEM)? {
+        Solved::Optimal { x, .. } => x[..n].to_vec(),
+        Solved::Infeasible => {
+            return Err(BoundError::Solver {
+                problem: PROBLEM,
+                status: "simplex reported infeasible".into(),
+            });
+        }
+    };
+    Ok(ball_from_simplex(discs, &lam))
+}
+
+/// Exact eq. (42)-(43) evaluation for a (clipped, renormalised) `lambda`.
+pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f64) {
+    let clipped: Vec<f64> = lam.iter().map(|l| l.max(0.0)).collect();
+    let total: f64 = clipped.iter().sum();
+    let n = discs.len() as f64;
+    let w: Vec<f64> = if total > 0.0 {
+        clipped.iter().map(|l| l / total).collect()
+    } else {
+        vec![1.0 / n; discs.len()]
+    };
+    let xc = discs
+        .iter()
+        .zip(&w)
+        .fold(Vec2::zeros(), |s, ((a, _), l)| s + a * *l);
+    let r2 = xc.norm_squared()
+        - discs
+            .iter()
+            .zip(&w)
+            .map(|((a, d), l)| l * (a.norm_squared() - d * d))
+            .sum::<f64>();
+    (xc, r2)
+}
+
+/// General S-lemma minimum enclosing ball (seed 003 eq. (34)-(37) with quadratic
+/// constraints `x^T P_k x + 2 q_k^T x + r_k <= 0`): `v = [lambda_1..lambda_K, c1, c2, gamma]`,
+/// `min gamma` s.t. `lambda >= 0` and the 5x5 LMI
+/// `[[S, g, 0], [g^T, h, c^T], [0, c, I]] >= 0`, `S = sum lambda_k P_k - I`,
+/// `g = sum lambda_k q_k + c`, `h = sum lambda_k r_k + gamma` (Schur form of
+/// eq. (37), `gamma - ||c||^2` in the corner). Returns `(c, gamma)` with the
+/// conservative (larger) objective value, or `None` when `gamma` is unbounded
+/// below (the set is empty).
+pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, BoundError> {
+    const PROBLEM: &str = "Upp-MinBall S-lemma SDP (37)";
+    let k = quads.len();
+    let (c0, c1, g) = (k, k + 1, k + 2);
+    let mut c = Conic::new(k + 3);
+    for i in 0..k {
+        c.row(&[(i, -1.0)], 0.0);
+    }
+    c.cones.push(NonnegativeConeT(k));
+    add_psd(&mut c, 5, |i, j| {
+        let lam = |f: &dyn Fn(&Quadratic) -> f64| -> Vec<(usize, f64)> {
+            quads
+                .iter()
+                .enumerate()
+                .map(|(idx, qd)| (idx, f(qd)))
+                .collect()
+        };
+        match (i, j) {
+            (0, 0) => (-1.0, lam(&|qd| qd.p[(0, 0)])),
+            (0, 1) => (0.0, lam(&|qd| 0.5 * (qd.p[(0, 1)] + qd.p[(1, 0)]))),
+            (1, 1) => (-1.0, lam(&|qd| qd.p[(1, 1)])),
+            (0, 2) => {
+                let mut v = lam(&|qd| qd.q.x);
+                v.push((c0, 1.0));
+                (0.0, v)
+            }
+            (1, 2) => {
+                let mut v = lam(&|qd| qd.q.y);
+                v.push((c1, 1.0));
+                (0.0, v)
+            }
+            (2, 2) => {
+                let mut v = lam(&|qd| qd.r);
+                v.push((g, 1.0));
+                (0.0, v)
+            }
+            (2, 3) => (0.0, vec![(c0, 1.0)]),
+            (2, 4) => (0.0, vec![(c1, 1.0)]),
+            (3, 3) | (4, 4) => (1.0, vec![]),
+            _ => (0.0, vec![]),
+        }
+    });
+    let mut q = vec![0.0; k + 3];
+    q[g] = 1.0;
+    let p = CscMatrix::zeros((k + 3, k + 3));
+    let mut s = build(&p, &q, &c, PROBLEM)?;
+    // gamma unbounded below certifies ||x - c||^2 <= gamma < 0 on the set: empty.
+    match run_with(&mut s, PROBLEM, true)? {
+        Solved::Optimal { primal, dual, x } => {
+            Ok(Some((Vec2::new(x[c0], x[c1]), primal.max(dual))))
+        }
+        Solved::Infeasible => Ok(None),
+    }
+}

@@ -1,0 +1,19 @@
+//! Every estimator of the target position, over the [`crate::model`] layer:
+//!
+//! * the distributed algorithm's local pieces: a node's cost ([`local`],
+//!   seed 002 eq. 9-10), its prox ([`prox`]: relaxed, GTRS, `gtrs_l0`) and the
+//!   gossip [`gossip::Mode`];
+//! * the centralised references and trackers: ML and CRLB ([`central`]),
+//!   online OGD/ONM trackers (seeds 000/001, [`online`]), robust one-sample
+//!   estimators (seed 004, [`robust`]) and certified bounds (seed 003,
+//!   [`bounds`]);
+//! * [`baselines`]: the configured baselines, each an adapter over one of them.
+
+pub mod baselines;
+pub mod bounds;
+pub mod central;
+pub mod gossip;
+pub mod local;
+pub mod online;
+pub mod prox;
+pub mod robust;

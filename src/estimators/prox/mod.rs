@@ -1,0 +1,145 @@
+//! The local prox a node takes, as chosen by `algorithm.local_solver`: one
+//! dispatcher over the relaxed prox and the GTRS prox of seed 002
+//! ([`crate::estimators::prox::gtrs`]) and the robust `gtrs_l0` prox of seed 004
+//! ([`crate::estimators::prox::l0`]). It sits above both, so neither imports the other's
+//! caller.
+
+pub mod gtrs;
+pub mod l0;
+
+use crate::estimators::local::LocalProblem;
+use crate::estimators::prox::gtrs::{ProxError, prox_gtrs, prox_relaxed};
+use crate::estimators::prox::l0::prox_gtrs_l0;
+use crate::model::geometry::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// Which local prox the Douglas-Rachford engine uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LocalSolver {
+    /// Exact prox on the cone surface `||theta~[0:2] - r_v|| = theta~[2]` (eq. 13).
+    Gtrs,
+    /// Unconstrained prox, a 3x3 SPD solve (eq. 11 without eq. 12).
+    Relaxed,
+    /// Exact prox on the cone with `l0` outlier separation of up to `kappa` rows
+    /// (seed 004 eq. 7, 19-20); see [`crate::estimators::prox::l0`].
+    #[serde(rename = "gtrs_l0")]
+    GtrsL0,
+}
+
+/// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13), [`prox_relaxed`] (eq. 11) or
+/// [`prox_gtrs_l0`] (eq. 13 with `l0` outlier separation of up to
+/// `kappa` rows, seed 004 eq. 7). `kappa` is ignored by the other two.
+pub fn prox(
+    solver: LocalSolver,
+    p: &LocalProblem,
+    u: &Vec3,
+    gamma: f64,
+    kappa: usize,
+) -> Result<Vec3, ProxError> {
+    match solver {
+        LocalSolver::Gtrs => prox_gtrs(p, u, gamma),
+        LocalSolver::Relaxed => prox_relaxed(p, u, gamma),
+        LocalSolver::GtrsL0 => prox_gtrs_l0(p, u, gamma, kappa),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimators::local::RowKind;
+    use crate::estimators::prox::gtrs::tests::paper_problem;
+    use crate::model::geometry::Vec2;
+
+    #[test]
+    fn bad_gamma_is_an_error_for_every_solver() {
+        let p = paper_problem(0);
+        let u = Vec3::new(1.0, 2.0, 3.0);
+        for g in [0.0, -1e-8, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
+                assert!(
+                    matches!(prox(s, &p, &u, g, 1), Err(ProxError::BadGamma(_))),
+                    "{s:?} gamma {g}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn non_finite_inputs_are_errors_never_nan() {
+        let good = paper_problem(1);
+        let u = Vec3::new(1.0, 2.0, 3.0);
+        let mut cases: Vec<(LocalProblem, Vec3)> = Vec::new();
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            cases.push((good.clone(), Vec3::new(1.0, bad, 3.0)));
+            let mut rows = good.rows.clone();
+            rows[0][2] = bad;
+            cases.push((
+                LocalProblem::from_rows(good.anchor, rows, good.g.clone(), good.kinds.clone()),
+                u,
+            ));
+            let mut g = good.g.clone();
+            g[2] = bad;
+            cases.push((
+                LocalProblem::from_rows(good.anchor, good.rows.clone(), g, good.kinds.clone()),
+                u,
+            ));
+            // A zero row with a non-finite g still poisons c (0 * inf = NaN).
+            cases.push((
+                LocalProblem::from_rows(
+                    good.anchor,
+                    vec![[0.0, 0.0, 0.0]],
+                    vec![bad],
+                    vec![RowKind::Range],
+                ),
+                u,
+            ));
+            cases.push((LocalProblem::empty(Vec2::new(bad, 0.0)), u));
+        }
+        for (k, (p, u)) in cases.iter().enumerate() {
+            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
+                assert!(
+                    matches!(prox(s, p, u, 2e-8, 1), Err(ProxError::NonFinite(_))),
+                    "case {k} {s:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn overflowing_data_is_an_error_not_nan() {
+        let p = LocalProblem::from_rows(
+            Vec2::zeros(),
+            vec![[1e200, 1e200, 1e200]],
+            vec![1e200],
+            vec![RowKind::Range],
+        );
+        for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
+            assert!(
+                prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), 1.0, 1).is_err(),
+                "{s:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn huge_gamma_gives_a_finite_answer_or_an_error_never_nan() {
+        // Rank-1 H: A = H + I/gamma is barely positive definite for huge gamma.
+        let p = LocalProblem::from_rows(
+            Vec2::new(1.0, 2.0),
+            vec![[2.0, -1.0, 0.5]],
+            vec![3.0],
+            vec![RowKind::Range],
+        );
+        for gamma in [1e10, 1e100, 1e300, f64::MAX] {
+            for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
+                if let Ok(th) = prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), gamma, 1) {
+                    assert!(th.iter().all(|x| x.is_finite()), "{s:?} {gamma}: {th:?}");
+                }
+            }
+        }
+        // Tiny gamma: the prox is (almost) the projection of u, found exactly.
+        let th = prox_gtrs(&p, &Vec3::new(4.0, 6.0, 5.0), 1e-300).unwrap();
+        approx::assert_relative_eq!(th, Vec3::new(4.0, 6.0, 5.0), max_relative = 1e-12);
+    }
+}

@@ -1,0 +1,628 @@
+//! Encoding of protocol messages into fixed-size [`Frame`]s and back.
+//!
+//! I/O-free. A [`Command`] with a variable-length body (a sample's
+//! measurements, an async plan) becomes several frames closed by an end
+//! frame carrying the count; the [`NodeDecoder`] reassembles them. Frames
+//! from one sender arrive in order (one publisher per sender and service),
+//! which is all the reassembly needs.
+
+use crate::model::geometry::Vec3;
+use crate::model::measure::NodeMeasurements;
+use crate::protocol::{Command, Counters, PeerMsg, Report};
+use crate::transport::wire::{COORDINATOR_ID, Frame};
+
+/// Frame kinds.
+pub mod kind {
+    /// Bistatic range: `aux` = transmitter, `data[0]` = value.
+    pub const MEAS_BISTATIC: u32 = 1;
+    /// DOA: `data[0]`.
+    pub const MEAS_DOA: u32 = 2;
+    /// One-way range: `data[0]`.
+    pub const MEAS_RANGE: u32 = 3;
+    /// End of a sample's measurements: `aux` = number of measurement frames.
+    pub const SAMPLE_END: u32 = 4;
+    /// Sync rounds: `seq` = first round, `aux` = rounds.
+    pub const SYNC_ROUNDS: u32 = 5;
+    /// One async plan step: `seq` = iteration, `aux` = partner.
+    pub const PLAN_STEP: u32 = 6;
+    /// End of an async plan: `aux` = number of steps.
+    pub const PLAN_END: u32 = 7;
+    /// Snapshot request.
+    pub const SNAPSHOT: u32 = 8;
+    /// A node died: `aux` = node.
+    pub const NODE_DOWN: u32 = 9;
+    /// Stop and exit.
+    pub const STOP: u32 = 10;
+    /// Start free-running (realtime): `data[0]` = wake rate (Hz).
+    pub const START_CLOCK: u32 = 11;
+    /// Peer: reflected point, `seq`, `data[0..3]`.
+    pub const REFLECT: u32 = 20;
+    /// Peer: exchange request.
+    pub const REQUEST: u32 = 21;
+    /// Peer: exchange accepted.
+    pub const ACCEPT: u32 = 22;
+    /// Peer: exchange declined.
+    pub const DECLINE: u32 = 23;
+    /// Peer (sync, from the root): consensus average of round `seq`, `data[0..2]`.
+    pub const AVERAGE: u32 = 24;
+    /// Report: counters (`data` = prox_solves, messages_out, messages_in, declines, updates).
+    pub const COUNTERS: u32 = 30;
+    /// Report: sample done, `data[0..3]` = theta (after a COUNTERS frame).
+    pub const SAMPLE_DONE: u32 = 31;
+    /// Report: snapshot, `data[0..3]` = theta (after a COUNTERS frame).
+    pub const SNAPSHOT_REPLY: u32 = 32;
+    /// Report: iteration done, `seq`.
+    pub const ITER_DONE: u32 = 33;
+    /// Report: failure, `aux` = reason code.
+    pub const FAILED: u32 = 34;
+    /// Report: time spent (`data[0]` = busy seconds, `data[1]` = waiting seconds).
+    pub const TIMING: u32 = 35;
+    /// Report: the node process is up and its transport is open.
+    pub const READY: u32 = 36;
+}
+
+fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Frame {
+    let mut data = [0.0; 5];
+    data[..d.len()].copy_from_slice(d);
+    Frame {
+        kind,
+        from,
+        sample,
+        aux,
+        seq,
+        data,
+    }
+}
+
+fn v3(d: &[f64; 5]) -> Vec3 {
+    Vec3::new(d[0], d[1], d[2])
+}
+
+/// Extra coordinator-to-node commands that only exist between processes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Control {
+    /// A protocol command.
+    Command(Command),
+    /// Realtime: start the node's Poisson clock at this rate (Hz).
+    StartClock(f64),
+    /// Exit cleanly.
+    Stop,
+}
+
+/// Encode a coordinator command into frames.
+pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
+    let co = COORDINATOR_ID;
+    match c {
+        Control::Command(Command::Sample { sample, meas }) => {
+            let s = *sample;
+            let mut n = 0;
+            for &(m, v) in &meas.bistatic {
+                out.push(frame(kind::MEAS_BISTATIC, co, s, m as u32, 0, &[v]));
+                n += 1;
+            }
+            if let Some(v) = meas.doa {
+                out.push(frame(kind::MEAS_DOA, co, s, 0, 0, &[v]));
+                n += 1;
+            }
+            if let Some(v) = meas.range {
+                out.push(frame(kind::MEAS_RANGE, co, s, 0, 0, &[v]));
+                n += 1;
+            }
+            out.push(frame(kind::SAMPLE_END, co, s, n, 0, &[]));
+        }
+        Control::Command(Command::SyncRounds {
+            sample,
+            first_round,
+            rounds,
+        }) => out.push(frame(
+            kind::SYNC_ROUNDS,
+            co,
+            *sample,
+            *rounds,
+            *first_round,
+            &[],
+        )),
+        Control::Command(Command::AsyncPlan { sample, steps }) => {
+            for &(it, p) in steps {
+                out.push(frame(kind::PLAN_STEP, co, *sample, p, it, &[]));
+            }
+            out.push(frame(
+                kind::PLAN_END,
+                co,
+                *sample,
+                steps.len() as u32,
+                0,
+                &[],
+            ));
+        }
+        Control::Command(Command::Snapshot { sample }) => {
+            out.push(frame(kind::SNAPSHOT, co, *sample, 0, 0, &[]))
+        }
+        Control::Command(Command::NodeDown { node }) => {
+            out.push(frame(kind::NODE_DOWN, co, 0, *node, 0, &[]))
+        }
+        // Ticks are local to a node; never sent.
+        Control::Command(Command::Tick) => {}
+        Control::StartClock(rate) => out.push(frame(kind::START_CLOCK, co, 0, 0, 0, &[*rate])),
+        Control::Stop => out.push(frame(kind::STOP, co, 0, 0, 0, &[])),
+    }
+}
+
+/// Encode a peer message into one frame.
+pub fn encode_peer(m: &PeerMsg) -> Frame {
+    match *m {
+        PeerMsg::Reflect { from, seq, r } => frame(kind::REFLECT, from, 0, 0, seq, r.as_slice()),
+        PeerMsg::Request { from, seq, r } => frame(kind::REQUEST, from, 0, 0, seq, r.as_slice()),
+        PeerMsg::Accept { from, seq, r } => frame(kind::ACCEPT, from, 0, 0, seq, r.as_slice()),
+        PeerMsg::Decline { from, seq } => frame(kind::DECLINE, from, 0, 0, seq, &[]),
+        PeerMsg::Average { from, seq, a } => frame(kind::AVERAGE, from, 0, 0, seq, a.as_slice()),
+    }
+}
+
+fn counters_frame(node: u32, c: &Counters) -> Frame {
+    frame(
+        kind::COUNTERS,
+        node,
+        0,
+        0,
+        0,
+        &[
+            c.prox_solves as f64,
+            c.messages_out as f64,
+            c.messages_in as f64,
+            c.declines as f64,
+            c.updates as f64,
+        ],
+    )
+}
+
+/// Failure reasons that travel as codes.
+pub fn failure_code(reason: &str) -> u32 {
+    if reason.contains("gamma") {
+        1
+    } else if reason.contains("non-finite") {
+        2
+    } else {
+        3
+    }
+}
+
+fn failure_text(code: u32) -> &'static str {
+    match code {
+        1 => "prox failed: bad gamma",
+        2 => "prox failed: non-finite input",
+        _ => "prox failed: degenerate local problem",
+    }
+}
+
+/// Encode a report into frames.
+pub fn encode_report(r: &Report, out: &mut Vec<Frame>) {
+    match r {
+        Report::SampleDone {
+            node,
+            sample,
+            theta,
+            counters,
+        } => {
+            out.push(counters_frame(*node, counters));
+            out.push(frame(
+                kind::SAMPLE_DONE,
+                *node,
+                *sample,
+                0,
+                0,
+                theta.as_slice(),
+            ));
+        }
+        Report::Snapshot {
+            node,
+            sample,
+            theta,
+            counters,
+        } => {
+            out.push(counters_frame(*node, counters));
+            out.push(frame(
+                kind::SNAPSHOT_REPLY,
+                *node,
+                *sample,
+                0,
+                0,
+                theta.as_slice(),
+            ));
+        }
+        Report::IterationDone {
+            node,
+            iteration,
+            theta,
+        } => out.push(frame(
+            kind::ITER_DONE,
+            *node,
+            0,
+            0,
+            *iteration,
+            theta.as_slice(),
+        )),
+        Report::Failed {
+            node,
+            sample,
+            reason,
+        } => out.push(frame(
+            kind::FAILED,
+            *node,
+            *sample,
+            failure_code(reason),
+            0,
+            &[],
+        )),
+    }
+}
+
+/// A decoded frame as a node sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NodeInput {
+    /// From the coordinator.
+    Control(Control),
+    /// From a peer.
+    Peer(PeerMsg),
+}
+
+/// Why a frame stream could not be decoded.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    /// Unknown frame kind.
+    #[error("unknown frame kind {0}")]
+    UnknownKind(u32),
+    /// A multi-frame message was incomplete.
+    #[error("frame count mismatch in {what}: expected {expected}, got {got}")]
+    Count {
+        /// Which message.
+        what: &'static str,
+        /// Announced count.
+        expected: u32,
+        /// Frames received.
+        got: u32,
+    },
+}
+
+/// Reassembles a node's incoming frames.
+#[derive(Debug, Default)]
+pub struct NodeDecoder {
+    meas: NodeMeasurements,
+    meas_n: u32,
+    steps: Vec<(u64, u32)>,
+}
+
+impl NodeDecoder {
+    /// Feed one frame; returns a complete input when one is finished.
+    pub fn feed(&mut self, f: &Frame) -> Result<Option<NodeInput>, DecodeError> {
+        use kind::*;
+        let c = |c: Command| Ok(Some(NodeInput::Control(Control::Command(c))));
+        match f.kind {
+            MEAS_BISTATIC => {
+                self.meas.bistatic.push((f.aux as usize, f.data[0]));
+                self.meas_n += 1;
+                Ok(None)
+            }
+            MEAS_DOA => {
+                self.meas.doa = Some(f.data[0]);
+                self.meas_n += 1;
+                Ok(None)
+            }
+            MEAS_RANGE => {
+                self.meas.range = Some(f.data[0]);
+                self.meas_n += 1;
+                Ok(None)
+            }
+            SAMPLE_END => {
+                let got = std::mem::take(&mut self.meas_n);
+                let meas = std::mem::take(&mut self.meas);
+                if got != f.aux {
+                    return Err(DecodeError::Count {
+                        what: "sample measurements",
+                        expected: f.aux,
+                        got,
+                    });
+                }
+                c(Command::Sample {
+                    sample: f.sample,
+                    meas,
+                })
+            }
+            SYNC_ROUNDS => c(Command::SyncRounds {
+                sample: f.sample,
+                first_round: f.seq,
+                rounds: f.aux,
+            }),
+            PLAN_STEP => {
+                self.steps.push((f.seq, f.aux));
+                Ok(None)
+            }
+            PLAN_END => {
+                let steps = std::mem::take(&mut self.steps);
+                if steps.len() as u32 != f.aux {
+                    return Err(DecodeError::Count {
+                        what: "async plan",
+                        expected: f.aux,
+                        got: steps.len() as u32,
+                    });
+                }
+                c(Command::AsyncPlan {
+                    sample: f.sample,
+                    steps,
+                })
+            }
+            SNAPSHOT => c(Command::Snapshot { sample: f.sample }),
+            NODE_DOWN => c(Command::NodeDown { node: f.aux }),
+            STOP => Ok(Some(NodeInput::Control(Control::Stop))),
+            START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
+            REFLECT => Ok(Some(NodeInput::Peer(PeerMsg::Reflect {
+                from: f.from,
+                seq: f.seq,
+                r: v3(&f.data),
+            }))),
+            REQUEST => Ok(Some(NodeInput::Peer(PeerMsg::Request {
+                from: f.from,
+                seq: f.seq,
+                r: v3(&f.data),
+            }))),
+            ACCEPT => Ok(Some(NodeInput::Peer(PeerMsg::Accept {
+                from: f.from,
+                seq: f.seq,
+                r: v3(&f.data),
+            }))),
+            DECLINE => Ok(Some(NodeInput::Peer(PeerMsg::Decline {
+                from: f.from,
+                seq: f.seq,
+            }))),
+            AVERAGE => Ok(Some(NodeInput::Peer(PeerMsg::Average {
+                from: f.from,
+                seq: f.seq,
+                a: crate::model::geometry::Vec2::new(f.data[0], f.data[1]),
+            }))),
+            k => Err(DecodeError::UnknownKind(k)),
+        }
+    }
+}
+
+/// Per-node time split reported by node processes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Timing {
+    /// Seconds spent computing (prox solves and protocol).
+    pub busy_seconds: f64,
+    /// Seconds spent blocked waiting for messages.
+    pub wait_seconds: f64,
+}
+
+/// Encode a READY report.
+pub fn encode_ready(node: u32) -> Frame {
+    frame(kind::READY, node, 0, 0, 0, &[])
+}
+
+/// Encode a timing report.
+pub fn encode_timing(node: u32, t: &Timing) -> Frame {
+    frame(
+        kind::TIMING,
+        node,
+        0,
+        0,
+        0,
+        &[t.busy_seconds, t.wait_seconds],
+    )
+}
+
+/// A decoded frame as the coordinator sees it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CoordinatorInput {
+    /// A protocol report.
+    Report(Report),
+    /// A node process is up.
+    Ready {
+        /// Node id.
+        node: u32,
+    },
+    /// A node's time split.
+    Timing {
+        /// Node id.
+        node: u32,
+        /// The split.
+        timing: Timing,
+    },
+}
+
+/// Reassembles the reports of all nodes at the coordinator.
+#[derive(Debug, Default)]
+pub struct ReportDecoder {
+    counters: std::collections::HashMap<u32, Counters>,
+}
+
+impl ReportDecoder {
+    /// Feed one frame; returns a complete input when one is finished.
+    pub fn feed(&mut self, f: &Frame) -> Result<Option<CoordinatorInput>, DecodeError> {
+        use kind::*;
+        let counters = |s: &Self| s.counters.get(&f.from).copied().unwrap_or_default();
+        match f.kind {
+            COUNTERS => {
+                let d = &f.data;
+                self.counters.insert(
+                    f.from,
+                    Counters {
+                        prox_solves: d[0] as u64,
+                        messages_out: d[1] as u64,
+                        messages_in: d[2] as u64,
+                        declines: d[3] as u64,
+                        updates: d[4] as u64,
+                    },
+                );
+                Ok(None)
+            }
+            SAMPLE_DONE => Ok(Some(CoordinatorInput::Report(Report::SampleDone {
+                node: f.from,
+                sample: f.sample,
+                theta: v3(&f.data),
+                counters: counters(self),
+            }))),
+            SNAPSHOT_REPLY => Ok(Some(CoordinatorInput::Report(Report::Snapshot {
+                node: f.from,
+                sample: f.sample,
+                theta: v3(&f.data),
+                counters: counters(self),
+            }))),
+            ITER_DONE => Ok(Some(CoordinatorInput::Report(Report::IterationDone {
+                node: f.from,
+                iteration: f.seq,
+                theta: v3(&f.data),
+            }))),
+            FAILED => Ok(Some(CoordinatorInput::Report(Report::Failed {
+                node: f.from,
+                sample: f.sample,
+                reason: failure_text(f.aux).into(),
+            }))),
+            TIMING => Ok(Some(CoordinatorInput::Timing {
+                node: f.from,
+                timing: Timing {
+                    busy_seconds: f.data[0],
+                    wait_seconds: f.data[1],
+                },
+            })),
+            READY => Ok(Some(CoordinatorInput::Ready { node: f.from })),
+            k => Err(DecodeError::UnknownKind(k)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_survive_a_round_trip_through_frames() {
+        let cmds = vec![
+            Control::Command(Command::Sample {
+                sample: 3,
+                meas: NodeMeasurements {
+                    bistatic: vec![(0, 1234.5), (1, 0.1 + 0.2)],
+                    doa: Some(-2.5),
+                    range: Some(7.0),
+                },
+            }),
+            Control::Command(Command::SyncRounds {
+                sample: 3,
+                first_round: 150,
+                rounds: 50,
+            }),
+            Control::Command(Command::AsyncPlan {
+                sample: 4,
+                steps: vec![(200, 1), (205, 3)],
+            }),
+            Control::Command(Command::AsyncPlan {
+                sample: 5,
+                steps: vec![],
+            }),
+            Control::Command(Command::Snapshot { sample: 9 }),
+            Control::Command(Command::NodeDown { node: 2 }),
+            Control::StartClock(250.0),
+            Control::Stop,
+        ];
+        let mut frames = Vec::new();
+        for c in &cmds {
+            encode_control(c, &mut frames);
+        }
+        let mut dec = NodeDecoder::default();
+        let got: Vec<Control> = frames
+            .iter()
+            .filter_map(|f| match dec.feed(f).unwrap() {
+                Some(NodeInput::Control(c)) => Some(c),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(got, cmds);
+    }
+
+    #[test]
+    fn peer_messages_and_reports_survive_a_round_trip() {
+        let r = Vec3::new(1.0 / 3.0, -2e-300, 5e10);
+        for m in [
+            PeerMsg::Reflect {
+                from: 1,
+                seq: 77,
+                r,
+            },
+            PeerMsg::Request { from: 2, seq: 1, r },
+            PeerMsg::Accept { from: 3, seq: 1, r },
+            PeerMsg::Decline { from: 4, seq: 9 },
+            PeerMsg::Average {
+                from: 0,
+                seq: 12,
+                a: crate::model::geometry::Vec2::new(-1.5, 2.25),
+            },
+        ] {
+            let f = encode_peer(&m);
+            assert_eq!(
+                NodeDecoder::default().feed(&f).unwrap(),
+                Some(NodeInput::Peer(m))
+            );
+        }
+        let counters = Counters {
+            prox_solves: 10,
+            messages_out: 11,
+            messages_in: 12,
+            declines: 1,
+            updates: 9,
+        };
+        let reports = vec![
+            Report::SampleDone {
+                node: 2,
+                sample: 5,
+                theta: r,
+                counters,
+            },
+            Report::Snapshot {
+                node: 2,
+                sample: 6,
+                theta: r,
+                counters,
+            },
+            Report::IterationDone {
+                node: 1,
+                iteration: 99,
+                theta: r,
+            },
+        ];
+        let mut frames = Vec::new();
+        for rep in &reports {
+            encode_report(rep, &mut frames);
+        }
+        let mut dec = ReportDecoder::default();
+        let got: Vec<Report> = frames
+            .iter()
+            .filter_map(|f| match dec.feed(f).unwrap() {
+                Some(CoordinatorInput::Report(r)) => Some(r),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(got, reports);
+    }
+
+    #[test]
+    fn a_truncated_sample_is_reported_as_a_count_mismatch() {
+        let mut frames = Vec::new();
+        encode_control(
+            &Control::Command(Command::Sample {
+                sample: 0,
+                meas: NodeMeasurements {
+                    bistatic: vec![(0, 1.0), (1, 2.0)],
+                    doa: None,
+                    range: None,
+                },
+            }),
+            &mut frames,
+        );
+        frames.remove(0);
+        let mut dec = NodeDecoder::default();
+        assert!(dec.feed(&frames[0]).unwrap().is_none());
+        assert!(matches!(
+            dec.feed(&frames[1]),
+            Err(DecodeError::Count { .. })
+        ));
+    }
+}

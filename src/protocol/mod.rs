@@ -1,0 +1,1006 @@
+//! The I/O-free Douglas-Rachford protocol core of one receiver node.
+//!
+//! In the manner of stateright's `Actor` and quinn-proto, a [`NodeCore`] takes
+//! one input (a coordinator command, a peer message or a clock tick) and
+//! returns what to send. It never touches a socket, a clock or a thread. The
+//! in-process engine and the `sonarnet-node` processes drive the very same
+//! core, so both compute bit-identical states.
+//!
+//! The math (seed 002 eq. 11 and Sec. II-B):
+//! * prox step: `theta_i = prox_{gamma f_i}(u_i)`, reflected point `r_i = 2 theta_i - u_i`;
+//! * consensus: `z_i = (a, r_i[2])` where `a` averages the position parts of
+//!   the reflected points of the communicating nodes (the pair `{v, w}` in
+//!   async mode, every node in sync mode, summed in node-id order);
+//! * update: `u_i += z_i - theta_i`.
+//!
+//! Sync rounds gather at one node, [`SYNC_ROOT`] (node 0): every other node sends its
+//! reflected point of round `k` to the root, which averages all `n` of them in node-id
+//! order and broadcasts the mean ([`PeerMsg::Average`]). That is one message per node
+//! and one broadcast per round (instead of every node broadcasting to every node),
+//! and a waiting node is woken once per round. The root is a receiver like any other;
+//! the coordinator never computes node states.
+
+pub mod codec;
+
+use crate::estimators::local::LocalProblem;
+use crate::estimators::prox::gtrs::ProxError;
+use crate::estimators::prox::{LocalSolver, prox};
+use crate::model::geometry::{Vec2, Vec3};
+use crate::model::measure::NodeMeasurements;
+use crate::model::rng::{SonarRng, Stream, stream_rng};
+use rand::RngExt;
+use std::collections::{BTreeMap, VecDeque};
+
+/// Everything a node knows about the world: itself, its neighbours and the
+/// transmitters. It never learns another node's measurements or state except
+/// through the gossip messages below.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeConfig {
+    /// This node's id.
+    pub id: u32,
+    /// Number of nodes in the network (sync averaging divides by it).
+    pub n_nodes: u32,
+    /// This receiver's position `r_v`.
+    pub anchor: Vec2,
+    /// All transmitter positions `t_m`.
+    pub transmitters: Vec<Vec2>,
+    /// Sorted neighbour ids.
+    pub neighbours: Vec<u32>,
+    /// DOA row weight.
+    pub omega: f64,
+    /// Prox step.
+    pub gamma: f64,
+    /// Local prox.
+    pub solver: LocalSolver,
+    /// Outlier budget of [`LocalSolver::GtrsL0`] (rows of this node's cost that may be
+    /// separated as outliers; clamped per sample by
+    /// [`crate::estimators::prox::l0::effective_kappa`]). Ignored by the other solvers.
+    #[serde(default = "default_kappa")]
+    pub kappa: usize,
+    /// Initial `u` (and `theta`).
+    pub init_u: Vec3,
+    /// Run seed (the node's own clock RNG derives from it and `id`).
+    pub seed: u64,
+    /// How the run is clocked.
+    pub mode: NodeMode,
+    /// Sync mode: report `theta` after every round (`--trace-iterations`);
+    /// async nodes always report each iteration.
+    #[serde(default)]
+    pub trace_iterations: bool,
+}
+
+fn default_kappa() -> usize {
+    crate::estimators::prox::l0::DEFAULT_KAPPA
+}
+
+/// How a run is clocked, as far as a node is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeMode {
+    /// Synchronous rounds; positions averaged over all nodes.
+    Sync,
+    /// Async pairwise iterations drawn by the coordinator (`--clock logical`).
+    AsyncLogical,
+    /// Free-running pairwise exchanges on each node's own Poisson clock.
+    Realtime,
+}
+
+/// A command from the coordinator.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// This node's own measurements of sample `sample`; replaces the local cost.
+    Sample {
+        /// Sample index.
+        sample: u32,
+        /// The node's measurements.
+        meas: NodeMeasurements,
+    },
+    /// Sync mode: run `rounds` synchronous rounds numbered from `first_round`,
+    /// then report [`Report::SampleDone`].
+    SyncRounds {
+        /// Sample index.
+        sample: u32,
+        /// Global number of the first round.
+        first_round: u64,
+        /// How many rounds.
+        rounds: u32,
+    },
+    /// Async logical mode: this node's share of the sample's schedule, as
+    /// `(global iteration, partner)` in increasing iteration order. The node
+    /// executes them in order (a dataflow execution of the sequential
+    /// schedule), then reports [`Report::SampleDone`].
+    AsyncPlan {
+        /// Sample index.
+        sample: u32,
+        /// `(iteration, partner)` pairs.
+        steps: Vec<(u64, u32)>,
+    },
+    /// Realtime mode: the node's Poisson clock fired; pick a neighbour and
+    /// start a pairwise exchange unless already inside one.
+    Tick,
+    /// Report the current `theta` as the estimate at sample `sample`.
+    Snapshot {
+        /// Sample index.
+        sample: u32,
+    },
+    /// Node `node` is gone: never pick it again and abandon any exchange with it.
+    NodeDown {
+        /// The dead node.
+        node: u32,
+    },
+}
+
+/// A gossip message between two nodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PeerMsg {
+    /// Sync round `seq` or async logical iteration `seq`: the sender's
+    /// reflected point `r = 2 theta - u`.
+    Reflect {
+        /// Sender.
+        from: u32,
+        /// Round or iteration number.
+        seq: u64,
+        /// Reflected point.
+        r: Vec3,
+    },
+    /// Realtime: `from` asks for an exchange and sends its reflected point.
+    Request {
+        /// Initiator.
+        from: u32,
+        /// Initiator's exchange counter.
+        seq: u64,
+        /// Initiator's reflected point.
+        r: Vec3,
+    },
+    /// Realtime: the responder accepted and updated; here is its reflected point.
+    Accept {
+        /// Responder.
+        from: u32,
+        /// The initiator's exchange counter.
+        seq: u64,
+        /// Responder's reflected point.
+        r: Vec3,
+    },
+    /// Realtime: the responder is inside another exchange; the initiator keeps its state.
+    Decline {
+        /// Responder.
+        from: u32,
+        /// The initiator's exchange counter.
+        seq: u64,
+    },
+    /// Sync round `seq`, from the root [`SYNC_ROOT`] to every node: the consensus
+    /// average `a` of all nodes' reflected points.
+    Average {
+        /// The root.
+        from: u32,
+        /// Round.
+        seq: u64,
+        /// `mean_i r_i[0:2]`, summed in node-id order.
+        a: Vec2,
+    },
+}
+
+impl PeerMsg {
+    /// The sender.
+    pub fn from(&self) -> u32 {
+        match *self {
+            PeerMsg::Reflect { from, .. }
+            | PeerMsg::Request { from, .. }
+            | PeerMsg::Accept { from, .. }
+            | PeerMsg::Decline { from, .. }
+            | PeerMsg::Average { from, .. } => from,
+        }
+    }
+}
+
+/// Per-node counters, reported to the coordinator.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Counters {
+    /// Prox solves.
+    pub prox_solves: u64,
+    /// Gossip messages sent.
+    pub messages_out: u64,
+    /// Gossip messages received.
+    pub messages_in: u64,
+    /// Declined exchanges (realtime; as initiator).
+    pub declines: u64,
+    /// Completed DR updates of this node's `u`.
+    pub updates: u64,
+}
+
+/// A report to the coordinator.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Report {
+    /// The node finished its work for `sample`; `theta` is its estimate.
+    SampleDone {
+        /// Node id.
+        node: u32,
+        /// Sample index.
+        sample: u32,
+        /// Current `theta`.
+        theta: Vec3,
+        /// Counters so far.
+        counters: Counters,
+    },
+    /// Async logical: the node completed its part of iteration `iteration`.
+    IterationDone {
+        /// Node id.
+        node: u32,
+        /// Global iteration (sync: round).
+        iteration: u64,
+        /// The node's `theta` after the iteration.
+        theta: Vec3,
+    },
+    /// Answer to [`Command::Snapshot`].
+    Snapshot {
+        /// Node id.
+        node: u32,
+        /// Sample index.
+        sample: u32,
+        /// Current `theta`.
+        theta: Vec3,
+        /// Counters so far.
+        counters: Counters,
+    },
+    /// The node could not compute (a prox failed); the run must stop.
+    Failed {
+        /// Node id.
+        node: u32,
+        /// Sample index.
+        sample: u32,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Something the node wants sent.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    /// To one peer.
+    Peer {
+        /// Destination node.
+        to: u32,
+        /// The message.
+        msg: PeerMsg,
+    },
+    /// To every node, including the sender (sync rounds).
+    Broadcast(PeerMsg),
+    /// To the coordinator.
+    Report(Report),
+}
+
+/// An input to the core.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// From the coordinator.
+    Command(Command),
+    /// From a peer.
+    Peer(PeerMsg),
+}
+
+#[derive(Debug, Clone)]
+struct SyncState {
+    sample: u32,
+    round: u64,
+    last_round: u64,
+    /// Own theta and r of the current round, once computed.
+    mine: Option<(Vec3, Vec3)>,
+    /// Received reflected points, by round, by sender.
+    received: BTreeMap<u64, Vec<Option<Vec3>>>,
+}
+
+#[derive(Debug, Clone)]
+struct AsyncState {
+    sample: u32,
+    steps: VecDeque<(u64, u32)>,
+    /// Own theta and r of the head step, once computed.
+    mine: Option<(Vec3, Vec3)>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Exchange {
+    partner: u32,
+    seq: u64,
+    theta: Vec3,
+    r: Vec3,
+}
+
+/// The protocol state machine of one receiver node.
+#[derive(Debug, Clone)]
+pub struct NodeCore {
+    cfg: NodeConfig,
+    problem: LocalProblem,
+    u: Vec3,
+    theta: Vec3,
+    sample: u32,
+    counters: Counters,
+    sync: Option<SyncState>,
+    plan: Option<AsyncState>,
+    /// Async-logical reflected points that arrived before this node reached
+    /// that iteration, keyed by iteration.
+    early: BTreeMap<u64, Vec3>,
+    /// Root: sync reflected points that arrived before the SyncRounds command.
+    early_sync: BTreeMap<u64, Vec<Option<Vec3>>>,
+    /// Other nodes: consensus averages from the root not yet used, by round.
+    averages: BTreeMap<u64, Vec2>,
+    exchange: Option<Exchange>,
+    exchange_seq: u64,
+    alive: Vec<u32>,
+    rng: SonarRng,
+    /// Sample, sync-rounds and plan commands that arrived while the node was still
+    /// working on an earlier sample (the coordinator may send several samples ahead);
+    /// run in order once that sample is done.
+    queued: VecDeque<Command>,
+}
+
+/// The average `a = (r_v[0:2] + r_w[0:2]) / 2` of a pairwise exchange
+/// (seed 002 eq. 11, second line). IEEE addition is commutative, so both
+/// ends compute bit-identical values.
+pub fn pair_average(r_a: &Vec3, r_b: &Vec3) -> Vec2 {
+    Vec2::new((r_a[0] + r_b[0]) / 2.0, (r_a[1] + r_b[1]) / 2.0)
+}
+
+/// The node that gathers the reflected points of every sync round and sends their
+/// mean back to all nodes ([`PeerMsg::Average`]).
+pub const SYNC_ROOT: u32 = 0;
+
+/// The sync consensus average: the mean of the position parts of all
+/// reflected points, summed in node-id order.
+pub fn mean_position<'a>(rs: impl Iterator<Item = &'a Vec3>) -> Vec2 {
+    let mut s = Vec2::zeros();
+    let mut n = 0usize;
+    for r in rs {
+        s.x += r[0];
+        s.y += r[1];
+        n += 1;
+    }
+    s / n.max(1) as f64
+}
+
+/// The DR update `u += z - theta` with `z = (a, r[2])` (seed 002 eq. 7 / 11).
+pub fn dr_update(u: &mut Vec3, theta: &Vec3, r: &Vec3, a: Vec2) {
+    let z = Vec3::new(a.x, a.y, r[2]);
+    *u += z - theta;
+}
+
+impl NodeCore {
+    /// A node in its initial state: `u = theta = init_u`, no measurements yet.
+    pub fn new(cfg: NodeConfig) -> NodeCore {
+        let rng = stream_rng(cfg.seed, Stream::NodeClock, cfg.id as u64);
+        NodeCore {
+            problem: LocalProblem::empty(cfg.anchor),
+            u: cfg.init_u,
+            theta: cfg.init_u,
+            sample: 0,
+            counters: Counters::default(),
+            sync: None,
+            plan: None,
+            early: BTreeMap::new(),
+            early_sync: BTreeMap::new(),
+            averages: BTreeMap::new(),
+            exchange: None,
+            exchange_seq: 0,
+            alive: cfg.neighbours.clone(),
+            rng,
+            queued: VecDeque::new(),
+            cfg,
+        }
+    }
+
+    /// True while the node is running a sample's sync rounds or async plan.
+    pub fn busy(&self) -> bool {
+        self.sync.is_some() || self.plan.is_some()
+    }
+
+    /// This node's id.
+    pub fn id(&self) -> u32 {
+        self.cfg.id
+    }
+
+    /// Current `theta`.
+    pub fn theta(&self) -> Vec3 {
+        self.theta
+    }
+
+    /// Current `u`.
+    pub fn u(&self) -> Vec3 {
+        self.u
+    }
+
+    /// Counters so far.
+    pub fn counters(&self) -> Counters {
+        self.counters
+    }
+
+    /// True while the node is inside a realtime exchange.
+    pub fn in_exchange(&self) -> bool {
+        self.exchange.is_some()
+    }
+
+    /// Neighbours still considered alive.
+    pub fn live_neighbours(&self) -> &[u32] {
+        &self.alive
+    }
+
+    /// Draw the time to the next realtime wake-up (seconds), exponential with
+    /// rate `rate_hz`, from the node's own clock stream.
+    pub fn draw_wait(&mut self, rate_hz: f64) -> f64 {
+        let u: f64 = self.rng.random_range(f64::EPSILON..1.0);
+        -u.ln() / rate_hz
+    }
+
+    fn prox_step(&mut self) -> Result<(Vec3, Vec3), ProxError> {
+        let theta = prox(
+            self.cfg.solver,
+            &self.problem,
+            &self.u,
+            self.cfg.gamma,
+            self.cfg.kappa,
+        )?;
+        self.counters.prox_solves += 1;
+        let r = 2.0 * theta - self.u;
+        Ok((theta, r))
+    }
+
+    fn failed(&self, e: ProxError) -> Output {
+        Output::Report(Report::Failed {
+            node: self.cfg.id,
+            sample: self.sample,
+            reason: e.to_string(),
+        })
+    }
+
+    fn sample_done(&self, sample: u32) -> Output {
+        Output::Report(Report::SampleDone {
+            node: self.cfg.id,
+            sample,
+            theta: self.theta,
+            counters: self.counters,
+        })
+    }
+
+    /// Handle one input; append what to send to `out`.
+    ///
+    /// `Sample`, `SyncRounds` and `AsyncPlan` commands that arrive while the node is
+    /// [`busy`](Self::busy) with an earlier sample are queued and run, in order, as
+    /// soon as that sample is done, so the coordinator may send samples ahead without
+    /// changing any result.
+    pub fn handle(&mut self, input: Input, out: &mut Vec<Output>) {
+        match input {
+            Input::Command(c) => {
+                let sequenced = matches!(
+                    c,
+                    Command::Sample { .. } | Command::SyncRounds { .. } | Command::AsyncPlan { .. }
+                );
+                if sequenced && (self.busy() || !self.queued.is_empty()) {
+                    self.queued.push_back(c);
+                } else {
+                    self.on_command(c, out);
+                }
+            }
+            Input::Peer(m) => {
+                self.counters.messages_in += 1;
+                self.on_peer(m, out)
+            }
+        }
+        while !self.busy() {
+            let Some(c) = self.queued.pop_front() else {
+                break;
+            };
+            self.on_command(c, out);
+        }
+    }
+
+    fn on_command(&mut self, c: Command, out: &mut Vec<Output>) {
+        match c {
+            Command::Sample { sample, meas } => {
+                self.sample = sample;
+                self.problem = LocalProblem::build(
+                    self.cfg.anchor,
+                    &self.cfg.transmitters,
+                    self.cfg.omega,
+                    &meas,
+                );
+            }
+            Command::SyncRounds {
+                sample,
+                first_round,
+                rounds,
+            } => {
+                if rounds == 0 {
+                    out.push(self.sample_done(sample));
+                    return;
+                }
+                let mut st = SyncState {
+                    sample,
+                    round: first_round,
+                    last_round: first_round + rounds as u64 - 1,
+                    mine: None,
+                    received: BTreeMap::new(),
+                };
+                // Rounds whose messages arrived before this command.
+                let later = self.early_sync.split_off(&first_round);
+                st.received = later;
+                self.sync = Some(st);
+                self.sync_start_round(out);
+            }
+            Command::AsyncPlan { sample, steps } => {
+                self.plan = Some(AsyncState {
+                    sample,
+                    steps: steps.into(),
+                    mine: None,
+                });
+                self.async_advance(out);
+            }
+            Command::Tick => self.start_exchange(out),
+            Command::Snapshot { sample } => out.push(Output::Report(Report::Snapshot {
+                node: self.cfg.id,
+                sample,
+                theta: self.theta,
+                counters: self.counters,
+            })),
+            Command::NodeDown { node } => {
+                self.alive.retain(|&w| w != node);
+                if matches!(self.exchange, Some(ex) if ex.partner == node) {
+                    self.exchange = None;
+                    self.counters.declines += 1;
+                }
+            }
+        }
+    }
+
+    fn on_peer(&mut self, m: PeerMsg, out: &mut Vec<Output>) {
+        match m {
+            PeerMsg::Reflect { from, seq, r } => match self.cfg.mode {
+                NodeMode::Sync => {
+                    let n = self.cfg.n_nodes as usize;
+                    if from as usize >= n || self.cfg.id != SYNC_ROOT {
+                        return;
+                    }
+                    match &mut self.sync {
+                        Some(st) if seq >= st.round && seq <= st.last_round => {
+                            st.received.entry(seq).or_insert_with(|| vec![None; n])
+                                [from as usize] = Some(r);
+                            self.sync_try_finish(out);
+                        }
+                        // A round of the next sample, sent by a faster node
+                        // before this node got its SyncRounds command.
+                        _ => {
+                            self.early_sync.entry(seq).or_insert_with(|| vec![None; n])
+                                [from as usize] = Some(r);
+                        }
+                    }
+                }
+                NodeMode::AsyncLogical | NodeMode::Realtime => {
+                    self.early.insert(seq, r);
+                    self.async_advance(out);
+                }
+            },
+            PeerMsg::Average { seq, a, .. } => {
+                // The root ignores the loopback copy of its own broadcast.
+                if self.cfg.mode == NodeMode::Sync && self.cfg.id != SYNC_ROOT {
+                    self.averages.insert(seq, a);
+                    self.sync_try_finish(out);
+                }
+            }
+            PeerMsg::Request { from, seq, r } => {
+                if self.exchange.is_some() {
+                    self.counters.messages_out += 1;
+                    out.push(Output::Peer {
+                        to: from,
+                        msg: PeerMsg::Decline {
+                            from: self.cfg.id,
+                            seq,
+                        },
+                    });
+                    return;
+                }
+                match self.prox_step() {
+                    Ok((theta, r_mine)) => {
+                        let a = pair_average(&r, &r_mine);
+                        self.theta = theta;
+                        dr_update(&mut self.u, &theta, &r_mine, a);
+                        self.counters.updates += 1;
+                        self.counters.messages_out += 1;
+                        out.push(Output::Peer {
+                            to: from,
+                            msg: PeerMsg::Accept {
+                                from: self.cfg.id,
+                                seq,
+                                r: r_mine,
+                            },
+                        });
+                    }
+                    Err(e) => out.push(self.failed(e)),
+                }
+            }
+            PeerMsg::Accept { from, seq, r } => {
+                if let Some(ex) = self.exchange
+                    && ex.partner == from
+                    && ex.seq == seq
+                {
+                    let a = pair_average(&ex.r, &r);
+                    self.theta = ex.theta;
+                    dr_update(&mut self.u, &ex.theta, &ex.r, a);
+                    self.counters.updates += 1;
+                    self.exchange = None;
+                }
+            }
+            PeerMsg::Decline { from, seq } => {
+                if let Some(ex) = self.exchange
+                    && ex.partner == from
+                    && ex.seq == seq
+                {
+                    self.exchange = None;
+                    self.counters.declines += 1;
+                }
+            }
+        }
+    }
+
+    // ----- sync -----
+
+    fn sync_start_round(&mut self, out: &mut Vec<Output>) {
+        let Some(st) = &self.sync else { return };
+        let round = st.round;
+        let id = self.cfg.id;
+        let n = self.cfg.n_nodes as usize;
+        match self.prox_step() {
+            Ok((theta, r)) => {
+                if let Some(st) = &mut self.sync {
+                    st.mine = Some((theta, r));
+                    if id == SYNC_ROOT {
+                        st.received.entry(round).or_insert_with(|| vec![None; n])[id as usize] =
+                            Some(r);
+                    }
+                }
+                if id != SYNC_ROOT {
+                    self.counters.messages_out += 1;
+                    out.push(Output::Peer {
+                        to: SYNC_ROOT,
+                        msg: PeerMsg::Reflect {
+                            from: id,
+                            seq: round,
+                            r,
+                        },
+                    });
+                }
+                self.sync_try_finish(out);
+            }
+            Err(e) => {
+                self.sync = None;
+                out.push(self.failed(e));
+            }
+        }
+    }
+
+    /// Finish every sync round whose average is known: the root when it holds all
+    /// `n` reflected points of the round (it then broadcasts their mean), every other
+    /// node when the root's average has arrived.
+    fn sync_try_finish(&mut self, out: &mut Vec<Output>) {
+        loop {
+            let id = self.cfg.id;
+            let Some(st) = &mut self.sync else { return };
+            let Some((theta, r)) = st.mine else { return };
+            let a = if id == SYNC_ROOT {
+                let complete = st
+                    .received
+                    .get(&st.round)
+                    .is_some_and(|v| v.iter().all(Option::is_some));
+                if !complete {
+                    return;
+                }
+                let rs = st.received.remove(&st.round).unwrap_or_default();
+                let a = mean_position(rs.iter().flatten());
+                if self.cfg.n_nodes > 1 {
+                    self.counters.messages_out += 1;
+                    out.push(Output::Broadcast(PeerMsg::Average {
+                        from: id,
+                        seq: st.round,
+                        a,
+                    }));
+                }
+                a
+            } else {
+                match self.averages.remove(&st.round) {
+                    Some(a) => a,
+                    None => return,
+                }
+            };
+            dr_update(&mut self.u, &theta, &r, a);
+            self.theta = theta;
+            self.counters.updates += 1;
+            if self.cfg.trace_iterations {
+                out.push(Output::Report(Report::IterationDone {
+                    node: self.cfg.id,
+                    iteration: st.round,
+                    theta,
+                }));
+            }
+            if st.round == st.last_round {
+                let sample = st.sample;
+                self.sync = None;
+                out.push(self.sample_done(sample));
+                return;
+            }
+            st.round += 1;
+            st.mine = None;
+            self.sync_start_round(out);
+        }
+    }
+
+    // ----- async logical -----
+
+    fn async_advance(&mut self, out: &mut Vec<Output>) {
+        loop {
+            let Some(st) = &mut self.plan else { return };
+            let Some(&(iter, partner)) = st.steps.front() else {
+                let sample = st.sample;
+                self.plan = None;
+                out.push(self.sample_done(sample));
+                return;
+            };
+            if st.mine.is_none() {
+                match self.prox_step() {
+                    Ok((theta, r)) => {
+                        if let Some(st) = &mut self.plan {
+                            st.mine = Some((theta, r));
+                        }
+                        self.counters.messages_out += 1;
+                        out.push(Output::Peer {
+                            to: partner,
+                            msg: PeerMsg::Reflect {
+                                from: self.cfg.id,
+                                seq: iter,
+                                r,
+                            },
+                        });
+                    }
+                    Err(e) => {
+                        self.plan = None;
+                        out.push(self.failed(e));
+                        return;
+                    }
+                }
+            }
+            let Some(r_other) = self.early.remove(&iter) else {
+                return;
+            };
+            let Some(st) = &mut self.plan else { return };
+            let Some((theta, r)) = st.mine.take() else {
+                return;
+            };
+            st.steps.pop_front();
+            let a = pair_average(&r, &r_other);
+            dr_update(&mut self.u, &theta, &r, a);
+            self.theta = theta;
+            self.counters.updates += 1;
+            out.push(Output::Report(Report::IterationDone {
+                node: self.cfg.id,
+                iteration: iter,
+                theta,
+            }));
+        }
+    }
+
+    // ----- realtime -----
+
+    fn start_exchange(&mut self, out: &mut Vec<Output>) {
+        if self.exchange.is_some() || self.alive.is_empty() {
+            return;
+        }
+        let partner = self.alive[self.rng.random_range(0..self.alive.len())];
+        match self.prox_step() {
+            Ok((theta, r)) => {
+                self.exchange_seq += 1;
+                self.exchange = Some(Exchange {
+                    partner,
+                    seq: self.exchange_seq,
+                    theta,
+                    r,
+                });
+                self.counters.messages_out += 1;
+                out.push(Output::Peer {
+                    to: partner,
+                    msg: PeerMsg::Request {
+                        from: self.cfg.id,
+                        seq: self.exchange_seq,
+                        r,
+                    },
+                });
+            }
+            Err(e) => out.push(self.failed(e)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(solver: LocalSolver, kappa: usize) -> NodeConfig {
+        NodeConfig {
+            id: 1,
+            n_nodes: 3,
+            anchor: Vec2::new(1.0, 2.0),
+            transmitters: vec![Vec2::new(0.0, 0.0)],
+            neighbours: vec![0, 2],
+            omega: 1.0,
+            gamma: 1e-3,
+            solver,
+            kappa,
+            init_u: Vec3::zeros(),
+            seed: 7,
+            mode: NodeMode::Sync,
+            trace_iterations: false,
+        }
+    }
+
+    fn meas(rho: f64) -> NodeMeasurements {
+        NodeMeasurements {
+            bistatic: vec![(0, rho)],
+            doa: Some(0.3),
+            range: None,
+        }
+    }
+
+    /// Two async nodes, each with a one-step plan per sample against the other.
+    fn plan(sample: u32) -> Command {
+        Command::AsyncPlan {
+            sample,
+            steps: vec![(sample as u64, 0)],
+        }
+    }
+
+    #[test]
+    fn samples_sent_ahead_wait_until_the_current_sample_is_done_and_give_the_same_state() {
+        let mut cfg = config(LocalSolver::Gtrs, 1);
+        cfg.mode = NodeMode::AsyncLogical;
+        let partner_r = |k: u64| Vec3::new(3.0 + k as f64, 4.0, 5.0);
+        let reflect = |k: u64| {
+            Input::Peer(PeerMsg::Reflect {
+                from: 0,
+                seq: k,
+                r: partner_r(k),
+            })
+        };
+        let sample = |k: u32| {
+            Input::Command(Command::Sample {
+                sample: k,
+                meas: meas(10.0 + k as f64),
+            })
+        };
+        // One sample at a time.
+        let mut step = NodeCore::new(cfg.clone());
+        let mut out = Vec::new();
+        for k in 0..2u32 {
+            step.handle(sample(k), &mut out);
+            step.handle(Input::Command(plan(k)), &mut out);
+            step.handle(reflect(k as u64), &mut out);
+            assert!(!step.busy());
+        }
+        // Both samples sent before the first is done.
+        let mut ahead = NodeCore::new(cfg);
+        let mut out2 = Vec::new();
+        ahead.handle(sample(0), &mut out2);
+        ahead.handle(Input::Command(plan(0)), &mut out2);
+        ahead.handle(sample(1), &mut out2);
+        ahead.handle(Input::Command(plan(1)), &mut out2);
+        assert!(ahead.busy(), "sample 0 waits for its partner");
+        // Only sample 0's reflected point went out so far.
+        let sent: Vec<u64> = out2
+            .iter()
+            .filter_map(|o| match o {
+                Output::Peer {
+                    msg: PeerMsg::Reflect { seq, .. },
+                    ..
+                } => Some(*seq),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(sent, vec![0]);
+        ahead.handle(reflect(0), &mut out2);
+        assert!(ahead.busy(), "sample 1 started at once");
+        ahead.handle(reflect(1), &mut out2);
+        assert!(!ahead.busy());
+        assert_eq!(ahead.u(), step.u());
+        assert_eq!(ahead.theta(), step.theta());
+        assert_eq!(out2, out, "same outputs in the same order");
+    }
+
+    #[test]
+    fn a_sync_round_is_one_message_per_node_to_the_root_and_one_broadcast_of_the_mean() {
+        let n = 3u32;
+        let mut nodes: Vec<NodeCore> = (0..n)
+            .map(|id| {
+                let mut cfg = config(LocalSolver::Relaxed, 1);
+                cfg.id = id;
+                cfg.anchor = Vec2::new(id as f64, 2.0 * id as f64);
+                NodeCore::new(cfg)
+            })
+            .collect();
+        let mut outs: Vec<Vec<Output>> = vec![Vec::new(); n as usize];
+        for (i, node) in nodes.iter_mut().enumerate() {
+            let mut o = Vec::new();
+            node.handle(
+                Input::Command(Command::Sample {
+                    sample: 0,
+                    meas: meas(10.0 + i as f64),
+                }),
+                &mut o,
+            );
+            node.handle(
+                Input::Command(Command::SyncRounds {
+                    sample: 0,
+                    first_round: 0,
+                    rounds: 1,
+                }),
+                &mut o,
+            );
+            outs[i] = o;
+        }
+        // Non-roots: one Reflect to the root; the root waits.
+        let mut reflects = Vec::new();
+        for (i, o) in outs.iter().enumerate().skip(1) {
+            assert_eq!(o.len(), 1, "node {i}: {o:?}");
+            match &o[0] {
+                Output::Peer {
+                    to: SYNC_ROOT,
+                    msg: m @ PeerMsg::Reflect { .. },
+                } => reflects.push(*m),
+                other => panic!("node {i} sent {other:?}"),
+            }
+        }
+        assert!(outs[0].is_empty() && nodes[0].busy());
+        let root_r = nodes[0].sync.as_ref().and_then(|s| s.mine).unwrap().1;
+        let mut rs = vec![root_r];
+        rs.extend(reflects.iter().map(|m| match m {
+            PeerMsg::Reflect { r, .. } => *r,
+            _ => unreachable!(),
+        }));
+        let mut root_out = Vec::new();
+        for m in reflects {
+            nodes[0].handle(Input::Peer(m), &mut root_out);
+        }
+        let avg = match root_out.as_slice() {
+            [
+                Output::Broadcast(m @ PeerMsg::Average { seq: 0, .. }),
+                Output::Report(_),
+            ] => *m,
+            other => panic!("root sent {other:?}"),
+        };
+        let PeerMsg::Average { a, .. } = avg else {
+            unreachable!()
+        };
+        // The mean of all three reflected points, in node-id order, bit for bit.
+        assert_eq!(a, mean_position(rs.iter()));
+        for node in nodes.iter_mut().skip(1) {
+            let mut o = Vec::new();
+            node.handle(Input::Peer(avg), &mut o);
+            assert!(!node.busy());
+            assert!(
+                matches!(o.as_slice(), [Output::Report(Report::SampleDone { .. })]),
+                "{o:?}"
+            );
+        }
+        // The root ignores the loopback of its own broadcast.
+        let mut o = Vec::new();
+        nodes[0].handle(Input::Peer(avg), &mut o);
+        assert!(o.is_empty());
+    }
+
+    #[test]
+    fn the_node_config_json_carries_the_solver_and_kappa_and_defaults_kappa_to_one() {
+        let cfg = config(LocalSolver::GtrsL0, 2);
+        let json = serde_json::to_string(&cfg).unwrap();
+        assert!(json.contains("\"solver\":\"gtrs_l0\""), "{json}");
+        assert!(json.contains("\"kappa\":2"), "{json}");
+        assert_eq!(serde_json::from_str::<NodeConfig>(&json).unwrap(), cfg);
+        // A launch written without the key (older coordinator) gets the default.
+        let old = json.replace(",\"kappa\":2", "");
+        assert!(!old.contains("kappa"));
+        let back: NodeConfig = serde_json::from_str(&old).unwrap();
+        assert_eq!(back.kappa, crate::estimators::prox::l0::DEFAULT_KAPPA);
+    }
+}
