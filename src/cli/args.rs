@@ -1,0 +1,230 @@
+//! The command line's clap types: subcommands, flags and their help text.
+
+use super::*;
+
+/// Emulated distributed multistatic sonar network: asynchronous Douglas-Rachford
+/// gossip with exact GTRS local steps.
+#[derive(Debug, Parser)]
+#[command(name = "sonarnet", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a scenario and write a results directory.
+    Run(RunArgs),
+    /// Check scenario files (and the trace, truth and schedule files they name).
+    Validate {
+        /// Scenario files.
+        #[arg(required = true)]
+        scenarios: Vec<PathBuf>,
+    },
+    /// Write the plots and a self-contained HTML report of a results
+    /// directory (DIR/report.html), or compare two runs (DIR DIR2).
+    Report(ReportArgs),
+    /// Measure the multi-process engine: overhead over in-process, start-up,
+    /// throughput and memory at scale, realtime throughput.
+    Bench(BenchArgs),
+}
+
+// The field docs below are clap's `--help` text, not rustdoc prose: `[expect]`,
+// `[[variants]]` and `<DIR2 name>` are the scenario-file and placeholder syntax
+// a user types, and escaping them for rustdoc would show the backslashes in
+// `--help`. So rustdoc is told they are not links or HTML.
+/// `sonarnet report`.
+#[derive(Debug, clap::Args)]
+#[allow(rustdoc::invalid_html_tags)]
+pub struct ReportArgs {
+    /// Results directory (and a second one to compare against).
+    #[arg(required = true, num_args = 1..=2, value_name = "DIR")]
+    pub dirs: Vec<PathBuf>,
+    /// Also write every plot as PNG.
+    #[arg(long)]
+    pub png: bool,
+    /// Where to write the comparison page [default: DIR/compare-<DIR2 name>.html].
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// `sonarnet bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Directory holding mourya2017-spiral.toml.
+    #[arg(long, default_value = "scenarios")]
+    pub scenarios: PathBuf,
+    /// Node counts of the scale runs (comma separated).
+    #[arg(long, value_delimiter = ',', default_value = "64,256")]
+    pub nodes: Vec<usize>,
+    /// Repeats of each overhead figure (the best is kept).
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Where bench.json goes.
+    #[arg(long, default_value = "results/bench")]
+    pub out: PathBuf,
+}
+
+/// The command-line spelling of [`Mode`] (library types carry no clap derive;
+/// the doc comments are the `--help` text of each value).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    /// Every node updates every iteration; positions averaged over all nodes.
+    Sync,
+    /// One random edge `(v, w)` per iteration (seed 002 eq. 11).
+    Async,
+}
+
+impl From<ModeArg> for Mode {
+    fn from(m: ModeArg) -> Self {
+        match m {
+            ModeArg::Sync => Mode::Sync,
+            ModeArg::Async => Mode::Async,
+        }
+    }
+}
+
+/// The command-line spelling of [`EngineKind`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum EngineArg {
+    /// All nodes in one thread of this process.
+    Inprocess,
+    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
+    Processes,
+    /// One thread per node in this process, over the in-memory transport.
+    Threads,
+}
+
+impl From<EngineArg> for EngineKind {
+    fn from(e: EngineArg) -> Self {
+        match e {
+            EngineArg::Inprocess => EngineKind::Inprocess,
+            EngineArg::Processes => EngineKind::Processes,
+            EngineArg::Threads => EngineKind::Threads,
+        }
+    }
+}
+
+/// The command-line spelling of [`Clock`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ClockArg {
+    /// The coordinator sequences rounds/iterations; results are exact.
+    Logical,
+    /// Free-running nodes on Poisson clocks (multi-process async only).
+    Realtime,
+}
+
+impl RunArgs {
+    /// `--mode` as the library's type.
+    pub fn mode(&self) -> Option<Mode> {
+        self.mode.map(Mode::from)
+    }
+    /// `--engine` as the library's type.
+    pub fn engine(&self) -> Option<EngineKind> {
+        self.engine.map(EngineKind::from)
+    }
+    /// `--clock` as the library's type.
+    pub fn clock(&self) -> Clock {
+        self.clock.into()
+    }
+}
+
+impl From<ClockArg> for Clock {
+    fn from(c: ClockArg) -> Self {
+        match c {
+            ClockArg::Logical => Clock::Logical,
+            ClockArg::Realtime => Clock::Realtime,
+        }
+    }
+}
+
+/// `sonarnet run`.
+#[derive(Debug, clap::Args)]
+// `[expect]`, `[[variants]]`, `<name>`: see the note above `ReportArgs`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
+pub struct RunArgs {
+    /// The scenario TOML file.
+    pub scenario: PathBuf,
+    /// Gossip mode (overrides algorithm.mode).
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
+    /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
+    /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
+    /// outlier rows per node separated).
+    #[arg(long, value_parser = parse_solver)]
+    pub local_solver: Option<LocalSolver>,
+    /// Outlier budget of gtrs_l0: rows of each node's local cost that may be
+    /// separated as outliers (overrides algorithm.kappa; must be below every
+    /// node's row count; ignored by gtrs and relaxed).
+    #[arg(long, value_name = "K")]
+    pub kappa: Option<usize>,
+    /// Run seed (overrides the scenario's seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Douglas-Rachford iterations per sample (overrides the scenario).
+    #[arg(long)]
+    pub iterations_per_sample: Option<usize>,
+    /// Number of samples to run (at most the scenario's).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Which engine runs the nodes: one OS process per receiver over iceoryx2
+    /// shared memory, all nodes in this process, or one thread per node over
+    /// the in-memory transport (exact same numbers) [default: processes;
+    /// inprocess for Monte Carlo runs].
+    #[arg(long, value_enum)]
+    pub engine: Option<EngineArg>,
+    /// Run only this variant of a scenario with [[variants]] (repeatable;
+    /// default: every variant, one results directory each).
+    #[arg(long, value_name = "NAME")]
+    pub variant: Vec<String>,
+    /// Monte Carlo: repeat the run with seeds seed..seed+N in parallel
+    /// (in-process); overrides [monte_carlo] trials. 1 = a single run.
+    #[arg(long, value_name = "N")]
+    pub trials: Option<usize>,
+    /// Centralised baselines to score next to the distributed track, with
+    /// default parameters, replacing the scenario's [[baselines]]
+    /// (comma separated: ogd, onm, ml, ls, l0os, lq_irls, lad, pocs, lls,
+    /// distributed; l0os needs p or kappa, so give it in the file).
+    #[arg(long, value_delimiter = ',', value_name = "KINDS")]
+    pub baselines: Option<Vec<String>>,
+    /// Exit with code 1 when an [expect] check of the scenario fails.
+    #[arg(long)]
+    pub check: bool,
+    /// Clock of async runs: `logical` (the coordinator draws every pair;
+    /// exact, reproducible) or `realtime` (free-running nodes on Poisson
+    /// clocks, [realtime] table of the scenario; needs --engine processes).
+    #[arg(long, value_enum, default_value = "logical")]
+    pub clock: ClockArg,
+    /// Record every node's theta after every iteration into iterations.csv
+    /// (used by consensus.svg).
+    #[arg(long)]
+    pub trace_iterations: bool,
+    /// Multi-process engine: let each node process poll its inbox for up to N
+    /// microseconds (yielding the CPU between checks) before it blocks. Trades CPU
+    /// for latency while gossip messages are due within microseconds; 0, the
+    /// default, blocks at once (idle nodes use ~0 % CPU either way, after N us).
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    pub poll_us: u64,
+    /// Log coordinator and node events (with node ids) to stderr.
+    #[arg(long, short)]
+    pub verbose: bool,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Also write report.html into the results directory.
+    #[arg(long)]
+    pub report: bool,
+}
+
+/// Parse a `--local-solver` value with the scenario file's spelling.
+fn parse_solver(s: &str) -> Result<LocalSolver, String> {
+    serde::Deserialize::deserialize(
+        serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
+    )
+    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs, relaxed or gtrs_l0)"))
+}

@@ -1,0 +1,95 @@
+//! What the command line reports: [`CliError`] and its exit codes, and the
+//! error chain printed once ([`error_report`]).
+
+use super::*;
+
+/// How a command failed; decides the exit code.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// Bad input (exit 2).
+    #[error(transparent)]
+    Input(#[from] crate::model::error::InputError),
+    /// The run failed (exit 1); partial results were written to `dir`.
+    #[error("{error}\npartial results were written to {}", dir.display())]
+    RunFailed {
+        /// The reason.
+        error: crate::engine::EngineError,
+        /// Where the partial results are.
+        dir: PathBuf,
+    },
+    /// Anything else that stops a run (exit 1).
+    #[error(transparent)]
+    Run(RunError),
+    /// `--check`: an `[expect]` check failed (exit 1).
+    #[error("{failed} [expect] check(s) failed:\n{list}")]
+    ExpectFailed {
+        /// How many.
+        failed: usize,
+        /// One line per failed check, with the results directory.
+        list: String,
+    },
+    /// Plots or report could not be written (exit 1).
+    #[error(transparent)]
+    Plot(crate::plot::PlotError),
+    /// Some variants of a scenario failed; each error was printed as it
+    /// happened (exit 1).
+    #[error("{failed} variant(s) failed (their errors are above):\n{list}")]
+    VariantsFailed {
+        /// How many.
+        failed: usize,
+        /// One line per failed variant.
+        list: String,
+    },
+}
+
+/// An error and its causes as the command line prints them, once:
+/// `error: ...` and one `  caused by: ...` line per cause.
+pub fn error_report(e: &dyn std::error::Error) -> String {
+    let mut out = format!("error: {e}\n");
+    let mut src = e.source();
+    while let Some(s) = src {
+        out.push_str(&format!("  caused by: {s}\n"));
+        src = s.source();
+    }
+    out
+}
+
+impl From<crate::pipeline::bench::BenchError> for CliError {
+    fn from(e: crate::pipeline::bench::BenchError) -> Self {
+        match e {
+            crate::pipeline::bench::BenchError::Input(i) => CliError::Input(i),
+            crate::pipeline::bench::BenchError::RunFailed { error, dir } => {
+                CliError::RunFailed { error, dir }
+            }
+            crate::pipeline::bench::BenchError::Run(r) => r.into(),
+        }
+    }
+}
+
+impl From<crate::plot::PlotError> for CliError {
+    fn from(e: crate::plot::PlotError) -> Self {
+        match e {
+            crate::plot::PlotError::Input(i) => CliError::Input(i),
+            other => CliError::Plot(other),
+        }
+    }
+}
+
+impl CliError {
+    /// The process exit code: 2 for bad input, 1 for a failed run.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Input(_) | CliError::Run(RunError::Input(_)) => 2,
+            _ => 1,
+        }
+    }
+}
+
+impl From<RunError> for CliError {
+    fn from(e: RunError) -> Self {
+        match e {
+            RunError::Input(i) => CliError::Input(i),
+            other => CliError::Run(other),
+        }
+    }
+}

@@ -1,0 +1,252 @@
+//! Scoring one run: the baselines on the same realization, every track scored
+//! ([`super::score`]), the metrics of `metrics.json`, and the `[expect]` checks.
+
+use super::*;
+
+/// The `distributed` baseline: the DR engine again, in-process, on the same
+/// realization, with the baseline's own local solver, mode and iteration
+/// count (the scenario's where it gives none), and no fixed schedule.
+fn distributed_run(
+    cfg: &crate::estimators::baselines::BaselineCfg,
+    sc: &Scenario,
+    real: &Realization,
+    samples: usize,
+) -> (Vec<Option<Vec2>>, Option<String>) {
+    let crate::estimators::baselines::BaselineCfg::Distributed {
+        local_solver,
+        mode,
+        iterations_per_sample,
+        ..
+    } = cfg
+    else {
+        return (
+            vec![None; samples],
+            Some(format!("{} is not the distributed baseline", cfg.kind())),
+        );
+    };
+    let mut alt = sc.clone().with_trace_iterations(false);
+    alt.algorithm.schedule = None;
+    if let Some(s) = local_solver {
+        alt = alt.with_local_solver(*s);
+    }
+    if let Some(m) = mode {
+        alt.algorithm.mode = *m;
+    }
+    if let Some(n) = iterations_per_sample {
+        alt.algorithm.iterations_per_sample = *n;
+    }
+    alt.samples = samples;
+    let (rec, res) = match crate::engine::RunPlan::new(&alt, Clock::Logical) {
+        Ok(plan) => crate::engine::run_inprocess(&plan, real, &mut |_, _| {}),
+        Err(e) => (RunRecord::empty(alt.graph.len()), Err(e)),
+    };
+    let est = (0..samples)
+        .map(|k| rec.thetas.get(k).map(|t| metrics::theta_bar(t)))
+        .collect();
+    (est, res.err().map(|e| e.to_string()))
+}
+
+/// Run the baselines and score every track of a record (no I/O).
+pub fn evaluate(
+    sc: &Scenario,
+    real: &Realization,
+    record: &RunRecord,
+    error: Option<&EngineError>,
+    opts: &RunOptions,
+) -> (RunMetrics, Scored) {
+    let done = record.thetas.len();
+    let est: Vec<Vec2> = record
+        .thetas
+        .iter()
+        .map(|t| metrics::theta_bar(t))
+        .collect();
+    // The centralised ML reference, solved once for the `ml` track and any
+    // `ml` baseline.
+    let ml_start = std::time::Instant::now();
+    let ml = crate::estimators::central::ml_track(
+        &sc.geometry,
+        &real.measurements[..done],
+        &real.sigmas[..done],
+    );
+    let ml_seconds = ml_start.elapsed().as_secs_f64();
+    let baselines: Vec<_> = sc
+        .baselines
+        .iter()
+        .map(|b| {
+            let engine = |samples: usize| distributed_run(b, sc, real, samples);
+            crate::estimators::baselines::run_baseline(
+                b,
+                &sc.geometry,
+                real,
+                done,
+                (&ml, ml_seconds),
+                &engine,
+            )
+        })
+        .collect();
+    let scored = score::score(sc, real, &est, ml, baselines, done);
+    let tb = &scored.tracks[0].metrics;
+    let ml = &scored.tracks[1].metrics;
+    let crlbs: Vec<f64> = scored.crlb.iter().flatten().copied().collect();
+    let max_dis = (0..done)
+        .map(|k| metrics::disagreement(&record.alive_thetas(k)))
+        .fold(0.0, f64::max);
+    let status = match error {
+        None => "ok",
+        Some(EngineError::Interrupted { .. }) => "interrupted",
+        Some(_) => "failed",
+    };
+    let note = if real.truth.is_none() {
+        Some(
+            "no truth file was given: error metrics (rmse, ctte, regret, ml_rmse, crlb, bound coverage) are not computed"
+                .to_string(),
+        )
+    } else if done == 0 {
+        Some("no sample completed".to_string())
+    } else {
+        None
+    };
+    let m = RunMetrics {
+        rmse: tb.rmse,
+        rmse_after_burn_in: tb.rmse_after_burn_in,
+        median_error: tb.median_error,
+        final_error: tb.final_error,
+        ctte: tb.ctte,
+        regret: tb.regret,
+        max_disagreement: max_dis,
+        ml_rmse: ml.rmse,
+        crlb_rms: metrics::rms(&crlbs),
+        iterations: record.iterations,
+        prox_solves: record.prox_solves(),
+        wall_seconds: record.wall_seconds,
+        engine: opts.engine.as_str().into(),
+        mode: sc.algorithm.mode.as_str().into(),
+        clock: match opts.clock {
+            Clock::Logical => "logical".into(),
+            Clock::Realtime => "realtime".into(),
+        },
+        seed: sc.seed,
+        variant: sc.variant.clone(),
+        samples_completed: done,
+        samples: sc.samples,
+        status: status.into(),
+        error: error.map(|e| e.to_string()),
+        note,
+        startup_seconds: record.startup_seconds,
+        realtime: realtime_stats(record, opts),
+        deaths: record
+            .deaths
+            .iter()
+            .map(|(node, sample, how)| Death {
+                node: *node,
+                sample: *sample,
+                how: how.clone(),
+            })
+            .collect(),
+        nodes: record
+            .counters
+            .iter()
+            .enumerate()
+            .map(|(node, c)| NodeCounters {
+                node,
+                counters: *c,
+                busy_seconds: record.timing.get(node).map(|t| t.busy_seconds),
+                wait_seconds: record.timing.get(node).map(|t| t.wait_seconds),
+                peak_rss_kib: record.peak_rss_kib.get(node).copied().flatten(),
+            })
+            .collect(),
+        bounds: tb.bounds.clone(),
+        baselines: scored.tracks[2..]
+            .iter()
+            .map(|t| (t.name.clone(), t.metrics.clone()))
+            .collect(),
+        x_hat_not_converged: scored.x_hat_not_converged,
+        expect: Vec::new(),
+    };
+    (m, scored)
+}
+
+/// The flat metric namespace of a run (`theta_bar.rmse`, `ogd.ctte`,
+/// `pocs.bounds.upp_maxdis.coverage`, ...): what `[expect] holds` and
+/// `trials.csv` use.
+pub fn flat_metrics(m: &RunMetrics, scored: &Scored) -> std::collections::BTreeMap<String, f64> {
+    let mut f = scored.flat();
+    f.insert("theta_bar.max_disagreement".into(), m.max_disagreement);
+    f.insert("theta_bar.iterations".into(), m.iterations as f64);
+    f.insert("theta_bar.prox_solves".into(), m.prox_solves as f64);
+    if let Some(c) = m.crlb_rms {
+        f.insert("crlb_rms".into(), c);
+    }
+    f
+}
+
+/// Check the scenario's `[expect]` block against one run's metrics.
+pub fn check_expect(sc: &Scenario, flat: &BTreeMap<String, f64>) -> Vec<ExpectResult> {
+    expect_results(crate::scenario::expect::check(&sc.expect, &|name: &str| {
+        flat.get(name)
+            .copied()
+            .ok_or_else(|| unknown_metric(name, flat.keys()))
+    }))
+}
+
+/// Checks as recorded in `metrics.json` / `summary.json`; one that could not
+/// be evaluated fails with its reason.
+pub fn expect_results(
+    checks: Vec<Result<crate::scenario::expect::Check, String>>,
+) -> Vec<ExpectResult> {
+    checks
+        .into_iter()
+        .map(|c| match c {
+            Ok(c) => ExpectResult {
+                expect: c.text,
+                lhs: Some(c.lhs),
+                rhs: Some(c.rhs),
+                holds: c.holds,
+            },
+            Err(e) => ExpectResult {
+                expect: e,
+                lhs: None,
+                rhs: None,
+                holds: false,
+            },
+        })
+        .collect()
+}
+
+/// "no metric X" with the closest names, for expectation errors.
+pub fn unknown_metric<'a>(name: &str, keys: impl Iterator<Item = &'a String>) -> String {
+    let prefix = name.split('.').next().unwrap_or("");
+    let near: Vec<&String> = keys
+        .filter(|k| k.split('.').next() == Some(prefix))
+        .take(12)
+        .collect();
+    if near.is_empty() {
+        format!("no metric {name:?} (no track {prefix:?})")
+    } else {
+        format!(
+            "no metric {name:?} (metrics of {prefix}: {})",
+            near.iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
+}
+
+fn realtime_stats(rec: &RunRecord, opts: &RunOptions) -> Option<RealtimeStats> {
+    if opts.clock != Clock::Realtime || rec.iterations_per_sample.is_empty() {
+        return None;
+    }
+    let ips: Vec<f64> = rec
+        .iterations_per_sample
+        .iter()
+        .map(|&x| x as f64)
+        .collect();
+    Some(RealtimeStats {
+        iterations_per_sample_min: rec.iterations_per_sample.iter().copied().min().unwrap_or(0),
+        iterations_per_sample_median: metrics::median(&ips).unwrap_or(0.0),
+        iterations_per_sample_max: rec.iterations_per_sample.iter().copied().max().unwrap_or(0),
+        declines: rec.counters.iter().map(|c| c.declines).sum(),
+        iterations_per_second: rec.iterations as f64 / rec.wall_seconds.max(1e-9),
+    })
+}

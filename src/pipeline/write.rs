@@ -1,0 +1,318 @@
+//! The results directory of one run: `run.json`, the CSVs (`track.csv`,
+//! `nodes.csv`, `schedule.csv`, `iterations.csv`, `measurements.csv`,
+//! `truth.csv`) and `metrics.json`.
+
+use super::*;
+
+impl Outcome {
+    /// Write the results directory `opts.out_dir` of this run of `sc`. Always
+    /// writes what there is, even for a run that stopped early.
+    pub fn write(&self, sc: &Scenario, opts: &RunOptions) -> Result<(), RunError> {
+        let Outcome {
+            metrics: m,
+            record,
+            scored,
+            real,
+            error,
+        } = self;
+        let done = record.thetas.len();
+        let status = m.status.as_str();
+        let dir = &opts.out_dir;
+        std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
+            path: dir.clone(),
+            source: e,
+        })?;
+        write_run_json(
+            dir,
+            sc,
+            opts,
+            status,
+            error.as_ref(),
+            record.run_id.as_deref(),
+        )?;
+        write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
+        write_csv(
+            &dir.join("nodes.csv"),
+            &["sample", "node", "x", "y", "d", "seed"],
+            record.thetas.iter().enumerate().flat_map(|(k, ts)| {
+                ts.iter().enumerate().map(move |(i, t)| {
+                    vec![
+                        k.to_string(),
+                        i.to_string(),
+                        num(t[0]),
+                        num(t[1]),
+                        num(t[2]),
+                        sc.seed.to_string(),
+                    ]
+                })
+            }),
+        )?;
+        if !record.schedule.is_empty() {
+            write_csv(
+                &dir.join("schedule.csv"),
+                &["iteration", "v", "w", "seed"],
+                record.schedule.iter().enumerate().map(|(it, (v, w))| {
+                    vec![
+                        it.to_string(),
+                        v.to_string(),
+                        w.to_string(),
+                        sc.seed.to_string(),
+                    ]
+                }),
+            )?;
+        }
+        if !record.iteration_trace.is_empty() {
+            write_csv(
+                &dir.join("iterations.csv"),
+                &["iteration", "sample", "node", "x", "y", "d", "seed"],
+                record.iteration_trace.iter().map(|(it, k, i, t)| {
+                    vec![
+                        it.to_string(),
+                        k.to_string(),
+                        i.to_string(),
+                        num(t[0]),
+                        num(t[1]),
+                        num(t[2]),
+                        sc.seed.to_string(),
+                    ]
+                }),
+            )?;
+        }
+        write_trace(
+            &dir.join("measurements.csv"),
+            &real.measurements[..done],
+            sc.seed,
+        )?;
+        if let Some(t) = real.truth.as_ref().map(|t| &t[..done]) {
+            write_csv(
+                &dir.join("truth.csv"),
+                &["sample", "x", "y", "seed"],
+                t.iter()
+                    .enumerate()
+                    .map(|(k, p)| vec![k.to_string(), num(p.x), num(p.y), sc.seed.to_string()]),
+            )?;
+        }
+        write_json(&dir.join("metrics.json"), m)?;
+        Ok(())
+    }
+}
+
+/// Write `track.csv`: the distributed track's columns, then per baseline
+/// `NAME_x,NAME_y,NAME_error,NAME_ctte,NAME_regret` (+ `NAME_regret_pred` for
+/// online trackers) and bound radii (`bound_B` on `theta_bar`, `NAME_bound_B`
+/// on a baseline; empty when the set was empty).
+pub fn write_track_csv(
+    path: &Path,
+    sc: &Scenario,
+    real: &Realization,
+    scored: &Scored,
+    done: usize,
+) -> Result<(), RunError> {
+    let truth = real.truth.as_ref().map(|t| &t[..done]);
+    let mut header: Vec<String> = [
+        "sample", "true_x", "true_y", "est_x", "est_y", "error", "ml_x", "ml_y", "crlb", "ctte",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let tb = &scored.tracks[0];
+    let ml = &scored.tracks[1];
+    if tb.regret.is_some() {
+        header.push("regret".into());
+    }
+    for (b, _) in &tb.bounds {
+        header.push(format!("bound_{b}"));
+    }
+    for t in &scored.tracks[2..] {
+        for suffix in ["x", "y", "error", "ctte"] {
+            header.push(format!("{}_{suffix}", t.name));
+        }
+        if t.regret.is_some() {
+            header.push(format!("{}_regret", t.name));
+        }
+        if t.regret_pred.is_some() {
+            header.push(format!("{}_regret_pred", t.name));
+        }
+        for (b, _) in &t.bounds {
+            header.push(format!("{}_bound_{b}", t.name));
+        }
+    }
+    header.push("seed".into());
+    let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
+    let rows = (0..done).map(|k| {
+        let t = truth.map(|t| t[k]);
+        let e = |tr: &score::ScoredTrack| tr.error.as_ref().and_then(|e| e[k]);
+        let c = |tr: &score::ScoredTrack| tr.ctte.as_ref().map(|c| c[k]);
+        let est = tb.est[k].unwrap_or_else(Vec2::zeros);
+        let mlx = ml.est[k];
+        let mut row = vec![
+            k.to_string(),
+            opt(t.map(|p| p.x)),
+            opt(t.map(|p| p.y)),
+            num(est.x),
+            num(est.y),
+            opt(e(tb)),
+            opt(mlx.map(|p| p.x)),
+            opt(mlx.map(|p| p.y)),
+            opt(scored.crlb[k]),
+            opt(c(tb)),
+        ];
+        if let Some(r) = &tb.regret {
+            row.push(num(r[k]));
+        }
+        for (_, radii) in &tb.bounds {
+            row.push(opt(radii[k]));
+        }
+        for tr in &scored.tracks[2..] {
+            row.push(opt(tr.est[k].map(|p| p.x)));
+            row.push(opt(tr.est[k].map(|p| p.y)));
+            row.push(opt(e(tr)));
+            row.push(opt(c(tr)));
+            if let Some(r) = &tr.regret {
+                row.push(num(r[k]));
+            }
+            if let Some(r) = &tr.regret_pred {
+                row.push(num(r[k]));
+            }
+            for (_, radii) in &tr.bounds {
+                row.push(opt(radii[k]));
+            }
+        }
+        row.push(sc.seed.to_string());
+        row
+    });
+    write_csv(path, &header_refs, rows)
+}
+
+/// Write measurements in the trace format
+/// (`sample,receiver,transmitter,kind,value,seed`), so a run can be replayed.
+pub fn write_trace(
+    path: &Path,
+    samples: &[crate::model::measure::SampleMeasurements],
+    seed: u64,
+) -> Result<(), RunError> {
+    let rows = samples.iter().enumerate().flat_map(|(k, s)| {
+        s.nodes.iter().enumerate().flat_map(move |(n, nm)| {
+            let mut rows = Vec::new();
+            for &(m, v) in &nm.bistatic {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    m.to_string(),
+                    "bistatic_range".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
+            if let Some(v) = nm.doa {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    String::new(),
+                    "doa".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
+            if let Some(v) = nm.range {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    String::new(),
+                    "range".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
+            rows
+        })
+    });
+    write_csv(
+        path,
+        &["sample", "receiver", "transmitter", "kind", "value", "seed"],
+        rows,
+    )
+}
+
+/// Shortest round-trip decimal form of a float (exact replay from CSV).
+fn num(x: f64) -> String {
+    format!("{x:?}")
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(num).unwrap_or_default()
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
+    move |e| RunError::Output {
+        path: path.to_path_buf(),
+        source: e,
+    }
+}
+
+/// Write a CSV file with a header and string rows.
+pub fn write_csv(
+    path: &Path,
+    header: &[&str],
+    rows: impl Iterator<Item = Vec<String>>,
+) -> Result<(), RunError> {
+    let f = std::fs::File::create(path).map_err(io_err(path))?;
+    let mut w = csv::Writer::from_writer(std::io::BufWriter::new(f));
+    let to_io = |e: csv::Error| RunError::Output {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    };
+    w.write_record(header).map_err(to_io)?;
+    for r in rows {
+        w.write_record(&r).map_err(to_io)?;
+    }
+    w.flush().map_err(io_err(path))
+}
+
+/// Write pretty JSON.
+pub fn write_json<T: Serialize>(path: &Path, v: &T) -> Result<(), RunError> {
+    let mut f = std::fs::File::create(path).map_err(io_err(path))?;
+    let s = serde_json::to_string_pretty(v).map_err(|e| RunError::Output {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })?;
+    f.write_all(s.as_bytes()).map_err(io_err(path))?;
+    f.write_all(b"\n").map_err(io_err(path))
+}
+
+fn write_run_json(
+    dir: &Path,
+    sc: &Scenario,
+    opts: &RunOptions,
+    status: &str,
+    error: Option<&EngineError>,
+    run_id: Option<&str>,
+) -> Result<(), RunError> {
+    let mut resolved = sc.file.clone();
+    resolved.seed = sc.seed;
+    resolved.algorithm.mode = sc.algorithm.mode;
+    resolved.algorithm.local_solver = sc.algorithm.local_solver;
+    resolved.algorithm.kappa = sc.algorithm.kappa;
+    resolved.algorithm.iterations_per_sample = sc.algorithm.iterations_per_sample;
+    if let Some(t) = &mut resolved.target {
+        t.samples = sc.samples;
+    }
+    resolved.geometry.receivers = sc.geometry.receivers.iter().map(|r| [r.x, r.y]).collect();
+    let v = serde_json::json!({
+        "scenario_file": sc.path.display().to_string(),
+        "scenario": resolved,
+        "edges": sc.graph.edges(),
+        "seed": sc.seed,
+        "crate_version": env!("CARGO_PKG_VERSION"),
+        "engine": opts.engine.as_str(),
+        "mode": sc.algorithm.mode.as_str(),
+        "clock": match opts.clock { Clock::Logical => "logical", Clock::Realtime => "realtime" },
+        "local_solver": sc.algorithm.local_solver,
+        "poll_us": opts.poll_us,
+        "command_line": opts.command_line,
+        "status": status,
+        "error": error.map(|e| e.to_string()),
+        "run_id": run_id,
+    });
+    write_json(&dir.join("run.json"), &v)
+}

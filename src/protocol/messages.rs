@@ -1,0 +1,255 @@
+//! What a node knows and says: its [`NodeConfig`], the coordinator's
+//! [`Command`]s, the gossip [`PeerMsg`]s between nodes, its [`Report`]s, and
+//! the [`Input`]/[`Output`] of [`super::NodeCore`].
+
+use crate::estimators::prox::LocalSolver;
+use crate::model::geometry::{Vec2, Vec3};
+use crate::model::measure::NodeMeasurements;
+
+/// Everything a node knows about the world: itself, its neighbours and the
+/// transmitters. It never learns another node's measurements or state except
+/// through the gossip messages below.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeConfig {
+    /// This node's id.
+    pub id: u32,
+    /// Number of nodes in the network (sync averaging divides by it).
+    pub n_nodes: u32,
+    /// This receiver's position `r_v`.
+    pub anchor: Vec2,
+    /// All transmitter positions `t_m`.
+    pub transmitters: Vec<Vec2>,
+    /// Sorted neighbour ids.
+    pub neighbours: Vec<u32>,
+    /// DOA row weight.
+    pub omega: f64,
+    /// Prox step.
+    pub gamma: f64,
+    /// Local prox.
+    pub solver: LocalSolver,
+    /// Outlier budget of [`LocalSolver::GtrsL0`] (rows of this node's cost that may be
+    /// separated as outliers; clamped per sample by
+    /// [`crate::estimators::prox::l0::effective_kappa`]). Ignored by the other solvers.
+    #[serde(default = "default_kappa")]
+    pub kappa: usize,
+    /// Initial `u` (and `theta`).
+    pub init_u: Vec3,
+    /// Run seed (the node's own clock RNG derives from it and `id`).
+    pub seed: u64,
+    /// How the run is clocked.
+    pub mode: NodeMode,
+    /// Sync mode: report `theta` after every round (`--trace-iterations`);
+    /// async nodes always report each iteration.
+    #[serde(default)]
+    pub trace_iterations: bool,
+}
+
+fn default_kappa() -> usize {
+    crate::estimators::prox::l0::DEFAULT_KAPPA
+}
+
+/// How a run is clocked, as far as a node is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NodeMode {
+    /// Synchronous rounds; positions averaged over all nodes.
+    Sync,
+    /// Async pairwise iterations drawn by the coordinator (`--clock logical`).
+    AsyncLogical,
+    /// Free-running pairwise exchanges on each node's own Poisson clock.
+    Realtime,
+}
+
+/// A command from the coordinator.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// This node's own measurements of sample `sample`; replaces the local cost.
+    Sample {
+        /// Sample index.
+        sample: u32,
+        /// The node's measurements.
+        meas: NodeMeasurements,
+    },
+    /// Sync mode: run `rounds` synchronous rounds numbered from `first_round`,
+    /// then report [`Report::SampleDone`].
+    SyncRounds {
+        /// Sample index.
+        sample: u32,
+        /// Global number of the first round.
+        first_round: u64,
+        /// How many rounds.
+        rounds: u32,
+    },
+    /// Async logical mode: this node's share of the sample's schedule, as
+    /// `(global iteration, partner)` in increasing iteration order. The node
+    /// executes them in order (a dataflow execution of the sequential
+    /// schedule), then reports [`Report::SampleDone`].
+    AsyncPlan {
+        /// Sample index.
+        sample: u32,
+        /// `(iteration, partner)` pairs.
+        steps: Vec<(u64, u32)>,
+    },
+    /// Realtime mode: the node's Poisson clock fired; pick a neighbour and
+    /// start a pairwise exchange unless already inside one.
+    Tick,
+    /// Report the current `theta` as the estimate at sample `sample`.
+    Snapshot {
+        /// Sample index.
+        sample: u32,
+    },
+    /// Node `node` is gone: never pick it again and abandon any exchange with it.
+    NodeDown {
+        /// The dead node.
+        node: u32,
+    },
+}
+
+/// A gossip message between two nodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PeerMsg {
+    /// Sync round `seq` or async logical iteration `seq`: the sender's
+    /// reflected point `r = 2 theta - u`.
+    Reflect {
+        /// Sender.
+        from: u32,
+        /// Round or iteration number.
+        seq: u64,
+        /// Reflected point.
+        r: Vec3,
+    },
+    /// Realtime: `from` asks for an exchange and sends its reflected point.
+    Request {
+        /// Initiator.
+        from: u32,
+        /// Initiator's exchange counter.
+        seq: u64,
+        /// Initiator's reflected point.
+        r: Vec3,
+    },
+    /// Realtime: the responder accepted and updated; here is its reflected point.
+    Accept {
+        /// Responder.
+        from: u32,
+        /// The initiator's exchange counter.
+        seq: u64,
+        /// Responder's reflected point.
+        r: Vec3,
+    },
+    /// Realtime: the responder is inside another exchange; the initiator keeps its state.
+    Decline {
+        /// Responder.
+        from: u32,
+        /// The initiator's exchange counter.
+        seq: u64,
+    },
+    /// Sync round `seq`, from the root [`SYNC_ROOT`](super::SYNC_ROOT) to every node: the consensus
+    /// average `a` of all nodes' reflected points.
+    Average {
+        /// The root.
+        from: u32,
+        /// Round.
+        seq: u64,
+        /// `mean_i r_i[0:2]`, summed in node-id order.
+        a: Vec2,
+    },
+}
+
+impl PeerMsg {
+    /// The sender.
+    pub fn from(&self) -> u32 {
+        match *self {
+            PeerMsg::Reflect { from, .. }
+            | PeerMsg::Request { from, .. }
+            | PeerMsg::Accept { from, .. }
+            | PeerMsg::Decline { from, .. }
+            | PeerMsg::Average { from, .. } => from,
+        }
+    }
+}
+
+/// Per-node counters, reported to the coordinator.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Counters {
+    /// Prox solves.
+    pub prox_solves: u64,
+    /// Gossip messages sent.
+    pub messages_out: u64,
+    /// Gossip messages received.
+    pub messages_in: u64,
+    /// Declined exchanges (realtime; as initiator).
+    pub declines: u64,
+    /// Completed DR updates of this node's `u`.
+    pub updates: u64,
+}
+
+/// A report to the coordinator.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Report {
+    /// The node finished its work for `sample`; `theta` is its estimate.
+    SampleDone {
+        /// Node id.
+        node: u32,
+        /// Sample index.
+        sample: u32,
+        /// Current `theta`.
+        theta: Vec3,
+        /// Counters so far.
+        counters: Counters,
+    },
+    /// Async logical: the node completed its part of iteration `iteration`.
+    IterationDone {
+        /// Node id.
+        node: u32,
+        /// Global iteration (sync: round).
+        iteration: u64,
+        /// The node's `theta` after the iteration.
+        theta: Vec3,
+    },
+    /// Answer to [`Command::Snapshot`].
+    Snapshot {
+        /// Node id.
+        node: u32,
+        /// Sample index.
+        sample: u32,
+        /// Current `theta`.
+        theta: Vec3,
+        /// Counters so far.
+        counters: Counters,
+    },
+    /// The node could not compute (a prox failed); the run must stop.
+    Failed {
+        /// Node id.
+        node: u32,
+        /// Sample index.
+        sample: u32,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Something the node wants sent.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    /// To one peer.
+    Peer {
+        /// Destination node.
+        to: u32,
+        /// The message.
+        msg: PeerMsg,
+    },
+    /// To every node, including the sender (sync rounds).
+    Broadcast(PeerMsg),
+    /// To the coordinator.
+    Report(Report),
+}
+
+/// An input to the core.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// From the coordinator.
+    Command(Command),
+    /// From a peer.
+    Peer(PeerMsg),
+}

@@ -1,0 +1,617 @@
+//! Validation: a parsed [`ScenarioFile`] checked value by value and built
+//! into a [`Scenario`], with one [`InputError`] naming the file, the key or
+//! line, and the reason.
+
+use super::*;
+
+/// Check the baselines (parameters, unique names) and the `[bounds]` table
+/// against them: `Err((key, reason))`. The one check for the file and for
+/// `--baselines`, which replaces the list (so `bounds.tracks` must still name
+/// existing tracks).
+pub(super) fn check_tracks(
+    baselines: &[crate::estimators::baselines::BaselineCfg],
+    bounds: Option<&BoundsCfg>,
+    geometry: &Geometry,
+) -> Result<(), (String, String)> {
+    let mut names = BTreeSet::new();
+    for (i, b) in baselines.iter().enumerate() {
+        b.validate(geometry, !geometry.transmitters.is_empty())
+            .map_err(|e| (format!("baselines[{i}] ({})", b.kind()), e))?;
+        if !names.insert(b.name()) {
+            return Err((
+                format!("baselines[{i}].name"),
+                format!(
+                    "duplicate track name {:?}: give each baseline its own `name`",
+                    b.name()
+                ),
+            ));
+        }
+    }
+    let Some(b) = bounds else {
+        return Ok(());
+    };
+    if b.names.is_empty() {
+        return Err(("bounds.names".into(), "list at least one bound".into()));
+    }
+    for (k, v) in [("bounds.rho", b.rho), ("bounds.rho_sigmas", b.rho_sigmas)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err((k.into(), format!("must be finite and >= 0, got {v}")));
+        }
+    }
+    let keys = b
+        .tracks
+        .iter()
+        .flatten()
+        .enumerate()
+        .map(|(i, t)| (format!("bounds.tracks[{i}]"), t))
+        .chain(
+            b.per_track
+                .keys()
+                .map(|t| (format!("bounds.per_track.{t}"), t)),
+        );
+    for (key, t) in keys {
+        if t != "theta_bar" && t != "ml" && !names.contains(t) {
+            return Err((
+                key,
+                format!(
+                    "no track {t:?}: use theta_bar, ml or a baseline name ({})",
+                    names.iter().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        }
+    }
+    if let Some((t, _)) = b.per_track.iter().find(|(_, v)| v.is_empty()) {
+        return Err((
+            format!("bounds.per_track.{t}"),
+            "list at least one bound".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Deep-merge `over` into `base`: tables merge key by key, anything else
+/// (values, arrays, arrays of tables) replaces. A table that names a
+/// different `model` or `kind` (a noise model, a generator, a motion)
+/// replaces the base table whole, so a variant can switch models.
+pub fn merge_tables(base: &mut toml::Table, over: &toml::Table) {
+    let switches = |b: &toml::Table, o: &toml::Table| {
+        ["model", "kind", "rule"]
+            .iter()
+            .any(|tag| o.get(*tag).is_some_and(|v| b.get(*tag) != Some(v)))
+    };
+    for (k, v) in over {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) if !switches(b, o) => {
+                merge_tables(b, o)
+            }
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
+fn check_point(path: &Path, key: &str, p: &[f64; 2]) -> Result<Vec2, InputError> {
+    if p.iter().all(|x| x.is_finite()) {
+        Ok(v2(*p))
+    } else {
+        Err(InputError::at(
+            path,
+            key,
+            format!("coordinates must be finite, got {p:?}"),
+        ))
+    }
+}
+
+impl Scenario {
+    /// Read, parse and validate a scenario file without `[[variants]]`
+    /// (a file with variants is an error here: use [`Scenario::load_all`]).
+    pub fn load(path: &Path) -> Result<Scenario, InputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Read, parse and validate a scenario file: one scenario, or one per
+    /// `[[variants]]` entry, in file order.
+    pub fn load_all(path: &Path) -> Result<Vec<Scenario>, InputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        Self::all_from_toml_str(&text, path)
+    }
+
+    /// Parse and validate scenario text without variants; `path` names it in
+    /// errors and anchors relative file names.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Scenario, InputError> {
+        let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        if !file.variants.is_empty() {
+            let names: Vec<&str> = file.variants.iter().map(|v| v.name.as_str()).collect();
+            return Err(InputError::at(
+                path,
+                "variants",
+                format!(
+                    "the file has {} variants ({}); load them all, or pick one with --variant",
+                    names.len(),
+                    names.join(", ")
+                ),
+            ));
+        }
+        Self::from_parsed(file, path)
+    }
+
+    /// Parse and validate scenario text with any `[[variants]]`: each variant
+    /// is the base file with the variant's tables deep-merged over it.
+    pub fn all_from_toml_str(text: &str, path: &Path) -> Result<Vec<Scenario>, InputError> {
+        let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        if file.variants.is_empty() {
+            return Ok(vec![Self::from_parsed(file, path)?]);
+        }
+        let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+        base.remove("variants");
+        let mut seen = BTreeSet::new();
+        let mut out = Vec::with_capacity(file.variants.len());
+        for (i, v) in file.variants.iter().enumerate() {
+            let key = format!("variants[{i}]");
+            let vname = v.name.trim();
+            if vname.is_empty()
+                || !vname
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            {
+                return Err(InputError::at(
+                    path,
+                    format!("{key}.name"),
+                    format!(
+                        "{:?} must be non-empty ASCII letters, digits, '-', '_' or '.'",
+                        v.name
+                    ),
+                ));
+            }
+            if !seen.insert(vname.to_string()) {
+                return Err(InputError::at(
+                    path,
+                    format!("{key}.name"),
+                    format!("duplicate variant name {vname:?}"),
+                ));
+            }
+            let mut t = base.clone();
+            merge_tables(&mut t, &v.overrides);
+            let f: ScenarioFile =
+                toml::Value::Table(t)
+                    .try_into()
+                    .map_err(|e: toml::de::Error| {
+                        InputError::at(
+                            path,
+                            format!("{key} ({vname})"),
+                            e.message().trim().to_string(),
+                        )
+                    })?;
+            let sc = Self::from_parsed(f, path).map_err(|mut e| {
+                e.location = Some(match e.location.take() {
+                    Some(l) => format!("{key} ({vname}): {l}"),
+                    None => format!("{key} ({vname})"),
+                });
+                e
+            })?;
+            out.push(Scenario {
+                variant: Some(vname.to_string()),
+                ..sc
+            });
+        }
+        Ok(out)
+    }
+
+    /// Validate a parsed scenario file.
+    pub fn from_parsed(file: ScenarioFile, path: &Path) -> Result<Scenario, InputError> {
+        let base = path.parent().unwrap_or(Path::new("."));
+        if file.name.trim().is_empty() {
+            return Err(InputError::at(path, "name", "must not be empty"));
+        }
+        // Geometry.
+        let transmitters = file
+            .geometry
+            .transmitters
+            .iter()
+            .enumerate()
+            .map(|(i, p)| check_point(path, &format!("geometry.transmitters[{i}]"), p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut receivers = file
+            .geometry
+            .receivers
+            .iter()
+            .enumerate()
+            .map(|(i, p)| check_point(path, &format!("geometry.receivers[{i}]"), p))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        // Network.
+        let graph = match (&file.network.edges, &file.network.generator) {
+            (Some(_), Some(_)) => {
+                return Err(InputError::at(
+                    path,
+                    "network",
+                    "give either `edges` or `generator`, not both",
+                ));
+            }
+            (None, None) => {
+                return Err(InputError::at(
+                    path,
+                    "network",
+                    "give `edges` or `generator`",
+                ));
+            }
+            (Some(edges), None) => {
+                let e: Vec<(usize, usize)> = edges.iter().map(|e| (e[0], e[1])).collect();
+                Graph::new(receivers.len(), &e).map_err(|err| {
+                    let key = match &err {
+                        crate::model::graph::GraphError::OutOfRange { index, .. }
+                        | crate::model::graph::GraphError::SelfLoop { index, .. }
+                        | crate::model::graph::GraphError::Duplicate { index, .. } => {
+                            format!("network.edges[{index}]")
+                        }
+                        _ => "network.edges".to_string(),
+                    };
+                    InputError::at(path, key, err.to_string())
+                })?
+            }
+            (None, Some(generator)) => build_generated(path, generator, &mut receivers)?,
+        };
+        if receivers.is_empty() {
+            return Err(InputError::at(path, "geometry.receivers", "no receivers"));
+        }
+        let geometry = Geometry {
+            transmitters,
+            receivers,
+        };
+
+        // Measurements config.
+        let m = &file.measurements;
+        if !(m.omega.is_finite() && m.omega > 0.0) {
+            return Err(InputError::at(
+                path,
+                "measurements.omega",
+                format!("must be finite and > 0, got {}", m.omega),
+            ));
+        }
+        if let Some(n) = &m.range_noise {
+            n.validate()
+                .map_err(|e| InputError::at(path, "measurements.range_noise", e))?;
+        }
+        if let Some(n) = &m.doa_noise {
+            n.validate()
+                .map_err(|e| InputError::at(path, "measurements.doa_noise", e))?;
+        }
+        m.nlos_links
+            .validate()
+            .map_err(|e| InputError::at(path, "measurements.nlos_links", e))?;
+        m.nlos_links
+            .draw(
+                geometry.transmitters.len(),
+                geometry.receivers.len(),
+                &mut stream_rng(0, Stream::Links, 0),
+            )
+            .map_err(|e| InputError::at(path, "measurements.nlos_links", e.to_string()))?;
+
+        // Data source.
+        let (source, samples) = match &m.trace {
+            Some(trace) => {
+                let tpath = base.join(trace);
+                let meas = read_trace(&tpath, &geometry)?;
+                let truth = match &m.truth {
+                    Some(t) => {
+                        let p = base.join(t);
+                        let tr = read_truth(&p)?;
+                        if tr.len() != meas.len() {
+                            return Err(InputError::file(
+                                &p,
+                                format!(
+                                    "has {} samples but the trace {} has {}",
+                                    tr.len(),
+                                    tpath.display(),
+                                    meas.len()
+                                ),
+                            ));
+                        }
+                        Some(tr)
+                    }
+                    None => None,
+                };
+                let samples = meas.len();
+                if let Some(t) = &file.target
+                    && t.samples > samples
+                {
+                    return Err(InputError::at(
+                        path,
+                        "target.samples",
+                        format!("asks for {} samples but the trace has {samples}", t.samples),
+                    ));
+                }
+                let samples = file.target.as_ref().map_or(samples, |t| t.samples);
+                (
+                    DataSource::Trace {
+                        path: tpath,
+                        measurements: meas,
+                        truth,
+                    },
+                    samples,
+                )
+            }
+            None => {
+                if m.truth.is_some() {
+                    return Err(InputError::at(
+                        path,
+                        "measurements.truth",
+                        "a truth file only goes with a trace (measurements.trace)",
+                    ));
+                }
+                let Some(t) = &file.target else {
+                    return Err(InputError::at(
+                        path,
+                        "target",
+                        "missing: give [target] (samples, motion) or measurements.trace",
+                    ));
+                };
+                t.motion
+                    .validate()
+                    .map_err(|e| InputError::at(path, "target.motion", e))?;
+                if !m.bistatic && !m.doa && !m.range {
+                    return Err(InputError::at(
+                        path,
+                        "measurements",
+                        "nothing to measure: enable bistatic, doa or range",
+                    ));
+                }
+                if m.bistatic && geometry.transmitters.is_empty() {
+                    return Err(InputError::at(
+                        path,
+                        "measurements.bistatic",
+                        "bistatic ranges need at least one transmitter in geometry.transmitters \
+                         (set bistatic = false for a pure TOA/DOA network)",
+                    ));
+                }
+                if (m.bistatic || m.range) && m.range_noise.is_none() {
+                    return Err(InputError::at(
+                        path,
+                        "measurements.range_noise",
+                        "missing: ranges are synthesized, so give their noise model",
+                    ));
+                }
+                if m.doa && m.doa_noise.is_none() {
+                    return Err(InputError::at(
+                        path,
+                        "measurements.doa_noise",
+                        "missing: DOAs are synthesized, so give their noise model",
+                    ));
+                }
+                (
+                    DataSource::Synthetic {
+                        motion: t.motion.clone(),
+                    },
+                    t.samples,
+                )
+            }
+        };
+        if samples == 0 {
+            return Err(InputError::at(path, "target.samples", "must be at least 1"));
+        }
+
+        // Algorithm.
+        let a = &file.algorithm;
+        if !(a.gamma.is_finite() && a.gamma > 0.0) {
+            return Err(InputError::at(
+                path,
+                "algorithm.gamma",
+                format!("must be finite and > 0, got {}", a.gamma),
+            ));
+        }
+        if a.iterations_per_sample == 0 {
+            return Err(InputError::at(
+                path,
+                "algorithm.iterations_per_sample",
+                "must be at least 1",
+            ));
+        }
+        if !a.init_u.iter().all(|x| x.is_finite()) {
+            return Err(InputError::at(path, "algorithm.init_u", "must be finite"));
+        }
+        if a.burn_in >= samples {
+            return Err(InputError::at(
+                path,
+                "algorithm.burn_in",
+                format!(
+                    "must be below the number of samples ({samples}), got {}",
+                    a.burn_in
+                ),
+            ));
+        }
+        let schedule = match &a.schedule {
+            Some(s) => {
+                let p = base.join(s);
+                Some((p.clone(), read_schedule(&p, &graph)?))
+            }
+            None => None,
+        };
+        if let Some(rt) = &file.realtime {
+            if !(rt.sample_period_ms.is_finite() && rt.sample_period_ms > 0.0) {
+                return Err(InputError::at(
+                    path,
+                    "realtime.sample_period_ms",
+                    "must be finite and > 0",
+                ));
+            }
+            if !(rt.wake_rate_hz.is_finite() && rt.wake_rate_hz > 0.0) {
+                return Err(InputError::at(
+                    path,
+                    "realtime.wake_rate_hz",
+                    "must be finite and > 0",
+                ));
+            }
+        }
+        // Baselines, bounds, Monte Carlo.
+        check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
+            .map_err(|(key, reason)| InputError::at(path, key, reason))?;
+        crate::scenario::expect::validate_syntax(&file.expect)
+            .map_err(|e| InputError::at(path, "expect.holds", e))?;
+        if let Some(mc) = &file.monte_carlo
+            && mc.trials == 0
+        {
+            return Err(InputError::at(
+                path,
+                "monte_carlo.trials",
+                "must be at least 1",
+            ));
+        }
+        let algorithm = Algorithm {
+            mode: a.mode,
+            gamma: a.gamma,
+            iterations_per_sample: a.iterations_per_sample,
+            local_solver: a.local_solver,
+            kappa: a.kappa,
+            init_u: Vec3::new(a.init_u[0], a.init_u[1], a.init_u[2]),
+            schedule,
+            burn_in: a.burn_in,
+        };
+        let sc = Scenario {
+            path: path.to_path_buf(),
+            name: file.name.clone(),
+            seed: file.seed,
+            geometry,
+            graph,
+            samples,
+            source,
+            measurements: file.measurements.clone(),
+            algorithm,
+            realtime: file.realtime.clone(),
+            expect: file.expect.clone(),
+            trace_iterations: false,
+            baselines: file.baselines.clone(),
+            bounds: file.bounds.clone(),
+            scoring: file.scoring.clone(),
+            trials: file.monte_carlo.as_ref().map(|m| m.trials),
+            variant: None,
+            file,
+        };
+        sc.check_schedule_length()?;
+        sc.check_kappa()?;
+        Ok(sc)
+    }
+}
+
+fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> InputError {
+    let location = e.span().map(|span| {
+        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+        format!("line {line}")
+    });
+    InputError {
+        file: path.to_path_buf(),
+        location,
+        reason: e.message().to_string(),
+    }
+}
+
+fn build_generated(
+    path: &Path,
+    generator: &GeneratorCfg,
+    receivers: &mut Vec<Vec2>,
+) -> Result<Graph, InputError> {
+    let key = "network.generator";
+    let wrap = |e: crate::model::graph::GraphError| InputError::at(path, key, e.to_string());
+    match generator {
+        GeneratorCfg::Ring => {
+            Graph::new(receivers.len(), &Graph::ring_edges(receivers.len())).map_err(wrap)
+        }
+        GeneratorCfg::Grid { rows, cols } => {
+            if rows * cols != receivers.len() {
+                return Err(InputError::at(
+                    path,
+                    key,
+                    format!(
+                        "grid {rows} x {cols} = {} nodes but there are {} receivers",
+                        rows * cols,
+                        receivers.len()
+                    ),
+                ));
+            }
+            Graph::new(receivers.len(), &Graph::grid_edges(*rows, *cols)).map_err(wrap)
+        }
+        GeneratorCfg::RandomGeometric {
+            radius,
+            seed,
+            count,
+            min,
+            max,
+        } => {
+            if !(radius.is_finite() && *radius > 0.0) {
+                return Err(InputError::at(
+                    path,
+                    "network.generator.radius",
+                    "must be finite and > 0",
+                ));
+            }
+            match (count, min, max) {
+                (None, None, None) => {
+                    if receivers.is_empty() {
+                        return Err(InputError::at(
+                            path,
+                            key,
+                            "no geometry.receivers: give count, min and max to draw them",
+                        ));
+                    }
+                    Graph::new(receivers.len(), &Graph::geometric_edges(receivers, *radius))
+                        .map_err(|e| {
+                            InputError::at(path, key, format!("{e} (radius {radius} is too small)"))
+                        })
+                }
+                (Some(count), Some(lo), Some(hi)) => {
+                    if !receivers.is_empty() {
+                        return Err(InputError::at(
+                            path,
+                            key,
+                            "count/min/max draw the receivers, so geometry.receivers must be empty",
+                        ));
+                    }
+                    let lo = check_point(path, "network.generator.min", lo)?;
+                    let hi = check_point(path, "network.generator.max", hi)?;
+                    if lo.x >= hi.x || lo.y >= hi.y {
+                        return Err(InputError::at(
+                            path,
+                            key,
+                            "min must be below max in x and y",
+                        ));
+                    }
+                    let mut last_err = None;
+                    for attempt in 0..1000u64 {
+                        let mut rng: SonarRng = stream_rng(*seed, Stream::Graph, attempt);
+                        let pts: Vec<Vec2> = (0..*count)
+                            .map(|_| {
+                                Vec2::new(
+                                    rng.random_range(lo.x..hi.x),
+                                    rng.random_range(lo.y..hi.y),
+                                )
+                            })
+                            .collect();
+                        match Graph::new(*count, &Graph::geometric_edges(&pts, *radius)) {
+                            Ok(g) => {
+                                *receivers = pts;
+                                return Ok(g);
+                            }
+                            Err(e) => last_err = Some(e),
+                        }
+                    }
+                    Err(InputError::at(
+                        path,
+                        key,
+                        format!(
+                            "no connected layout in 1000 draws (last: {}); increase radius",
+                            last_err.map(|e| e.to_string()).unwrap_or_default()
+                        ),
+                    ))
+                }
+                _ => Err(InputError::at(
+                    path,
+                    key,
+                    "give all of count, min and max (to draw receivers) or none of them",
+                )),
+            }
+        }
+    }
+}

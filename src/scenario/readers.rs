@@ -1,0 +1,222 @@
+//! The trace, truth and schedule files a scenario names (CSV), read into
+//! validated measurements, positions and schedules; an error names the file
+//! and the line.
+
+use super::*;
+
+#[derive(Debug, Deserialize)]
+struct TraceRow {
+    sample: usize,
+    receiver: usize,
+    transmitter: Option<usize>,
+    kind: String,
+    value: f64,
+}
+
+fn csv_reader(path: &Path, header: &[&str]) -> Result<csv::Reader<std::fs::File>, InputError> {
+    let f = std::fs::File::open(path)
+        .map_err(|e| InputError::file(path, format!("cannot open: {e}")))?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(f);
+    let h = rdr
+        .headers()
+        .map_err(|e| InputError::at(path, "line 1", format!("cannot read header: {e}")))?;
+    let got: Vec<&str> = h.iter().collect();
+    // sonarnet's own outputs append a `seed` column; accept and ignore it.
+    let with_seed = got.len() == header.len() + 1
+        && got[..header.len()] == *header
+        && got[header.len()] == "seed";
+    if got != header && !with_seed {
+        return Err(InputError::at(
+            path,
+            "line 1",
+            format!(
+                "header must be `{}` (optionally followed by `,seed`), got `{}`",
+                header.join(","),
+                got.join(",")
+            ),
+        ));
+    }
+    Ok(rdr)
+}
+
+fn trim_record(rec: &csv::StringRecord, n: usize) -> csv::StringRecord {
+    let mut r: csv::StringRecord = rec.iter().take(n).collect();
+    r.set_position(rec.position().cloned());
+    r
+}
+
+fn row_line(rec: &csv::StringRecord) -> String {
+    rec.position()
+        .map_or("line ?".into(), |p| format!("line {}", p.line()))
+}
+
+/// Read a measurement trace (`sample,receiver,transmitter,kind,value`).
+pub fn read_trace(path: &Path, geometry: &Geometry) -> Result<Vec<SampleMeasurements>, InputError> {
+    let mut rdr = csv_reader(
+        path,
+        &["sample", "receiver", "transmitter", "kind", "value"],
+    )?;
+    let n = geometry.receivers.len();
+    let m = geometry.transmitters.len();
+    let mut out: Vec<SampleMeasurements> = Vec::new();
+    let mut seen = BTreeSet::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            let loc = e
+                .position()
+                .map_or("line ?".into(), |p| format!("line {}", p.line()));
+            InputError::at(path, loc, e.to_string())
+        })?;
+        let line = row_line(&rec);
+        let row: TraceRow = trim_record(&rec, 5)
+            .deserialize(None)
+            .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
+        if !row.value.is_finite() {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!("value must be finite, got {}", row.value),
+            ));
+        }
+        if row.receiver >= n {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!(
+                    "receiver {} does not exist (scenario has {n})",
+                    row.receiver
+                ),
+            ));
+        }
+        if out.len() <= row.sample {
+            out.resize(
+                row.sample + 1,
+                SampleMeasurements {
+                    nodes: vec![NodeMeasurements::default(); n],
+                },
+            );
+        }
+        let node = &mut out[row.sample].nodes[row.receiver];
+        let key = (row.sample, row.receiver, row.kind.clone(), row.transmitter);
+        if !seen.insert(key) {
+            return Err(InputError::at(path, &line, "duplicate measurement"));
+        }
+        match row.kind.as_str() {
+            "bistatic_range" => {
+                let Some(t) = row.transmitter else {
+                    return Err(InputError::at(
+                        path,
+                        &line,
+                        "bistatic_range needs a transmitter",
+                    ));
+                };
+                if t >= m {
+                    return Err(InputError::at(
+                        path,
+                        &line,
+                        format!("transmitter {t} does not exist (scenario has {m})"),
+                    ));
+                }
+                node.bistatic.push((t, row.value));
+            }
+            "doa" | "range" => {
+                if row.transmitter.is_some() {
+                    return Err(InputError::at(
+                        path,
+                        &line,
+                        format!("transmitter must be empty for kind {}", row.kind),
+                    ));
+                }
+                if row.kind == "doa" {
+                    node.doa = Some(row.value);
+                } else {
+                    node.range = Some(row.value);
+                }
+            }
+            other => {
+                return Err(InputError::at(
+                    path,
+                    &line,
+                    format!("unknown kind `{other}` (expected bistatic_range, doa or range)"),
+                ));
+            }
+        }
+    }
+    if out.is_empty() {
+        return Err(InputError::file(path, "the trace has no measurements"));
+    }
+    for s in &mut out {
+        for node in &mut s.nodes {
+            node.bistatic.sort_by_key(|&(t, _)| t);
+        }
+    }
+    Ok(out)
+}
+
+/// Read a truth file (`sample,x,y`, samples 0..S-1 in order).
+pub fn read_truth(path: &Path) -> Result<Vec<Vec2>, InputError> {
+    let mut rdr = csv_reader(path, &["sample", "x", "y"])?;
+    let mut out = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| InputError::file(path, e.to_string()))?;
+        let line = row_line(&rec);
+        let (k, x, y): (usize, f64, f64) = trim_record(&rec, 3)
+            .deserialize(None)
+            .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
+        if k != out.len() {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!("expected sample {}, got {k}", out.len()),
+            ));
+        }
+        if !(x.is_finite() && y.is_finite()) {
+            return Err(InputError::at(path, &line, "x and y must be finite"));
+        }
+        out.push(Vec2::new(x, y));
+    }
+    Ok(out)
+}
+
+/// Read an async schedule (`iteration,v,w`, iterations 0.. in order, every
+/// `(v, w)` an edge of `graph`).
+pub fn read_schedule(path: &Path, graph: &Graph) -> Result<Vec<(usize, usize)>, InputError> {
+    let mut rdr = csv_reader(path, &["iteration", "v", "w"])?;
+    let mut out = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| InputError::file(path, e.to_string()))?;
+        let line = row_line(&rec);
+        let (it, v, w): (usize, usize, usize) = trim_record(&rec, 3)
+            .deserialize(None)
+            .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
+        if it != out.len() {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!("expected iteration {}, got {it}", out.len()),
+            ));
+        }
+        if v >= graph.len() || w >= graph.len() {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!(
+                    "node {} does not exist (network has {})",
+                    v.max(w),
+                    graph.len()
+                ),
+            ));
+        }
+        if !graph.has_edge(v, w) {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!("({v}, {w}) is not an edge of the network"),
+            ));
+        }
+        out.push((v, w));
+    }
+    Ok(out)
+}
