@@ -1,0 +1,43 @@
+//! The target trajectories of seed 000 eq. (19) and seed 001 Sec. V, from the random walks of [`crate::model::motion::Walk`].
+
+use super::*;
+
+/// `len` positions of the random walk `walk` starting at `start` (`len = 0`
+/// gives an empty vector).
+pub fn walk_trajectory<R: RngExt + ?Sized>(
+    walk: Walk,
+    start: Vec2,
+    len: usize,
+    rng: &mut R,
+) -> Result<Vec<Vec2>, TrackError> {
+    let scale = walk.scale();
+    if !(scale.is_finite() && scale >= 0.0) {
+        return Err(TrackError::BadParameter {
+            name: "motion scale",
+            reason: format!("must be finite and >= 0, got {scale}"),
+        });
+    }
+    check_x0(&start)?;
+    let mut out = Vec::with_capacity(len);
+    if len == 0 {
+        return Ok(out);
+    }
+    let mut x = start;
+    out.push(x);
+    for k in 0..len - 1 {
+        x += walk.displacement(k, rng);
+        out.push(x);
+    }
+    Ok(out)
+}
+
+/// Seed 000 eq. (19) trajectory of `len` positions from `start` (a shorthand
+/// for [`Walk::SqrtDecayCircle`]).
+pub fn trajectory_eq19<R: RngExt + ?Sized>(
+    start: Vec2,
+    c: f64,
+    len: usize,
+    rng: &mut R,
+) -> Result<Vec<Vec2>, TrackError> {
+    walk_trajectory(Walk::SqrtDecayCircle { c }, start, len, rng)
+}

@@ -1,0 +1,192 @@
+//! One sample's bistatic least-squares problem (seed 004 eq. (1)-(2)): its linearisation, the linear initialisation and the iterate updates shared by the estimators.
+
+use super::*;
+
+/// The links resolved to sensor positions, validated.
+pub(super) struct Problem {
+    pub(super) t: Vec<Vec2>,
+    pub(super) r: Vec<Vec2>,
+    pub(super) s: Vec<f64>,
+    pub(super) rx: Vec<usize>,
+    pub(super) n_rx: usize,
+    pub(super) centroid: Vec2,
+    /// RMS distance of the sensors from their centroid (floored).
+    pub(super) spread: f64,
+    /// Distances below this are clamped (Lemma 1/2 of seed 004 divide by them).
+    pub(super) dist_floor: f64,
+}
+
+impl Problem {
+    pub(super) fn new(geom: &Geometry, links: &[BistaticLink]) -> Result<Problem, RobustError> {
+        if links.is_empty() {
+            return Err(RobustError::NoLinks);
+        }
+        let (n_tx, n_rx) = (geom.transmitters.len(), geom.receivers.len());
+        let mut t = Vec::with_capacity(links.len());
+        let mut r = Vec::with_capacity(links.len());
+        let mut s = Vec::with_capacity(links.len());
+        let mut rx = Vec::with_capacity(links.len());
+        for (index, l) in links.iter().enumerate() {
+            let tp = *geom
+                .transmitters
+                .get(l.tx)
+                .ok_or(RobustError::TransmitterOutOfRange {
+                    index,
+                    tx: l.tx,
+                    n_tx,
+                })?;
+            let rp = *geom
+                .receivers
+                .get(l.rx)
+                .ok_or(RobustError::ReceiverOutOfRange {
+                    index,
+                    rx: l.rx,
+                    n_rx,
+                })?;
+            if !(tp.x.is_finite() && tp.y.is_finite()) {
+                return Err(RobustError::NonFiniteSensor {
+                    kind: "transmitter",
+                    index: l.tx,
+                });
+            }
+            if !(rp.x.is_finite() && rp.y.is_finite()) {
+                return Err(RobustError::NonFiniteSensor {
+                    kind: "receiver",
+                    index: l.rx,
+                });
+            }
+            if !l.rho.is_finite() {
+                return Err(RobustError::NonFiniteRange { index, rho: l.rho });
+            }
+            t.push(tp);
+            r.push(rp);
+            s.push(l.rho);
+            rx.push(l.rx);
+        }
+        let n = links.len() as f64;
+        let centroid = (t.iter().sum::<Vec2>() + r.iter().sum::<Vec2>()) / (2.0 * n);
+        let ms = t
+            .iter()
+            .chain(r.iter())
+            .map(|p| (p - centroid).norm_squared())
+            .sum::<f64>()
+            / (2.0 * n);
+        let mean_s = s.iter().map(|v| v.abs()).sum::<f64>() / n;
+        let spread = ms.sqrt().max(0.5 * mean_s).max(f64::MIN_POSITIVE);
+        if !spread.is_finite() {
+            return Err(RobustError::NonFinite {
+                estimator: "input",
+                iter: 0,
+            });
+        }
+        Ok(Problem {
+            t,
+            r,
+            s,
+            rx,
+            n_rx,
+            centroid,
+            spread,
+            dist_floor: 1e-12 * spread,
+        })
+    }
+
+    pub(super) fn len(&self) -> usize {
+        self.s.len()
+    }
+
+    pub(super) fn step_floor(&self) -> f64 {
+        1e-3 * self.spread
+    }
+
+    pub(super) fn init(&self, init: Init) -> Result<Vec2, RobustError> {
+        match init {
+            Init::Point([x, y]) => {
+                if x.is_finite() && y.is_finite() {
+                    Ok(Vec2::new(x, y))
+                } else {
+                    Err(RobustError::NonFiniteInit(x, y))
+                }
+            }
+            Init::Centroid => Ok(self.centroid),
+            Init::Linear => Ok(self.linear_init().unwrap_or(self.centroid)),
+        }
+    }
+
+    /// Linear LS on the rows `[2 (t - r)^T, -2 s] [e; d_j] = ||t||^2 - s^2 - ||r||^2`
+    /// of seed 002 eq. (9) (coordinates centred on the sensor centroid), with
+    /// each receiver's `d_j` eliminated in closed form. `None` if singular.
+    pub(super) fn linear_init(&self) -> Option<Vec2> {
+        // Per receiver: S_aa (3 entries), s_ac (2), S_cc, s_ag (2), s_cg.
+        let mut acc = vec![[0.0f64; 9]; self.n_rx];
+        let c0 = self.centroid;
+        for l in 0..self.len() {
+            let (t, r) = (self.t[l] - c0, self.r[l] - c0);
+            let a = 2.0 * (t - r);
+            let c = -2.0 * self.s[l];
+            let g = t.norm_squared() - self.s[l] * self.s[l] - r.norm_squared();
+            let k = &mut acc[self.rx[l]];
+            k[0] += a.x * a.x;
+            k[1] += a.x * a.y;
+            k[2] += a.y * a.y;
+            k[3] += a.x * c;
+            k[4] += a.y * c;
+            k[5] += c * c;
+            k[6] += a.x * g;
+            k[7] += a.y * g;
+            k[8] += c * g;
+        }
+        let (mut m00, mut m01, mut m11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for k in &acc {
+            m00 += k[0];
+            m01 += k[1];
+            m11 += k[2];
+            b0 += k[6];
+            b1 += k[7];
+            if k[5] > 0.0 {
+                m00 -= k[3] * k[3] / k[5];
+                m01 -= k[3] * k[4] / k[5];
+                m11 -= k[4] * k[4] / k[5];
+                b0 -= k[3] * k[8] / k[5];
+                b1 -= k[4] * k[8] / k[5];
+            }
+        }
+        let det = m00 * m11 - m01 * m01;
+        let tr = m00 + m11;
+        if !(det.is_finite() && tr > 0.0 && det > 1e-10 * tr * tr) {
+            return None;
+        }
+        let e = Vec2::new((m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det) + c0;
+        (e.x.is_finite() && e.y.is_finite()).then_some(e)
+    }
+}
+
+/// Hard thresholding of seed 004 eq. (19)-(20), the one implementation for
+/// `l0-OS` here and the `gtrs_l0` prox ([`crate::estimators::prox::l0`]): the indices of
+/// the `kappa` largest `|beta|`, ascending. Ties go to the lower index, so the
+/// result is deterministic (seed 004 allows any tie-break); a NaN counts as
+/// infinitely large, so a poisoned entry is separated first. `order` is
+/// scratch and holds the result.
+pub(crate) fn hard_threshold<'a>(
+    beta: &[f64],
+    kappa: usize,
+    order: &'a mut Vec<usize>,
+) -> &'a [usize] {
+    order.clear();
+    order.extend(0..beta.len());
+    let k = kappa.min(order.len());
+    if k == 0 {
+        return &order[..0];
+    }
+    let mag = |i: usize| {
+        let m = beta[i].abs();
+        if m.is_nan() { f64::INFINITY } else { m }
+    };
+    let cmp = |a: &usize, b: &usize| mag(*b).total_cmp(&mag(*a)).then_with(|| a.cmp(b));
+    if k < order.len() {
+        order.select_nth_unstable_by(k - 1, cmp);
+    }
+    order.truncate(k);
+    order.sort_unstable();
+    &order[..]
+}

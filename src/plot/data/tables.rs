@@ -1,0 +1,283 @@
+//! The CSV files of a results directory (`track.csv`, `nodes.csv`, `iterations.csv`, `trials.csv`), read with the line of every error.
+
+use super::*;
+
+/// A CSV file as strings.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Csv {
+    /// Header.
+    pub header: Vec<String>,
+    /// Rows.
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Csv {
+    pub(super) fn col(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+
+    /// Parse the cell of data row `i` (0-based), column `j`: empty is `None`,
+    /// anything else must be a finite number.
+    pub(super) fn cell(
+        &self,
+        p: &Path,
+        i: usize,
+        j: usize,
+        s: &str,
+    ) -> Result<Option<f64>, InputError> {
+        let s = s.trim();
+        if s.is_empty() {
+            return Ok(None);
+        }
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(Some(v)),
+            _ => Err(InputError::at(
+                p,
+                format!("line {}, column {}", i + 2, self.header[j]),
+                format!("expected a finite number, found `{s}`"),
+            )),
+        }
+    }
+
+    /// Column `j` as numbers.
+    pub(super) fn numbers(&self, p: &Path, j: usize) -> Result<Vec<Option<f64>>, InputError> {
+        self.rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| self.cell(p, i, j, r.get(j).map_or("", String::as_str)))
+            .collect()
+    }
+
+    /// Named column as numbers, or `None` if there is no such column.
+    pub(super) fn numbers_of(
+        &self,
+        p: &Path,
+        name: &str,
+    ) -> Result<Option<Vec<Option<f64>>>, InputError> {
+        self.col(name).map(|j| self.numbers(p, j)).transpose()
+    }
+}
+
+/// Read a CSV file with a header row.
+pub fn read_csv(p: &Path) -> Result<Csv, InputError> {
+    let mut rdr = csv::Reader::from_path(p).map_err(|e| InputError::file(p, e.to_string()))?;
+    let header = rdr
+        .headers()
+        .map_err(|e| InputError::file(p, format!("cannot read the header: {e}")))?
+        .iter()
+        .map(|s| s.trim().to_string())
+        .collect::<Vec<_>>();
+    let mut rows = Vec::new();
+    for (i, r) in rdr.records().enumerate() {
+        let r = r.map_err(|e| InputError::at(p, format!("line {}", i + 2), e.to_string()))?;
+        rows.push(r.iter().map(str::to_owned).collect());
+    }
+    Ok(Csv { header, rows })
+}
+
+pub(super) fn xy(x: &[Option<f64>], y: &[Option<f64>]) -> Vec<Option<[f64; 2]>> {
+    x.iter()
+        .zip(y)
+        .map(|(a, b)| match (a, b) {
+            (Some(a), Some(b)) => Some([*a, *b]),
+            _ => None,
+        })
+        .collect()
+}
+
+pub(super) fn running_sum(e: &[Option<f64>]) -> Vec<Option<f64>> {
+    let mut s = 0.0;
+    e.iter()
+        .map(|v| {
+            v.map(|v| {
+                s += v;
+                s
+            })
+        })
+        .collect()
+}
+
+pub(super) fn distances(pos: &[Option<[f64; 2]>], truth: &[Option<[f64; 2]>]) -> Vec<Option<f64>> {
+    pos.iter()
+        .zip(truth)
+        .map(|(p, t)| match (p, t) {
+            (Some(p), Some(t)) => Some((p[0] - t[0]).hypot(p[1] - t[1])),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Split a parsed `track.csv` into tracks (the generic column convention:
+/// `est_*` and the plain `error,ctte,regret` are `theta_bar`; `ml_*` is the
+/// ML reference; any other `NAME_x,NAME_y` pair is a baseline with optional
+/// `NAME_error,NAME_ctte,NAME_regret`; `bound_NAME` is a bound radius).
+pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
+    let j = csv.col("sample").ok_or_else(|| {
+        InputError::at(p, "line 1", "no `sample` column: this is not a track.csv")
+    })?;
+    let sample = csv
+        .numbers(p, j)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, v)| {
+            v.ok_or_else(|| InputError::at(p, format!("line {}", i + 2), "empty `sample`"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let n = sample.len();
+    let none = || vec![None; n];
+    let get = |name: &str| -> Result<Vec<Option<f64>>, InputError> {
+        Ok(csv.numbers_of(p, name)?.unwrap_or_else(none))
+    };
+    let truth = xy(&get("true_x")?, &get("true_y")?);
+    let mut names: Vec<(String, TrackKind)> = Vec::new();
+    if csv.col("est_x").is_some() && csv.col("est_y").is_some() {
+        names.push(("est".into(), TrackKind::Distributed));
+    }
+    if csv.col("ml_x").is_some() && csv.col("ml_y").is_some() {
+        names.push(("ml".into(), TrackKind::Reference));
+    }
+    for h in &csv.header {
+        if let Some(base) = h.strip_suffix("_x")
+            && !matches!(base, "true" | "est" | "ml")
+            && csv.col(&format!("{base}_y")).is_some()
+        {
+            names.push((base.to_string(), TrackKind::Baseline));
+        }
+    }
+    let mut tracks = Vec::new();
+    for (prefix, kind) in &names {
+        let pos = xy(&get(&format!("{prefix}_x"))?, &get(&format!("{prefix}_y"))?);
+        let (err_col, ctte_col, regret_col) = if *kind == TrackKind::Distributed {
+            (
+                "error".to_string(),
+                "ctte".to_string(),
+                "regret".to_string(),
+            )
+        } else {
+            (
+                format!("{prefix}_error"),
+                format!("{prefix}_ctte"),
+                format!("{prefix}_regret"),
+            )
+        };
+        let error = match csv.numbers_of(p, &err_col)? {
+            Some(e) => e,
+            None => distances(&pos, &truth),
+        };
+        let ctte = match csv.numbers_of(p, &ctte_col)? {
+            Some(c) => c,
+            None => running_sum(&error),
+        };
+        let regret = csv.numbers_of(p, &regret_col)?;
+        let name = match kind {
+            TrackKind::Distributed => THETA_BAR.to_string(),
+            TrackKind::Reference => ML.to_string(),
+            TrackKind::Baseline => prefix.clone(),
+        };
+        tracks.push(Track {
+            name,
+            kind: *kind,
+            pos,
+            error,
+            ctte,
+            regret,
+        });
+    }
+    let claimed = |h: &str| {
+        names.iter().any(|(b, k)| {
+            *k == TrackKind::Baseline
+                && ["_x", "_y", "_error", "_ctte", "_regret"]
+                    .iter()
+                    .any(|s| h == format!("{b}{s}"))
+        })
+    };
+    let mut bounds = Vec::new();
+    for (jj, h) in csv.header.iter().enumerate() {
+        if let Some(name) = h.strip_prefix("bound_")
+            && !claimed(h)
+        {
+            // Bound radii: an empty cell is an empty set; a non-finite radius
+            // (an unbounded region) is not drawn either.
+            let radius = csv
+                .rows
+                .iter()
+                .map(|r| {
+                    r.get(jj)
+                        .and_then(|s| s.trim().parse::<f64>().ok())
+                        .filter(|v| v.is_finite() && *v >= 0.0)
+                })
+                .collect();
+            bounds.push(BoundSeries {
+                name: name.to_string(),
+                radius,
+            });
+        }
+    }
+    Ok(TrackTable {
+        sample,
+        truth,
+        tracks,
+        crlb: get("crlb")?,
+        bounds,
+    })
+}
+
+/// Parse `nodes.csv` (`sample,node,x,y,...`) or, with `iterations`,
+/// `iterations.csv` (`iteration,sample,node,x,y,...`).
+pub fn parse_node_points(
+    p: &Path,
+    csv: &Csv,
+    iterations: bool,
+) -> Result<Vec<NodePoint>, InputError> {
+    let mut need = vec!["sample", "node", "x", "y"];
+    if iterations {
+        need.push("iteration");
+    }
+    let mut cols = Vec::new();
+    for n in &need {
+        cols.push(csv.col(n).ok_or_else(|| {
+            InputError::at(
+                p,
+                "line 1",
+                format!("no `{n}` column (expected {})", need.join(",")),
+            )
+        })?);
+    }
+    let mut out = Vec::with_capacity(csv.rows.len());
+    for (i, r) in csv.rows.iter().enumerate() {
+        let mut v = [0.0; 5];
+        for (k, &j) in cols.iter().enumerate() {
+            v[k] = csv
+                .cell(p, i, j, r.get(j).map_or("", String::as_str))?
+                .ok_or_else(|| {
+                    InputError::at(
+                        p,
+                        format!("line {}, column {}", i + 2, need[k]),
+                        "empty cell",
+                    )
+                })?;
+        }
+        let index = |x: f64, what: &str| -> Result<u64, InputError> {
+            if x >= 0.0 && x.fract().abs() < 1e-9 {
+                Ok(x as u64)
+            } else {
+                Err(InputError::at(
+                    p,
+                    format!("line {}, column {what}", i + 2),
+                    format!("expected a non-negative integer, found {x}"),
+                ))
+            }
+        };
+        out.push(NodePoint {
+            sample: index(v[0], "sample")? as usize,
+            node: index(v[1], "node")? as usize,
+            pos: [v[2], v[3]],
+            iteration: if iterations {
+                Some(index(v[4], "iteration")?)
+            } else {
+                None
+            },
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,123 @@
+//! `network.svg`: the gossip graph, each node coloured by its share of the work.
+
+use super::*;
+
+pub(super) fn counter(m: &serde_json::Map<String, serde_json::Value>, k: &str) -> Option<u64> {
+    m.get(k).and_then(serde_json::Value::as_u64)
+}
+
+/// Sequential light-to-dark blue for `t` in `[0, 1]`.
+pub(super) fn heat(t: f64) -> Rgb {
+    let t = t.clamp(0.0, 1.0);
+    let lerp = |a: f64, b: f64| (a + (b - a) * t).round() as u8;
+    Rgb(lerp(222.0, 8.0), lerp(235.0, 69.0), lerp(247.0, 148.0))
+}
+
+/// `network.svg`: the graph to scale, each node coloured by its prox solves
+/// and labelled with its counters (prox solves, messages out/in, declines).
+pub fn network_figure(data: &RunData) -> Figure {
+    let mut panel = Panel::new(700, "x (m)", "y (m)");
+    let mut legend = Vec::new();
+    let rx = &data.info.receivers;
+    let counters = data.node_counters();
+    // Edges and transmitters, without the plain receiver markers.
+    let mut geo = Vec::new();
+    draw_geometry(data, &mut panel, &mut geo, true);
+    panel.series.retain(|s| s.name != "receivers");
+    panel.labels.retain(|l| !l.lines[0].starts_with('R'));
+    geo.retain(|g| !g.label.starts_with("receiver"));
+    legend.extend(geo);
+    let prox: Vec<Option<u64>> = (0..rx.len())
+        .map(|i| {
+            counters
+                .iter()
+                .find(|c| counter(c, "node") == Some(i as u64))
+                .and_then(|c| counter(c, "prox_solves"))
+        })
+        .collect();
+    let lo = prox.iter().flatten().copied().min().unwrap_or(0) as f64;
+    let hi = prox.iter().flatten().copied().max().unwrap_or(0) as f64;
+    // Four-line counter labels need room: with many or crowded nodes, one
+    // line (id and prox solves) each.
+    let span = {
+        let pts = geometry_points(data);
+        let x = linear_range(pts.iter().map(|p| p.0), 0.0);
+        let y = linear_range(pts.iter().map(|p| p.1), 0.0);
+        (x.1 - x.0).max(y.1 - y.0)
+    };
+    let closest = rx
+        .iter()
+        .enumerate()
+        .flat_map(|(i, a)| {
+            rx[i + 1..]
+                .iter()
+                .map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
+        })
+        .fold(f64::INFINITY, f64::min);
+    let compact = rx.len() > 10 || closest < 0.15 * span;
+    for (i, p) in rx.iter().enumerate() {
+        let c = counters
+            .iter()
+            .find(|c| counter(c, "node") == Some(i as u64));
+        let color = match prox[i] {
+            Some(v) if hi > lo => heat(0.15 + 0.85 * (v as f64 - lo) / (hi - lo)),
+            Some(_) => heat(0.6),
+            None => Rgb(200, 200, 200),
+        };
+        panel.series.push(Series {
+            name: format!("node {i}"),
+            segments: vec![vec![(p[0], p[1])]],
+            style: Style::markers(color, Marker::Circle, 11),
+        });
+        let mut lines = vec![format!("R{i}")];
+        if let Some(c) = c {
+            let g = |k| counter(c, k).map_or("-".into(), |v| v.to_string());
+            if compact {
+                lines[0] = format!("R{i} · {}", g("prox_solves"));
+            } else {
+                lines.push(format!("prox {}", g("prox_solves")));
+                lines.push(format!("msg {}↑ {}↓", g("messages_out"), g("messages_in")));
+                lines.push(format!("declines {}", g("declines")));
+            }
+        }
+        panel.labels.push(Label {
+            at: (p[0], p[1]),
+            offset: (15, -8),
+            lines,
+            size: 15,
+        });
+    }
+    legend.push(LegendItem {
+        label: if hi > lo {
+            format!("node: prox solves {lo:.0} (light) – {hi:.0} (dark)")
+        } else {
+            "node (receiver)".into()
+        },
+        swatch: Swatch::Line(Style::markers(heat(0.6), Marker::Circle, 6)),
+    });
+    if compact && !counters.is_empty() {
+        legend.push(LegendItem {
+            label: "label: R<node> · prox solves (all counters in the report's table)".into(),
+            swatch: Swatch::Line(Style::line(Rgb(255, 255, 255), 0)),
+        });
+    }
+    let pts = geometry_points(data);
+    // Room on the right for the counter labels.
+    let x = linear_range(pts.iter().map(|p| p.0), 0.08);
+    let x = (x.0, x.1 + 0.25 * (x.1 - x.0));
+    let y = linear_range(pts.iter().map(|p| p.1), 0.1);
+    let y = (y.0 - 0.12 * (y.1 - y.0), y.1);
+    fit_map(&mut panel, x, y, 420, 820);
+    if rx.is_empty() {
+        panel.note = Some("run.json has no receiver positions".into());
+    } else if counters.is_empty() {
+        panel.note = Some("metrics.json has no per-node counters".into());
+    }
+    Figure {
+        name: "network".into(),
+        title: format!("Network and per-node counters — {}", data.title()),
+        width: WIDTH,
+        panels: vec![panel],
+        legend,
+    }
+}

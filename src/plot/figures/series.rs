@@ -1,0 +1,270 @@
+//! `error.svg` and `ctte.svg`: the error and CTTE of every track against the sample, with Monte Carlo bands.
+
+use super::*;
+
+pub(super) fn add_band(
+    panel: &mut Panel,
+    legend: &mut Vec<LegendItem>,
+    name: &str,
+    label: &str,
+    xs: &[f64],
+    b: &BandCurve,
+    style: Style,
+) {
+    let mut segs: Vec<Vec<(f64, f64, f64)>> = Vec::new();
+    let mut cur = Vec::new();
+    for ((x, lo), hi) in xs.iter().zip(&b.p5).zip(&b.p95) {
+        match (lo, hi) {
+            (Some(lo), Some(hi)) => cur.push((*x, *lo, *hi)),
+            _ => {
+                if !cur.is_empty() {
+                    segs.push(std::mem::take(&mut cur));
+                }
+            }
+        }
+    }
+    if !cur.is_empty() {
+        segs.push(cur);
+    }
+    if !segs.is_empty() {
+        panel.bands.push(Band {
+            name: name.to_string(),
+            segments: segs,
+            color: style.color,
+        });
+    }
+    panel.series.push(Series {
+        name: name.to_string(),
+        segments: segments(xs, &b.mean, false),
+        style,
+    });
+    legend.push(LegendItem {
+        label: format!("{label} (mean)"),
+        swatch: Swatch::Line(style),
+    });
+}
+
+/// Finish a time-series panel: ranges over all points (log if asked), bands
+/// clamped to a log axis' floor, non-positive points dropped on log axes.
+pub(super) fn finish_series_panel(panel: &mut Panel, log: bool, zero_based: bool) {
+    let pts = panel.points();
+    panel.x_range = {
+        let (lo, hi) = linear_range(pts.iter().map(|p| p.0), 0.0);
+        if hi > lo {
+            (lo, hi)
+        } else {
+            (lo - 0.5, hi + 0.5)
+        }
+    };
+    panel.log_y = log;
+    if log {
+        for s in &mut panel.series {
+            for seg in &mut s.segments {
+                seg.retain(|p| p.1 > 0.0);
+            }
+            s.segments.retain(|seg| !seg.is_empty());
+        }
+        panel.y_range = log_range(panel.points().into_iter().map(|p| p.1));
+        let floor = panel.y_range.0;
+        for b in &mut panel.bands {
+            for seg in &mut b.segments {
+                for p in seg.iter_mut() {
+                    p.1 = p.1.max(floor);
+                    p.2 = p.2.max(floor);
+                }
+            }
+        }
+    } else if zero_based {
+        panel.y_range = zero_based_range(pts.iter().map(|p| p.1));
+    } else {
+        panel.y_range = linear_range(pts.iter().map(|p| p.1), 0.05);
+    }
+    if panel.series.iter().all(|s| s.segments.is_empty()) && panel.bands.is_empty() {
+        panel.note.get_or_insert_with(|| "no data".into());
+    }
+}
+
+pub(super) fn burn_in_line(data: &RunData, panel: &mut Panel, legend: &mut Vec<LegendItem>) {
+    if let Some(b) = data.info.burn_in.filter(|b| *b > 0) {
+        panel.vlines.push(VLine {
+            x: b as f64,
+            caption: format!("burn-in ({b} samples)"),
+            shade_left: true,
+        });
+        legend.push(LegendItem {
+            label: "burn-in (excluded)".into(),
+            swatch: Swatch::Area(GREY),
+        });
+    }
+}
+
+/// `error.svg`: error per sample of every track, with the CRLB and the
+/// burn-in; Monte Carlo runs show mean curves with 5th-95th percentile bands.
+pub fn error_figure(data: &RunData) -> Figure {
+    let mut panel = Panel::new(480, "sample k", "position error (m)");
+    let mut legend = Vec::new();
+    let crlb_style = Style::line(GREY, 2).dashed();
+    let mut title = format!("Error per sample — {}", data.title());
+    if let Some(mc) = data.monte_carlo.as_ref().filter(|m| !m.sample.is_empty()) {
+        let names = mc_names(data);
+        for c in &mc.curves {
+            if let Some(b) = &c.error {
+                let st = curve_style(&c.name, &names);
+                add_band(
+                    &mut panel,
+                    &mut legend,
+                    &c.name,
+                    &curve_label(&c.name),
+                    &mc.sample,
+                    b,
+                    st,
+                );
+            }
+        }
+        if let Some(b) = &mc.crlb {
+            panel.series.push(Series {
+                name: "crlb".into(),
+                segments: segments(&mc.sample, &b.mean, false),
+                style: crlb_style,
+            });
+            legend.push(LegendItem {
+                label: "CRLB √tr(J⁻¹) (mean)".into(),
+                swatch: Swatch::Line(crlb_style),
+            });
+        }
+        legend.push(LegendItem {
+            label: "5th–95th percentile".into(),
+            swatch: Swatch::Area(PALETTE[0]),
+        });
+        title = format!(
+            "Error per sample, {} trials — {}",
+            mc.trials.map_or("Monte Carlo".into(), |t| t.to_string()),
+            data.title()
+        );
+    } else {
+        let xs = sample_xs(data);
+        let names = names(data);
+        for t in &data.track.tracks {
+            let st = track_style(t, &names);
+            panel.series.push(Series {
+                name: t.name.clone(),
+                segments: segments(&xs, &t.error, false),
+                style: st,
+            });
+            legend.push(LegendItem {
+                label: t.label(),
+                swatch: Swatch::Line(st),
+            });
+        }
+        if data.track.crlb.iter().any(Option::is_some) {
+            panel.series.push(Series {
+                name: "crlb".into(),
+                segments: segments(&xs, &data.track.crlb, false),
+                style: crlb_style,
+            });
+            legend.push(LegendItem {
+                label: "CRLB √tr(J⁻¹)".into(),
+                swatch: Swatch::Line(crlb_style),
+            });
+        }
+    }
+    burn_in_line(data, &mut panel, &mut legend);
+    let log = wants_log(panel.points().into_iter().map(|p| p.1));
+    if log {
+        panel.y_label = "position error (m, log scale)".into();
+    }
+    finish_series_panel(&mut panel, log, true);
+    if panel.note.is_some() && data.track.truth.iter().all(Option::is_none) {
+        panel.note = Some("no truth: errors are not defined".into());
+    }
+    Figure {
+        name: "error".into(),
+        title,
+        width: WIDTH,
+        panels: vec![panel],
+        legend,
+    }
+}
+
+/// `ctte.svg`: running CTTE (seed 000) and, when present, running dynamic
+/// regret (seed 001) for every track; Monte Carlo runs show mean and band.
+pub fn ctte_figure(data: &RunData) -> Figure {
+    let mut ctte = Panel::new(440, "sample k", "cumulative tracking error CTTE (m)");
+    let mut regret = Panel::new(360, "sample k", "dynamic regret");
+    let mut legend = Vec::new();
+    let mut title = format!("Running CTTE — {}", data.title());
+    if let Some(mc) = data.monte_carlo.as_ref().filter(|m| !m.sample.is_empty()) {
+        let names = mc_names(data);
+        for c in &mc.curves {
+            let st = curve_style(&c.name, &names);
+            if let Some(b) = &c.ctte {
+                add_band(
+                    &mut ctte,
+                    &mut legend,
+                    &c.name,
+                    &curve_label(&c.name),
+                    &mc.sample,
+                    b,
+                    st,
+                );
+            }
+            if let Some(b) = &c.regret {
+                add_band(
+                    &mut regret,
+                    &mut legend,
+                    &c.name,
+                    &curve_label(&c.name),
+                    &mc.sample,
+                    b,
+                    st,
+                );
+            }
+        }
+        legend.push(LegendItem {
+            label: "5th–95th percentile".into(),
+            swatch: Swatch::Area(PALETTE[0]),
+        });
+        title = format!(
+            "Running CTTE, {} trials — {}",
+            mc.trials.map_or("Monte Carlo".into(), |t| t.to_string()),
+            data.title()
+        );
+    } else {
+        let xs = sample_xs(data);
+        let names = names(data);
+        for t in &data.track.tracks {
+            let st = track_style(t, &names);
+            ctte.series.push(Series {
+                name: t.name.clone(),
+                segments: segments(&xs, &t.ctte, false),
+                style: st,
+            });
+            if let Some(r) = &t.regret {
+                regret.series.push(Series {
+                    name: t.name.clone(),
+                    segments: segments(&xs, r, false),
+                    style: st,
+                });
+            }
+            legend.push(LegendItem {
+                label: t.label(),
+                swatch: Swatch::Line(st),
+            });
+        }
+    }
+    dedup_legend(&mut legend);
+    finish_series_panel(&mut ctte, false, true);
+    let mut panels = vec![ctte];
+    if !regret.series.is_empty() {
+        title = title.replacen("Running CTTE", "Running CTTE and regret", 1);
+        finish_series_panel(&mut regret, false, false);
+        panels.push(regret);
+    }
+    Figure {
+        name: "ctte".into(),
+        title,
+        width: WIDTH,
+        panels,
+        legend,
+    }
+}

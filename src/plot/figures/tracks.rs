@@ -1,0 +1,114 @@
+//! `tracks.svg`: the true track, every estimated track and the geometry on one map, with the bound discs.
+
+use super::*;
+
+/// `tracks.svg`: the true track, every estimated track, the geometry to
+/// scale (cf. seed 002 Fig. 2b) and the bound discs at every n-th sample.
+/// When the tracks cover less than half of the scene, a second panel zooms
+/// on them (same scale on both axes).
+pub fn tracks_figure(data: &RunData) -> Figure {
+    let tt = &data.track;
+    let names = names(data);
+    let mut panel = Panel::new(700, "x (m)", "y (m)");
+    let mut legend = Vec::new();
+    draw_geometry(data, &mut panel, &mut legend, true);
+    let geometry = panel.clone();
+    let mut tracks = Panel::new(700, "x (m)", "y (m)");
+    // Bound discs around theta_bar at every n-th sample.
+    let est = tt.track(THETA_BAR);
+    let n = tt.sample.len();
+    let every = (n / 12).max(1);
+    for (bi, b) in tt.bounds.iter().enumerate() {
+        let color = BOUND_COLORS[bi % BOUND_COLORS.len()];
+        let mut any = false;
+        for k in (0..n).step_by(every) {
+            if let (Some(r), Some(Some(c))) = (b.radius[k], est.map(|e| e.pos[k])) {
+                tracks.discs.push(Disc {
+                    name: format!("bound_{}", b.name),
+                    center: (c[0], c[1]),
+                    radius: r,
+                    color,
+                });
+                any = true;
+            }
+        }
+        if any {
+            legend.push(LegendItem {
+                label: format!("bound {} (every {every} samples)", b.name),
+                swatch: Swatch::Disc(color),
+            });
+        }
+    }
+    let truth = point_segments(&tt.truth);
+    if !truth.is_empty() {
+        let st = Style {
+            marker: Some(Marker::Circle),
+            marker_size: 2,
+            ..Style::line(BLACK, 2)
+        };
+        tracks.series.push(Series {
+            name: "truth".into(),
+            segments: truth,
+            style: st,
+        });
+        legend.push(LegendItem {
+            label: "true track".into(),
+            swatch: Swatch::Line(st),
+        });
+    }
+    // Reference first (under), then baselines, then theta_bar on top.
+    let mut order: Vec<&Track> = tt.tracks.iter().collect();
+    order.sort_by_key(|t| match t.kind {
+        TrackKind::Reference => 0,
+        TrackKind::Baseline => 1,
+        TrackKind::Distributed => 2,
+    });
+    for t in order {
+        let st = track_style(t, &names);
+        tracks.series.push(Series {
+            name: t.name.clone(),
+            segments: point_segments(&t.pos),
+            style: st,
+        });
+        legend.push(LegendItem {
+            label: t.label(),
+            swatch: Swatch::Line(st),
+        });
+    }
+    let track_pts = tracks.points();
+    panel.discs.extend(tracks.discs.iter().cloned());
+    panel.series.extend(tracks.series.iter().cloned());
+    let mut extent: Vec<(f64, f64)> = geometry_points(data);
+    extent.extend(track_pts.iter().copied());
+    let x = linear_range(extent.iter().map(|p| p.0), 0.06);
+    let y = linear_range(extent.iter().map(|p| p.1), 0.06);
+    let mut panels = Vec::new();
+    let (tx, ty) = (
+        linear_range(track_pts.iter().map(|p| p.0), 0.08),
+        linear_range(track_pts.iter().map(|p| p.1), 0.08),
+    );
+    let zoom = !track_pts.is_empty()
+        && !geometry.series.is_empty()
+        && (tx.1 - tx.0).max(ty.1 - ty.0) < 0.5 * (x.1 - x.0).max(y.1 - y.0);
+    if zoom {
+        fit_map(&mut panel, x, y, 400, 640);
+        fit_map(&mut tracks, tx, ty, 400, 700);
+        tracks.caption = Some("zoom on the tracks".into());
+        panels.push(panel);
+        panels.push(tracks);
+    } else {
+        fit_map(&mut panel, x, y, 420, 900);
+        panels.push(panel);
+    }
+    if n == 0 {
+        panels[0].note = Some("no samples in track.csv".into());
+    }
+    dedup_legend(&mut legend);
+    Figure {
+        name: "tracks".into(),
+        title: format!("Tracks — {}", data.title()),
+        width: WIDTH,
+        panels,
+        legend,
+    }
+}

@@ -1,0 +1,419 @@
+//! The sections of a run's report: scenario summary, metrics, bounds, nodes, Monte Carlo statistics, and how to reproduce the run.
+
+use super::*;
+
+pub(super) fn get<'a>(v: &'a Value, path: &[&str]) -> Option<&'a Value> {
+    let mut c = v;
+    for k in path {
+        c = c.get(k)?;
+    }
+    (!c.is_null()).then_some(c)
+}
+
+pub(super) fn show(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Number(n) => n.to_string(),
+        other => other.to_string(),
+    }
+}
+
+pub(super) fn noise(v: Option<&Value>) -> Option<String> {
+    let v = v?;
+    let model = v.get("model").map(show).unwrap_or_else(|| "?".into());
+    let rest: Vec<String> = v
+        .as_object()?
+        .iter()
+        .filter(|(k, _)| k.as_str() != "model")
+        .map(|(k, x)| format!("{k} {}", show(x)))
+        .collect();
+    Some(if rest.is_empty() {
+        model
+    } else {
+        format!("{model}, {}", rest.join(", "))
+    })
+}
+
+/// Rows `(field, value)` of the scenario summary.
+pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
+    let i = &d.info;
+    let sc = &i.scenario;
+    let mut rows: Vec<(String, String)> = Vec::new();
+    let mut add = |k: &str, v: Option<String>| {
+        if let Some(v) = v {
+            rows.push((k.into(), v));
+        }
+    };
+    add("scenario", Some(i.name.clone()));
+    add("scenario file", i.scenario_file.clone());
+    add(
+        "geometry",
+        Some(format!(
+            "{} transmitters, {} receivers, {} network links",
+            i.transmitters.len(),
+            i.receivers.len(),
+            i.edges.len()
+        )),
+    );
+    add(
+        "samples",
+        get(sc, &["target", "samples"]).map(show).map(|s| {
+            match d.metrics.get("samples_completed").and_then(Value::as_u64) {
+                Some(c) => format!("{c} completed of {s}"),
+                None => s,
+            }
+        }),
+    );
+    add(
+        "motion",
+        get(sc, &["target", "motion"]).and_then(|m| noise(Some(m))),
+    );
+    let mut meas = Vec::new();
+    for (k, label) in [
+        ("bistatic", "bistatic ranges"),
+        ("doa", "DOA"),
+        ("range", "ranges"),
+    ] {
+        if get(sc, &["measurements", k]).and_then(Value::as_bool) == Some(true) {
+            meas.push(label);
+        }
+    }
+    if !meas.is_empty() {
+        add("measurements", Some(meas.join(", ")));
+    }
+    add(
+        "range noise",
+        noise(get(sc, &["measurements", "range_noise"])),
+    );
+    add("DOA noise", noise(get(sc, &["measurements", "doa_noise"])));
+    add("mode", i.mode.clone());
+    add("local solver", i.local_solver.clone());
+    if i.local_solver.as_deref() == Some("gtrs_l0") {
+        add(
+            "κ (kappa, outlier rows per node)",
+            get(sc, &["algorithm", "kappa"]).map(show),
+        );
+    }
+    add(
+        "iterations per sample",
+        get(sc, &["algorithm", "iterations_per_sample"]).map(show),
+    );
+    add("γ (gamma)", get(sc, &["algorithm", "gamma"]).map(show));
+    add("burn-in", i.burn_in.map(|b| format!("{b} samples")));
+    add("engine", i.engine.clone());
+    add("clock", i.clock.clone());
+    if let Some(p) = i.poll_us.filter(|&p| p > 0) {
+        add("node polling", Some(format!("{p} µs before blocking")));
+    }
+    add("seed", i.seed.map(|s| s.to_string()));
+    if let Some(mc) = &d.monte_carlo {
+        add(
+            "Monte Carlo",
+            Some(format!(
+                "{} trials",
+                mc.trials
+                    .map(|t| t.to_string())
+                    .unwrap_or_else(|| mc.trial_rows.len().to_string())
+            )),
+        );
+    }
+    rows
+}
+
+pub(super) fn kv_table(rows: &[(String, String)]) -> String {
+    let mut s = String::from("<table class=\"kv\">\n");
+    for (k, v) in rows {
+        let _ = writeln!(s, "<tr><th>{}</th><td>{}</td></tr>", esc(k), esc(v));
+    }
+    s.push_str("</table>\n");
+    s
+}
+
+pub(super) fn track_metrics_html(d: &RunData) -> String {
+    let tm = track_metrics(d);
+    if tm.rows.is_empty() {
+        return "<p class=\"note\">No track metrics (metrics.json has none and track.csv has no tracks).</p>\n".into();
+    }
+    let mut s = String::from("<table id=\"track-metrics\">\n<tr><th>track</th>");
+    for c in &tm.columns {
+        let unit = if TRACK_KEYS[..5].contains(&c.as_str()) {
+            " (m)"
+        } else {
+            ""
+        };
+        let _ = write!(s, "<th>{}{unit}</th>", esc(c));
+    }
+    s.push_str("</tr>\n");
+    let mut any_computed = false;
+    for (name, label, cells) in &tm.rows {
+        let _ = write!(
+            s,
+            "<tr data-track=\"{}\"><th>{}</th>",
+            esc(name),
+            esc(label)
+        );
+        for c in cells {
+            match c {
+                Some(c) if c.computed => {
+                    any_computed = true;
+                    let _ = write!(s, "<td class=\"num computed\">{}</td>", fmt_num(c.value));
+                }
+                Some(c) => {
+                    let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(c.value));
+                }
+                None => s.push_str("<td class=\"num\">–</td>"),
+            }
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+    if any_computed {
+        s.push_str("<p class=\"note\">Values in italics are not in metrics.json; the report computed them from the error series of track.csv with the same definitions.</p>\n");
+    }
+    s
+}
+
+pub(super) fn run_metrics_html(d: &RunData) -> String {
+    let skip = |k: &str| {
+        TRACK_KEYS.contains(&k)
+            || matches!(
+                k,
+                "baselines"
+                    | "bounds"
+                    | "nodes"
+                    | "deaths"
+                    | "realtime"
+                    | "engine"
+                    | "mode"
+                    | "clock"
+                    | "seed"
+            )
+    };
+    let mut rows: Vec<(String, String)> = Vec::new();
+    for (k, v) in &d.metrics {
+        if skip(k) || v.is_null() {
+            continue;
+        }
+        let unit = match k.as_str() {
+            "max_disagreement" | "ml_rmse" | "crlb_rms" => " m",
+            "wall_seconds" | "startup_seconds" => " s",
+            _ => "",
+        };
+        let text = match num(v) {
+            Some(f) => fmt_num(f),
+            None => show(v),
+        };
+        rows.push((k.clone(), format!("{text}{unit}")));
+    }
+    if let Some(Value::Object(rt)) = d.metrics.get("realtime") {
+        for (k, v) in rt {
+            rows.push((format!("realtime.{k}"), show(v)));
+        }
+    }
+    if let Some(Value::Array(deaths)) = d.metrics.get("deaths")
+        && !deaths.is_empty()
+    {
+        let list: Vec<String> = deaths
+            .iter()
+            .map(|x| {
+                format!(
+                    "node {} at sample {} ({})",
+                    x.get("node").map(show).unwrap_or_default(),
+                    x.get("sample").map(show).unwrap_or_default(),
+                    x.get("how").map(show).unwrap_or_default()
+                )
+            })
+            .collect();
+        rows.push(("deaths".into(), list.join("; ")));
+    }
+    if rows.is_empty() {
+        return String::new();
+    }
+    format!("<h3>Run</h3>\n{}", kv_table(&rows))
+}
+
+/// A table of objects with the union of their keys as columns.
+/// Columns that are `null` in every row are left out.
+pub(super) fn objects_table(
+    id: &str,
+    first: &str,
+    rows: &[(String, Map<String, Value>)],
+) -> String {
+    let mut cols: Vec<String> = Vec::new();
+    for (_, o) in rows {
+        for (k, v) in o {
+            if !v.is_null() && !cols.contains(k) {
+                cols.push(k.clone());
+            }
+        }
+    }
+    let mut s = format!("<table id=\"{id}\">\n<tr><th>{}</th>", esc(first));
+    for c in &cols {
+        let _ = write!(s, "<th>{}</th>", esc(c));
+    }
+    s.push_str("</tr>\n");
+    for (name, o) in rows {
+        let _ = write!(s, "<tr><th>{}</th>", esc(name));
+        for c in &cols {
+            match o.get(c) {
+                Some(v @ Value::Number(_)) => {
+                    let text = num(v).map_or_else(|| show(v), fmt_num);
+                    let _ = write!(s, "<td class=\"num\">{}</td>", esc(&text));
+                }
+                Some(Value::Null) | None => s.push_str("<td>–</td>"),
+                Some(v) => {
+                    let _ = write!(s, "<td>{}</td>", esc(&show(v)));
+                }
+            }
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+    s
+}
+
+pub(super) fn bounds_html(d: &RunData) -> String {
+    match d.metrics.get("bounds") {
+        Some(Value::Object(b)) if !b.is_empty() => {
+            let rows: Vec<(String, Map<String, Value>)> = b
+                .iter()
+                .map(|(k, v)| {
+                    let o = match v {
+                        Value::Object(o) => o.clone(),
+                        other => {
+                            let mut m = Map::new();
+                            m.insert("value".into(), other.clone());
+                            m
+                        }
+                    };
+                    (k.clone(), o)
+                })
+                .collect();
+            format!(
+                "<h3>Bounds</h3>\n{}",
+                objects_table("bounds", "bound", &rows)
+            )
+        }
+        _ => String::new(),
+    }
+}
+
+pub(super) fn nodes_html(d: &RunData) -> String {
+    let nodes = d.node_counters();
+    if nodes.is_empty() {
+        return String::new();
+    }
+    let rows: Vec<(String, Map<String, Value>)> = nodes
+        .into_iter()
+        .map(|mut o| {
+            let id = o.remove("node").map(|v| show(&v)).unwrap_or_default();
+            (format!("R{id}"), o)
+        })
+        .collect();
+    format!(
+        "<h3>Per-node counters</h3>\n{}",
+        objects_table("node-counters", "node", &rows)
+    )
+}
+
+/// Per-metric statistics over the rows of `trials.csv`: `(metric, n, mean,
+/// std, p5, median, p95)`.
+pub fn trial_stats(mc: &crate::plot::data::MonteCarlo) -> Vec<(String, usize, [f64; 5])> {
+    let mut out = Vec::new();
+    for (j, c) in mc.trial_columns.iter().enumerate() {
+        if c == "trial" || c == "seed" {
+            continue;
+        }
+        let xs: Vec<f64> = mc
+            .trial_rows
+            .iter()
+            .filter_map(|r| r.get(j).copied().flatten())
+            .collect();
+        if xs.is_empty() {
+            continue;
+        }
+        let n = xs.len() as f64;
+        let mean = xs.iter().sum::<f64>() / n;
+        let var = if xs.len() > 1 {
+            xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)
+        } else {
+            0.0
+        };
+        let q = |p| crate::model::metrics::quantile(&xs, p).unwrap_or(mean);
+        out.push((
+            c.clone(),
+            xs.len(),
+            [mean, var.sqrt(), q(0.05), q(0.5), q(0.95)],
+        ));
+    }
+    out
+}
+
+pub(super) fn monte_carlo_html(d: &RunData) -> String {
+    let Some(mc) = &d.monte_carlo else {
+        return String::new();
+    };
+    let stats = trial_stats(mc);
+    let mut s = format!(
+        "<h3>Monte Carlo: {} trials</h3>\n<table id=\"trial-stats\">\n<tr><th>metric</th><th>trials</th><th>mean</th><th>std</th><th>p5</th><th>median</th><th>p95</th></tr>\n",
+        mc.trials.unwrap_or(mc.trial_rows.len() as u64)
+    );
+    for (c, n, v) in stats {
+        let _ = write!(s, "<tr><th>{}</th><td class=\"num\">{n}</td>", esc(&c));
+        for x in v {
+            let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(x));
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+    s
+}
+
+/// Quote a command-line argument for a POSIX shell when needed.
+pub(super) fn shell_quote(a: &str) -> String {
+    if !a.is_empty()
+        && a.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c))
+    {
+        a.to_string()
+    } else {
+        format!("'{}'", a.replace('\'', "'\\''"))
+    }
+}
+
+pub(super) fn reproduce_html(d: &RunData) -> String {
+    let cmd = if d.info.command_line.is_empty() {
+        "(not recorded)".to_string()
+    } else {
+        d.info
+            .command_line
+            .iter()
+            .map(|a| shell_quote(a))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let mut s = String::from("<h2 id=\"reproduce\">Command line and seed</h2>\n");
+    let _ = write!(
+        s,
+        "<pre id=\"command-line\">{}</pre>\n{}",
+        esc(&cmd),
+        kv_table(&[
+            (
+                "seed".into(),
+                d.info.seed.map_or("-".into(), |x| x.to_string())
+            ),
+            (
+                "crate version".into(),
+                d.info.crate_version.clone().unwrap_or_else(|| "-".into())
+            ),
+            ("results directory".into(), d.dir.display().to_string()),
+        ])
+    );
+    let pretty = serde_json::to_string_pretty(&d.info.scenario).unwrap_or_default();
+    let _ = write!(
+        s,
+        "<details><summary>Resolved scenario (run.json)</summary>\n<pre>{}</pre>\n</details>\n",
+        esc(&pretty)
+    );
+    s
+}

@@ -1,0 +1,212 @@
+//! The iceoryx2 services of a run (inboxes, wake-up events, the broadcast group), sized from the run topology, and their ports.
+
+use super::*;
+
+pub(super) struct PubSubSpec {
+    pub(super) name: String,
+    pub(super) publishers: usize,
+    pub(super) subscribers: usize,
+    pub(super) nodes: usize,
+    pub(super) buffer: usize,
+}
+
+pub(super) struct EventSpec {
+    pub(super) name: String,
+    pub(super) notifiers: usize,
+    pub(super) listeners: usize,
+    pub(super) nodes: usize,
+}
+
+pub(super) fn node_inbox_spec(t: &RunTopology, i: u32) -> PubSubSpec {
+    let d = t.in_neighbours(i).len();
+    PubSubSpec {
+        name: format!("sonarnet/{}/node/{i}/inbox", t.run_id()),
+        publishers: 1 + d,
+        subscribers: 1,
+        nodes: 2 + d,
+        buffer: t.inbox_buffer(),
+    }
+}
+
+pub(super) fn node_wake_spec(t: &RunTopology, i: u32) -> EventSpec {
+    let d = t.in_neighbours(i).len();
+    EventSpec {
+        name: format!("sonarnet/{}/node/{i}/wake", t.run_id()),
+        notifiers: 1 + d,
+        listeners: 1,
+        nodes: 2 + d,
+    }
+}
+
+pub(super) fn coordinator_inbox_spec(t: &RunTopology) -> PubSubSpec {
+    PubSubSpec {
+        name: format!("sonarnet/{}/coordinator/inbox", t.run_id()),
+        publishers: t.n_nodes(),
+        subscribers: 1,
+        nodes: t.n_nodes() + 1,
+        buffer: t.inbox_buffer(),
+    }
+}
+
+pub(super) fn coordinator_wake_spec(t: &RunTopology) -> EventSpec {
+    EventSpec {
+        name: format!("sonarnet/{}/coordinator/wake", t.run_id()),
+        notifiers: t.n_nodes(),
+        listeners: 1,
+        nodes: t.n_nodes() + 1,
+    }
+}
+
+pub(super) fn broadcast_spec(t: &RunTopology) -> PubSubSpec {
+    PubSubSpec {
+        name: format!("sonarnet/{}/broadcast/frames", t.run_id()),
+        publishers: t.n_nodes(),
+        subscribers: t.n_nodes(),
+        nodes: t.n_nodes() + 1,
+        buffer: t.broadcast_buffer(),
+    }
+}
+
+pub(super) fn broadcast_wake_spec(t: &RunTopology) -> EventSpec {
+    EventSpec {
+        name: format!("sonarnet/{}/broadcast/wake", t.run_id()),
+        notifiers: t.n_nodes(),
+        listeners: t.n_nodes(),
+        nodes: t.n_nodes() + 1,
+    }
+}
+
+pub(super) fn service_name(name: &str) -> Result<ServiceName, TransportError> {
+    ServiceName::new(name).map_err(|e| TransportError::ipc(format!("naming service {name}"), e))
+}
+
+/// Create (coordinator) or open (node) a pub-sub service with the spec's limits; on
+/// open, iceoryx2 checks that the existing service supports at least these limits.
+pub(super) fn pubsub(
+    node: &Node<Svc>,
+    spec: &PubSubSpec,
+    create: bool,
+) -> Result<PubSub, TransportError> {
+    let builder = node
+        .service_builder(&service_name(&spec.name)?)
+        .publish_subscribe::<Frame>()
+        .enable_safe_overflow(false)
+        .history_size(0)
+        .subscriber_max_buffer_size(spec.buffer)
+        .subscriber_max_borrowed_samples(1)
+        .max_publishers(spec.publishers)
+        .max_subscribers(spec.subscribers)
+        .max_nodes(spec.nodes);
+    if create {
+        builder.create().map_err(|e| {
+            TransportError::ipc(
+                format!(
+                    "creating service {} (stale run with the same id? see cleanup_stale_resources)",
+                    spec.name
+                ),
+                e,
+            )
+        })
+    } else {
+        builder.open().map_err(|e| {
+            TransportError::ipc(
+                format!(
+                    "opening service {} (has the coordinator created this run with the same topology?)",
+                    spec.name
+                ),
+                e,
+            )
+        })
+    }
+}
+
+pub(super) fn event_service(
+    node: &Node<Svc>,
+    spec: &EventSpec,
+    create: bool,
+) -> Result<EventSvc, TransportError> {
+    let builder = node
+        .service_builder(&service_name(&spec.name)?)
+        .event()
+        .max_notifiers(spec.notifiers)
+        .max_listeners(spec.listeners)
+        .max_nodes(spec.nodes)
+        .event_id_max_value(1);
+    if create {
+        builder
+            .create()
+            .map_err(|e| TransportError::ipc(format!("creating service {}", spec.name), e))
+    } else {
+        builder.open().map_err(|e| {
+            TransportError::ipc(
+                format!(
+                    "opening service {} (has the coordinator created this run with the same topology?)",
+                    spec.name
+                ),
+                e,
+            )
+        })
+    }
+}
+
+/// Sample pool of a publisher: every subscriber's buffer plus its one borrowed
+/// sample, plus the one sample `send_copy` loans. That is exactly what normal
+/// operation can need; the publisher may also loan the whole pool at once, which is
+/// how [`taken_by_receivers`] tells that no sent frame is still waiting anywhere.
+pub(super) fn pool_size(subscribers: usize, buffer: usize) -> usize {
+    subscribers * (buffer + 1) + 1
+}
+
+pub(super) fn inbox_publisher(
+    svc: &PubSub,
+    to: Endpoint,
+    pool: usize,
+) -> Result<Publisher<Svc, Frame, ()>, TransportError> {
+    svc.publisher_builder()
+        .max_loaned_samples(pool)
+        .override_sample_preallocation(move |_| pool)
+        .backpressure_strategy(BackpressureStrategy::DiscardData)
+        .create()
+        .map_err(|e| TransportError::ipc(format!("creating publisher to {to}"), e))
+}
+
+/// Whether every frame `publisher` sent has left the receivers' buffers (was
+/// received, or its receiver is gone): true iff the whole sample pool can be loaned.
+pub(super) fn taken_by_receivers(
+    publisher: &Publisher<Svc, Frame, ()>,
+    pool: usize,
+) -> Result<bool, TransportError> {
+    publisher
+        .update_connections()
+        .map_err(|e| TransportError::ipc("updating connections", e))?;
+    let mut loans = Vec::with_capacity(pool);
+    while loans.len() < pool {
+        match publisher.loan_uninit() {
+            Ok(sample) => loans.push(sample),
+            Err(LoanError::OutOfMemory) | Err(LoanError::ExceedsMaxLoans) => break,
+            Err(e) => return Err(TransportError::ipc("probing the sample pool", e)),
+        }
+    }
+    Ok(loans.len() == pool)
+}
+
+pub(super) fn notifier(svc: &EventSvc, to: &str) -> Result<Notifier<Svc>, TransportError> {
+    svc.notifier_builder()
+        .create()
+        .map_err(|e| TransportError::ipc(format!("creating notifier for {to}"), e))
+}
+
+pub(super) fn listener(svc: &EventSvc, what: &str) -> Result<Listener<Svc>, TransportError> {
+    svc.listener_builder()
+        .create()
+        .map_err(|e| TransportError::ipc(format!("creating listener for {what}"), e))
+}
+
+pub(super) fn subscriber(
+    svc: &PubSub,
+    what: &str,
+) -> Result<Subscriber<Svc, Frame, ()>, TransportError> {
+    svc.subscriber_builder()
+        .create()
+        .map_err(|e| TransportError::ipc(format!("creating subscriber for {what}"), e))
+}
