@@ -1,4 +1,5 @@
-//! `sonarnet report A B`: two runs side by side, with a metrics diff table and overlaid curves.
+//! `sonarnet report A B`: two runs side by side, with a metrics diff table and overlaid
+//! curves.
 
 use super::*;
 

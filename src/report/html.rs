@@ -1,4 +1,5 @@
-//! HTML pieces: escaping, numbers, captions, the page head and tail (style, the self-test script), inline figures.
+//! HTML pieces: escaping, numbers, captions, the page head and tail (style, the self-
+//! test script), inline figures.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The sections of a run's report: scenario summary, metrics, bounds, nodes, Monte Carlo statistics, and how to reproduce the run.
+//! The sections of a run's report: scenario summary, metrics, bounds, nodes, Monte
+//! Carlo statistics, and how to reproduce the run.
 
 use super::*;
 

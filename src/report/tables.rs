@@ -1,4 +1,5 @@
-//! The metrics tables of a run: every track's metrics, and `metrics.json` flattened for comparisons.
+//! The metrics tables of a run: every track's metrics, and `metrics.json` flattened for
+//! comparisons.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! Initial estimates: exact or OLS (seed 000 eq. (15)-(17)), and the closed-form linear LS of one-way and bistatic ranges.
+//! Initial estimates: exact or OLS (seed 000 eq. (15)-(17)), and the closed-form linear
+//! LS of one-way and bistatic ranges.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The time-varying least-squares loss of one sample (seed 000 eq. (3); bistatic terms as seed 001), with its gradient and Hessian.
+//! The time-varying least-squares loss of one sample (seed 000 eq. (3); bistatic terms
+//! as seed 001), with its gradient and Hessian.
 
 use super::*;
 

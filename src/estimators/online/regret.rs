@@ -1,4 +1,5 @@
-//! The least-squares estimates `x_hat_t` (seed 000 Sec. V-A), dynamic regret (seed 001 Sec. II) and CTTE (seed 000 Sec. II) accumulators.
+//! The least-squares estimates `x_hat_t` (seed 000 Sec. V-A), dynamic regret (seed 001
+//! Sec. II) and CTTE (seed 000 Sec. II) accumulators.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The target trajectories of seed 000 eq. (19) and seed 001 Sec. V, from the random walks of [`crate::model::motion::Walk`].
+//! The target trajectories of seed 000 eq. (19) and seed 001 Sec. V, from the random
+//! walks of [`crate::model::motion::Walk`].
 
 use super::*;
 

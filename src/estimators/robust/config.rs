@@ -1,4 +1,5 @@
-//! The estimators' configurations (`[[baselines]]` parameters), each checked where it enters.
+//! The estimators' configurations (`[[baselines]]` parameters), each checked where it
+//! enters.
 
 use super::*;
 

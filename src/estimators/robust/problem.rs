@@ -1,4 +1,6 @@
-//! One sample's bistatic least-squares problem (seed 004 eq. (1)-(2)): its linearisation, the linear initialisation and the iterate updates shared by the estimators.
+//! One sample's bistatic least-squares problem (seed 004 eq. (1)-(2)): its
+//! linearisation, the linear initialisation and the iterate updates shared by the
+//! estimators.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The smooth robust losses: lq-IRLS, LAD and plain LS (seed 004 Sec. IV), one majorise-minimise solver.
+//! The smooth robust losses: lq-IRLS, LAD and plain LS (seed 004 Sec. IV), one
+//! majorise-minimise solver.
 
 use super::*;
 

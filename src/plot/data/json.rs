@@ -1,4 +1,5 @@
-//! `run.json` and `summary.json`, read into the plots' types; an error names the file and the key.
+//! `run.json` and `summary.json`, read into the plots' types; an error names the file
+//! and the key.
 
 use super::*;
 

@@ -1,4 +1,5 @@
-//! The CSV files of a results directory (`track.csv`, `nodes.csv`, `iterations.csv`, `trials.csv`), read with the line of every error.
+//! The CSV files of a results directory (`track.csv`, `nodes.csv`, `iterations.csv`,
+//! `trials.csv`), read with the line of every error.
 
 use super::*;
 

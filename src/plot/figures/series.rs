@@ -1,4 +1,5 @@
-//! `error.svg` and `ctte.svg`: the error and CTTE of every track against the sample, with Monte Carlo bands.
+//! `error.svg` and `ctte.svg`: the error and CTTE of every track against the sample,
+//! with Monte Carlo bands.
 
 use super::*;
 

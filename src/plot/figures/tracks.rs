@@ -1,4 +1,5 @@
-//! `tracks.svg`: the true track, every estimated track and the geometry on one map, with the bound discs.
+//! `tracks.svg`: the true track, every estimated track and the geometry on one map,
+//! with the bound discs.
 
 use super::*;
 

@@ -1,4 +1,6 @@
-//! Run namespaces in shared memory: every run's iceoryx2 resources carry a prefix made from its run id, so a crashed run's files can be found and removed (`cleanup_stale_resources`) while live runs are kept.
+//! Run namespaces in shared memory: every run's iceoryx2 resources carry a prefix made
+//! from its run id, so a crashed run's files can be found and removed
+//! (`cleanup_stale_resources`) while live runs are kept.
 
 use super::*;
 

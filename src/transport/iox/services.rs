@@ -1,4 +1,5 @@
-//! The iceoryx2 services of a run (inboxes, wake-up events, the broadcast group), sized from the run topology, and their ports.
+//! The iceoryx2 services of a run (inboxes, wake-up events, the broadcast group), sized
+//! from the run topology, and their ports.
 
 use super::*;
 
