@@ -296,6 +296,16 @@ pub enum Clock {
     Realtime,
 }
 
+impl Clock {
+    /// Name as written to outputs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Clock::Logical => "logical",
+            Clock::Realtime => "realtime",
+        }
+    }
+}
+
 /// The one entry point of the engines: run `plan` on `real` with the engine
 /// `kind` (`popts` applies to node processes only). Realtime clocks need node
 /// processes; asking for them on another engine is an error before anything

@@ -121,10 +121,7 @@ pub fn evaluate(
         wall_seconds: record.wall_seconds,
         engine: opts.engine.as_str().into(),
         mode: sc.algorithm.mode.as_str().into(),
-        clock: match opts.clock {
-            Clock::Logical => "logical".into(),
-            Clock::Realtime => "realtime".into(),
-        },
+        clock: opts.clock.as_str().into(),
         seed: sc.seed,
         variant: sc.variant.clone(),
         samples_completed: done,

@@ -20,9 +20,8 @@
 
 use crate::model::metrics;
 use crate::pipeline::score::Scored;
-use crate::pipeline::{self, ExpectResult, RunError, RunOptions};
+use crate::pipeline::{self, Band, ExpectResult, McSummary, RunError, RunOptions, TrackBands};
 use crate::scenario::Scenario;
-use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -180,21 +179,15 @@ pub fn lookup(
     Err(pipeline::unknown_metric(name, stats.keys()))
 }
 
-fn band(columns: Vec<Vec<f64>>) -> Value {
-    let f = |q: Option<f64>| q.map_or(Value::Null, |v| json!(v));
-    let mean: Vec<Value> = columns
-        .iter()
-        .map(|c| f((!c.is_empty()).then(|| c.iter().sum::<f64>() / c.len() as f64)))
-        .collect();
-    let p5: Vec<Value> = columns
-        .iter()
-        .map(|c| f(metrics::quantile(c, 0.05)))
-        .collect();
-    let p95: Vec<Value> = columns
-        .iter()
-        .map(|c| f(metrics::quantile(c, 0.95)))
-        .collect();
-    json!({"mean": mean, "p5": p5, "p95": p95})
+fn band(columns: Vec<Vec<f64>>) -> Band {
+    Band {
+        mean: columns
+            .iter()
+            .map(|c| (!c.is_empty()).then(|| c.iter().sum::<f64>() / c.len() as f64))
+            .collect(),
+        p5: columns.iter().map(|c| metrics::quantile(c, 0.05)).collect(),
+        p95: columns.iter().map(|c| metrics::quantile(c, 0.95)).collect(),
+    }
 }
 
 /// Run `trials` trials of `sc` (seeds `sc.seed + i`) on all cores, write the
@@ -310,9 +303,9 @@ fn write_outputs(
         .first()
         .map(|t| t.curves.iter().map(|(n, _)| n.clone()).collect())
         .unwrap_or_default();
-    let mut curves = serde_json::Map::new();
+    let mut curves = BTreeMap::new();
     for (ti, name) in names.iter().enumerate() {
-        let per = |f: &dyn Fn(&Curves, usize) -> Option<f64>| -> Option<Value> {
+        let per = |f: &dyn Fn(&Curves, usize) -> Option<f64>| -> Option<Band> {
             let cols: Vec<Vec<f64>> = (0..idx.len())
                 .map(|j| {
                     trials
@@ -323,17 +316,12 @@ fn write_outputs(
                 .collect();
             cols.iter().any(|c| !c.is_empty()).then(|| band(cols))
         };
-        let mut o = serde_json::Map::new();
-        if let Some(b) = per(&|c, j| c.error.get(j).copied().flatten()) {
-            o.insert("error".into(), b);
-        }
-        if let Some(b) = per(&|c, j| c.ctte.as_ref().and_then(|v| v.get(j).copied())) {
-            o.insert("ctte".into(), b);
-        }
-        if let Some(b) = per(&|c, j| c.regret.as_ref().and_then(|v| v.get(j).copied())) {
-            o.insert("regret".into(), b);
-        }
-        curves.insert(name.clone(), Value::Object(o));
+        let bands = TrackBands {
+            error: per(&|c, j| c.error.get(j).copied().flatten()),
+            ctte: per(&|c, j| c.ctte.as_ref().and_then(|v| v.get(j).copied())),
+            regret: per(&|c, j| c.regret.as_ref().and_then(|v| v.get(j).copied())),
+        };
+        curves.insert(name.clone(), bands);
     }
     let crlb_cols: Vec<Vec<f64>> = (0..idx.len())
         .map(|j| {
@@ -347,25 +335,34 @@ fn write_outputs(
         .iter()
         .any(|c| !c.is_empty())
         .then(|| band(crlb_cols));
-    let summary = json!({
-        "trials": trials.len(),
-        "failed_trials": failed,
-        "first_failure": trials.iter().find_map(|t| t.error.clone()),
-        "seeds": [sc.seed, sc.seed.wrapping_add(trials.len().saturating_sub(1) as u64)],
-        "seed": sc.seed,
-        "scenario": sc.name,
-        "variant": sc.variant,
-        "engine": "inprocess",
-        "mode": sc.algorithm.mode.as_str(),
-        "samples": sc.samples,
-        "wall_seconds": wall_seconds,
-        "command_line": opts.command_line,
-        "sample": idx,
-        "curves": curves,
-        "crlb": crlb,
-        "metrics": stats_map,
-        "expect": expect,
-    });
+    let summary = McSummary {
+        trials: Some(trials.len() as u64),
+        failed_trials: Some(failed),
+        first_failure: trials.iter().find_map(|t| t.error.clone()),
+        seeds: Some([
+            sc.seed,
+            sc.seed.wrapping_add(trials.len().saturating_sub(1) as u64),
+        ]),
+        seed: Some(sc.seed),
+        scenario: Some(sc.name.clone()),
+        variant: sc.variant.clone(),
+        engine: Some("inprocess".into()),
+        mode: Some(sc.algorithm.mode.as_str().into()),
+        samples: Some(sc.samples),
+        wall_seconds: Some(wall_seconds),
+        command_line: opts.command_line.clone(),
+        sample: idx.to_vec(),
+        curves,
+        crlb,
+        metrics: stats_map
+            .iter()
+            .map(|(k, s)| {
+                let s = s.iter().map(|(stat, v)| (stat.to_string(), Some(*v)));
+                (k.clone(), s.collect())
+            })
+            .collect(),
+        expect: expect.clone(),
+    };
     pipeline::write_json(&dir.join("summary.json"), &summary)?;
     Ok(MonteCarloOutcome {
         trials: trials.to_vec(),

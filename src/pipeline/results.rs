@@ -1,5 +1,8 @@
-//! The typed results of one run: `metrics.json` ([`RunMetrics`], with the
-//! per-node counters, realtime statistics, deaths and `[expect]` checks).
+//! The typed results: `metrics.json` ([`RunMetrics`], with the per-node
+//! counters, realtime statistics, deaths and `[expect]` checks), `run.json`
+//! ([`RunJson`]) and a Monte Carlo run's `summary.json` ([`McSummary`]). The
+//! writers ([`super::Outcome::write`], [`super::montecarlo`]) and the readers
+//! (the plots and the report, [`crate::plot::data`]) use these same types.
 
 use super::*;
 
@@ -122,4 +125,139 @@ pub struct ExpectResult {
     pub rhs: Option<f64>,
     /// Whether it holds.
     pub holds: bool,
+}
+
+/// The contents of `run.json`: what was run, how, and how it ended. Every
+/// field but the scenario is optional when read, so runs written by older
+/// versions still load (keys in alphabetical order, as written).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RunJson {
+    /// `logical` or `realtime`.
+    #[serde(default)]
+    pub clock: Option<String>,
+    /// The command line.
+    #[serde(default)]
+    pub command_line: Vec<String>,
+    /// Crate version that wrote the run.
+    #[serde(default)]
+    pub crate_version: Option<String>,
+    /// The gossip graph's edges.
+    #[serde(default)]
+    pub edges: Option<Vec<(usize, usize)>>,
+    /// `inprocess`, `processes` or `threads`.
+    #[serde(default)]
+    pub engine: Option<String>,
+    /// Why the run stopped early.
+    #[serde(default)]
+    pub error: Option<String>,
+    /// `gtrs`, `relaxed` or `gtrs_l0`.
+    #[serde(default)]
+    pub local_solver: Option<String>,
+    /// `sync` or `async`.
+    #[serde(default)]
+    pub mode: Option<String>,
+    /// Node polling before blocking (µs).
+    #[serde(default)]
+    pub poll_us: Option<u64>,
+    /// Multi-process: the run's IPC namespace.
+    #[serde(default)]
+    pub run_id: Option<String>,
+    /// The resolved scenario (after command-line overrides), as a JSON object
+    /// of the scenario file's keys.
+    #[serde(default)]
+    pub scenario: serde_json::Value,
+    /// The scenario file.
+    #[serde(default)]
+    pub scenario_file: Option<String>,
+    /// Run seed.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// `ok`, `failed` or `interrupted`.
+    #[serde(default)]
+    pub status: Option<String>,
+}
+
+/// A mean curve with its 5th and 95th percentiles across Monte Carlo trials,
+/// one entry per kept sample (`null` where undefined).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Band {
+    /// Mean across trials.
+    pub mean: Vec<Option<f64>>,
+    /// 5th percentile.
+    pub p5: Vec<Option<f64>>,
+    /// 95th percentile.
+    pub p95: Vec<Option<f64>>,
+}
+
+/// The curves of one track in `summary.json`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TrackBands {
+    /// Running CTTE.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ctte: Option<Band>,
+    /// Error `||x_k - x_k*||`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<Band>,
+    /// Running dynamic regret.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub regret: Option<Band>,
+}
+
+/// The contents of `summary.json` of a Monte Carlo run (keys in
+/// alphabetical order, as written; when read, every key but the curves'
+/// shapes is optional).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct McSummary {
+    /// The command line.
+    #[serde(default)]
+    pub command_line: Vec<String>,
+    /// The per-sample CRLB across trials.
+    #[serde(default)]
+    pub crlb: Option<Band>,
+    /// Curves per track (`theta_bar`, `ml`, baselines by name).
+    #[serde(default)]
+    pub curves: BTreeMap<String, TrackBands>,
+    /// Always `inprocess`.
+    #[serde(default)]
+    pub engine: Option<String>,
+    /// The `[expect]` checks on the trial statistics.
+    #[serde(default)]
+    pub expect: Vec<ExpectResult>,
+    /// Trials that stopped early.
+    #[serde(default)]
+    pub failed_trials: Option<usize>,
+    /// Why the first of them stopped.
+    #[serde(default)]
+    pub first_failure: Option<String>,
+    /// Statistics of every scalar metric over the trials (`mean`, `std`, ...;
+    /// `null` where undefined).
+    #[serde(default)]
+    pub metrics: BTreeMap<String, BTreeMap<String, Option<f64>>>,
+    /// `sync` or `async`.
+    #[serde(default)]
+    pub mode: Option<String>,
+    /// The sample indices of the curves.
+    #[serde(default)]
+    pub sample: Vec<usize>,
+    /// Samples per trial.
+    #[serde(default)]
+    pub samples: Option<usize>,
+    /// Scenario name.
+    #[serde(default)]
+    pub scenario: Option<String>,
+    /// The first trial's seed.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// The first and last trial's seeds.
+    #[serde(default)]
+    pub seeds: Option<[u64; 2]>,
+    /// Number of trials.
+    #[serde(default)]
+    pub trials: Option<u64>,
+    /// The scenario variant.
+    #[serde(default)]
+    pub variant: Option<String>,
+    /// Wall time of all trials (seconds).
+    #[serde(default)]
+    pub wall_seconds: Option<f64>,
 }

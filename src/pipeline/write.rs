@@ -298,21 +298,25 @@ fn write_run_json(
         t.samples = sc.samples;
     }
     resolved.geometry.receivers = sc.geometry.receivers.iter().map(|r| [r.x, r.y]).collect();
-    let v = serde_json::json!({
-        "scenario_file": sc.path.display().to_string(),
-        "scenario": resolved,
-        "edges": sc.graph.edges(),
-        "seed": sc.seed,
-        "crate_version": env!("CARGO_PKG_VERSION"),
-        "engine": opts.engine.as_str(),
-        "mode": sc.algorithm.mode.as_str(),
-        "clock": match opts.clock { Clock::Logical => "logical", Clock::Realtime => "realtime" },
-        "local_solver": sc.algorithm.local_solver,
-        "poll_us": opts.poll_us,
-        "command_line": opts.command_line,
-        "status": status,
-        "error": error.map(|e| e.to_string()),
-        "run_id": run_id,
-    });
+    let scenario = serde_json::to_value(&resolved).map_err(|e| RunError::Output {
+        path: dir.join("run.json"),
+        source: std::io::Error::other(e),
+    })?;
+    let v = RunJson {
+        scenario_file: Some(sc.path.display().to_string()),
+        scenario,
+        edges: Some(sc.graph.edges().to_vec()),
+        seed: Some(sc.seed),
+        crate_version: Some(env!("CARGO_PKG_VERSION").into()),
+        engine: Some(opts.engine.as_str().into()),
+        mode: Some(sc.algorithm.mode.as_str().into()),
+        clock: Some(opts.clock.as_str().into()),
+        local_solver: Some(sc.algorithm.local_solver.as_str().into()),
+        poll_us: Some(opts.poll_us),
+        command_line: opts.command_line.clone(),
+        status: Some(status.into()),
+        error: error.map(|e| e.to_string()),
+        run_id: run_id.map(str::to_owned),
+    };
     write_json(&dir.join("run.json"), &v)
 }

@@ -312,3 +312,32 @@ fn realtime_clocks_on_an_engine_without_processes_are_refused_before_anything_ru
         );
     }
 }
+
+#[test]
+fn run_json_and_summary_json_are_exactly_their_typed_schemas() {
+    let sc = Scenario::from_file(scenario("mourya2017-spiral.toml"))
+        .unwrap()
+        .with_samples(20)
+        .unwrap();
+    let dir = crate::util::TempDir::new("typed-results");
+    let opts = pipeline::RunOptions::inprocess().with_out_dir(dir.path().join("mc"));
+    sonarnet::pipeline::montecarlo::run_monte_carlo(&sc, 2, &opts, &|_| {}).unwrap();
+    let read = |f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("mc").join(f)).unwrap())
+            .unwrap()
+    };
+    // Every key written is a field of the type, and the type loses nothing.
+    let run_json = read("run.json");
+    let typed: pipeline::RunJson = serde_json::from_value(run_json.clone()).unwrap();
+    assert_eq!(serde_json::to_value(&typed).unwrap(), run_json);
+    assert_eq!(typed.seed, Some(sc.seed));
+    let summary = read("summary.json");
+    let typed: pipeline::McSummary = serde_json::from_value(summary.clone()).unwrap();
+    assert_eq!(serde_json::to_value(&typed).unwrap(), summary);
+    assert_eq!(typed.trials, Some(2));
+    assert!(typed.curves.contains_key("theta_bar") && typed.curves.contains_key("ml"));
+    // metrics.json likewise.
+    let metrics = read("metrics.json");
+    let typed: pipeline::RunMetrics = serde_json::from_value(metrics.clone()).unwrap();
+    assert_eq!(serde_json::to_value(&typed).unwrap(), metrics);
+}

@@ -27,6 +27,17 @@ pub enum LocalSolver {
     GtrsL0,
 }
 
+impl LocalSolver {
+    /// The name used in scenario files and outputs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LocalSolver::Gtrs => "gtrs",
+            LocalSolver::Relaxed => "relaxed",
+            LocalSolver::GtrsL0 => "gtrs_l0",
+        }
+    }
+}
+
 /// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13), [`prox_relaxed`] (eq. 11) or
 /// [`prox_gtrs_l0`] (eq. 13 with `l0` outlier separation of up to
 /// `kappa` rows, seed 004 eq. 7). `kappa` is ignored by the other two.

@@ -9,6 +9,7 @@ pub use json::*;
 pub use tables::*;
 
 use crate::model::error::InputError;
+use crate::pipeline::{Band, McSummary, RunJson};
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
 
