@@ -379,11 +379,23 @@ fn centroid(geometry: &Geometry) -> Vec2 {
     all.iter().fold(Vec2::zeros(), |s, p| s + **p) / all.len().max(1) as f64
 }
 
-/// The `distributed` baseline's run of the Douglas-Rachford engine over the
-/// first `samples` samples: `theta_bar` per sample (`None` past a failure)
-/// and the failure, if any. The run pipeline, which sits above the engine,
-/// supplies it ([`crate::pipeline::evaluate`]).
-pub type EngineRun<'a> = &'a dyn Fn(usize) -> (Vec<Option<Vec2>>, Option<String>);
+/// What the `distributed` baseline changes in the scenario's own run (each
+/// `None` keeps the scenario's value).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DistributedRun {
+    /// Local solver.
+    pub local_solver: Option<LocalSolver>,
+    /// Gossip mode.
+    pub mode: Option<Mode>,
+    /// Iterations per sample.
+    pub iterations_per_sample: Option<usize>,
+}
+
+/// The `distributed` baseline's run of the Douglas-Rachford engine with
+/// these changes over the first `samples` samples: `theta_bar` per sample
+/// (`None` past a failure) and the failure, if any. The run pipeline, which
+/// sits above the engine, supplies it ([`crate::pipeline::evaluate`]).
+pub type EngineRun<'a> = &'a dyn Fn(DistributedRun, usize) -> (Vec<Option<Vec2>>, Option<String>);
 
 /// Run one baseline over the first `samples` samples of a realization.
 /// `ml` is the centralised ML reference track of those samples and the
@@ -491,9 +503,19 @@ pub fn run_baseline(
                 }
             }
         }
-        BaselineCfg::Distributed { .. } => {
+        BaselineCfg::Distributed {
+            local_solver,
+            mode,
+            iterations_per_sample,
+            ..
+        } => {
+            let changes = DistributedRun {
+                local_solver: *local_solver,
+                mode: *mode,
+                iterations_per_sample: *iterations_per_sample,
+            };
             let start = Instant::now();
-            let (est, failure) = engine(samples);
+            let (est, failure) = engine(changes, samples);
             track.step_seconds = start.elapsed().as_secs_f64();
             if let Some(e) = failure {
                 track.fail(e);

@@ -7,33 +7,26 @@ use super::*;
 /// realization, with the baseline's own local solver, mode and iteration
 /// count (the scenario's where it gives none), and no fixed schedule.
 fn distributed_run(
-    cfg: &crate::estimators::baselines::BaselineCfg,
+    changes: crate::estimators::baselines::DistributedRun,
     sc: &Scenario,
     real: &Realization,
     samples: usize,
 ) -> (Vec<Option<Vec2>>, Option<String>) {
-    let crate::estimators::baselines::BaselineCfg::Distributed {
+    let crate::estimators::baselines::DistributedRun {
         local_solver,
         mode,
         iterations_per_sample,
-        ..
-    } = cfg
-    else {
-        return (
-            vec![None; samples],
-            Some(format!("{} is not the distributed baseline", cfg.kind())),
-        );
-    };
+    } = changes;
     let mut alt = sc.clone().with_trace_iterations(false);
     alt.algorithm.schedule = None;
     if let Some(s) = local_solver {
-        alt = alt.with_local_solver(*s);
+        alt = alt.with_local_solver(s);
     }
     if let Some(m) = mode {
-        alt.algorithm.mode = *m;
+        alt.algorithm.mode = m;
     }
     if let Some(n) = iterations_per_sample {
-        alt.algorithm.iterations_per_sample = *n;
+        alt.algorithm.iterations_per_sample = n;
     }
     alt.samples = samples;
     let (rec, res) = match crate::engine::RunPlan::new(&alt, Clock::Logical) {
@@ -73,7 +66,7 @@ pub fn evaluate(
         .baselines
         .iter()
         .map(|b| {
-            let engine = |samples: usize| distributed_run(b, sc, real, samples);
+            let engine = |changes, samples: usize| distributed_run(changes, sc, real, samples);
             crate::estimators::baselines::run_baseline(
                 b,
                 &sc.geometry,

@@ -24,7 +24,7 @@ pub struct Cell {
 
 /// The metrics table of every track.
 #[derive(Debug, Clone, PartialEq)]
-pub struct TrackMetrics {
+pub struct MetricsTable {
     /// Column keys.
     pub columns: Vec<String>,
     /// Rows: track name, legend label, cells per column.
@@ -39,7 +39,7 @@ pub(super) fn num(v: &Value) -> Option<f64> {
 /// the ML reference from `ml_rmse`, baselines from `baselines.NAME`; whatever
 /// is missing is computed from the error series of `track.csv` with
 /// [`crate::model::metrics::score`] (and marked as computed).
-pub fn track_metrics(data: &RunData) -> TrackMetrics {
+pub fn track_metrics(data: &RunData) -> MetricsTable {
     let mut columns: Vec<String> = Vec::new();
     let mut rows: Vec<(String, String, Map<String, Value>, bool)> = Vec::new();
     let baselines = data
@@ -141,7 +141,7 @@ pub fn track_metrics(data: &RunData) -> TrackMetrics {
             (name, label, cells)
         })
         .collect();
-    TrackMetrics {
+    MetricsTable {
         columns,
         rows: out_rows,
     }
