@@ -30,12 +30,19 @@ fn csv_of(text: &str) -> Csv {
     }
 }
 
-fn info() -> RunInfo {
-    RunInfo {
-        name: "unit".into(),
+fn run_json() -> crate::pipeline::RunJson {
+    crate::pipeline::RunJson {
         seed: Some(7),
         engine: Some("inprocess".into()),
         mode: Some("async".into()),
+        ..Default::default()
+    }
+}
+
+fn info() -> RunInfo {
+    RunInfo {
+        name: "unit".into(),
+        run: run_json(),
         transmitters: vec![[0.0, 0.0], [2000.0, 2000.0]],
         receivers: vec![[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0]],
         edges: vec![(0, 1), (0, 2)],

@@ -64,8 +64,8 @@ pub fn comparison_html(
     let _ = writeln!(
         s,
         "<tr><th>status</th><td>{}</td><td>{}</td></tr>\n</table>",
-        status_html(a.info.status.as_deref()),
-        status_html(b.info.status.as_deref())
+        status_html(a.info.run.status.as_deref()),
+        status_html(b.info.run.status.as_deref())
     );
     // Metrics diff.
     s.push_str("<h2 id=\"metrics\">Metrics diff</h2>\n<table id=\"metrics-diff\">\n<tr><th>metric</th><th>A</th><th>B</th><th>B − A</th><th>B / A</th></tr>\n");
@@ -125,11 +125,17 @@ pub fn comparison_html(
     );
     s.push_str("<h2 id=\"reproduce\">Command lines and seeds</h2>\n");
     for (tag, d) in [(la, a), (lb, b)] {
-        let cmd: Vec<String> = d.info.command_line.iter().map(|x| shell_quote(x)).collect();
+        let cmd: Vec<String> = d
+            .info
+            .run
+            .command_line
+            .iter()
+            .map(|x| shell_quote(x))
+            .collect();
         let _ = write!(
             s,
             "<h3>{tag} (seed {})</h3>\n<pre>{}</pre>\n",
-            d.info.seed.map_or("-".into(), |x| x.to_string()),
+            d.info.run.seed.map_or("-".into(), |x| x.to_string()),
             esc(&cmd.join(" "))
         );
     }

@@ -37,9 +37,9 @@ pub fn report_html(d: &RunData, figs: &[(Figure, String)]) -> String {
         "<h1>{}</h1>\n<p class=\"sub\">{} · status {}</p>\n",
         esc(&d.title()),
         esc(d.info.description.as_deref().unwrap_or("")),
-        status_html(d.info.status.as_deref())
+        status_html(d.info.run.status.as_deref())
     );
-    if let Some(e) = &d.info.error {
+    if let Some(e) = &d.info.run.error {
         let _ = writeln!(
             s,
             "<p class=\"status-bad\">The run stopped early: {}</p>",

@@ -38,7 +38,7 @@ pub(super) fn noise(v: Option<&Value>) -> Option<String> {
 /// Rows `(field, value)` of the scenario summary.
 pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     let i = &d.info;
-    let sc = &i.scenario;
+    let sc = &i.run.scenario;
     let mut rows: Vec<(String, String)> = Vec::new();
     let mut add = |k: &str, v: Option<String>| {
         if let Some(v) = v {
@@ -46,7 +46,7 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
         }
     };
     add("scenario", Some(i.name.clone()));
-    add("scenario file", i.scenario_file.clone());
+    add("scenario file", i.run.scenario_file.clone());
     add(
         "geometry",
         Some(format!(
@@ -87,9 +87,9 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
         noise(get(sc, &["measurements", "range_noise"])),
     );
     add("DOA noise", noise(get(sc, &["measurements", "doa_noise"])));
-    add("mode", i.mode.clone());
-    add("local solver", i.local_solver.clone());
-    if i.local_solver.as_deref() == Some("gtrs_l0") {
+    add("mode", i.run.mode.clone());
+    add("local solver", i.run.local_solver.clone());
+    if i.run.local_solver.as_deref() == Some("gtrs_l0") {
         add(
             "κ (kappa, outlier rows per node)",
             get(sc, &["algorithm", "kappa"]).map(show),
@@ -101,12 +101,12 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     );
     add("γ (gamma)", get(sc, &["algorithm", "gamma"]).map(show));
     add("burn-in", i.burn_in.map(|b| format!("{b} samples")));
-    add("engine", i.engine.clone());
-    add("clock", i.clock.clone());
-    if let Some(p) = i.poll_us.filter(|&p| p > 0) {
+    add("engine", i.run.engine.clone());
+    add("clock", i.run.clock.clone());
+    if let Some(p) = i.run.poll_us.filter(|&p| p > 0) {
         add("node polling", Some(format!("{p} µs before blocking")));
     }
-    add("seed", i.seed.map(|s| s.to_string()));
+    add("seed", i.run.seed.map(|s| s.to_string()));
     if let Some(mc) = &d.monte_carlo {
         add(
             "Monte Carlo",
@@ -383,10 +383,11 @@ pub(super) fn shell_quote(a: &str) -> String {
 }
 
 pub(super) fn reproduce_html(d: &RunData) -> String {
-    let cmd = if d.info.command_line.is_empty() {
+    let cmd = if d.info.run.command_line.is_empty() {
         "(not recorded)".to_string()
     } else {
         d.info
+            .run
             .command_line
             .iter()
             .map(|a| shell_quote(a))
@@ -401,16 +402,20 @@ pub(super) fn reproduce_html(d: &RunData) -> String {
         kv_table(&[
             (
                 "seed".into(),
-                d.info.seed.map_or("-".into(), |x| x.to_string())
+                d.info.run.seed.map_or("-".into(), |x| x.to_string())
             ),
             (
                 "crate version".into(),
-                d.info.crate_version.clone().unwrap_or_else(|| "-".into())
+                d.info
+                    .run
+                    .crate_version
+                    .clone()
+                    .unwrap_or_else(|| "-".into())
             ),
             ("results directory".into(), d.dir.display().to_string()),
         ])
     );
-    let pretty = serde_json::to_string_pretty(&d.info.scenario).unwrap_or_default();
+    let pretty = serde_json::to_string_pretty(&d.info.run.scenario).unwrap_or_default();
     let _ = write!(
         s,
         "<details><summary>Resolved scenario (run.json)</summary>\n<pre>{}</pre>\n</details>\n",

@@ -45,7 +45,7 @@ pub fn parse_run_json(p: &Path, v: &Value) -> Result<RunInfo, InputError> {
     }
     let r: RunJson =
         serde_json::from_value(v.clone()).map_err(|e| InputError::file(p, e.to_string()))?;
-    let sc = r.scenario;
+    let sc = &r.scenario;
     let geometry = sc.get("geometry");
     let transmitters = points(
         p,
@@ -57,7 +57,7 @@ pub fn parse_run_json(p: &Path, v: &Value) -> Result<RunInfo, InputError> {
         geometry.and_then(|g| g.get("receivers")),
         "scenario.geometry.receivers",
     )?;
-    let edges = r.edges.unwrap_or_default();
+    let edges = r.edges.clone().unwrap_or_default();
     if let Some(i) = edges
         .iter()
         .position(|&(a, b)| a >= receivers.len() || b >= receivers.len())
@@ -71,34 +71,24 @@ pub fn parse_run_json(p: &Path, v: &Value) -> Result<RunInfo, InputError> {
             ),
         ));
     }
+    let burn_in = sc
+        .get("algorithm")
+        .and_then(|a| a.get("burn_in"))
+        .and_then(Value::as_u64)
+        .map(|b| b as usize);
     Ok(RunInfo {
-        name: str_at(&sc, &["name"]).unwrap_or_else(|| {
+        name: str_at(sc, &["name"]).unwrap_or_else(|| {
             p.parent()
                 .and_then(|d| d.file_name())
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "run".into())
         }),
-        description: str_at(&sc, &["description"]),
-        scenario_file: r.scenario_file,
-        seed: r.seed,
-        engine: r.engine,
-        mode: r.mode,
-        clock: r.clock,
-        local_solver: r.local_solver,
-        poll_us: r.poll_us,
-        status: r.status,
-        error: r.error,
-        crate_version: r.crate_version,
-        command_line: r.command_line,
+        description: str_at(sc, &["description"]),
         transmitters,
         receivers,
         edges,
-        burn_in: sc
-            .get("algorithm")
-            .and_then(|a| a.get("burn_in"))
-            .and_then(Value::as_u64)
-            .map(|b| b as usize),
-        scenario: sc,
+        burn_in,
+        run: r,
     })
 }
 

@@ -108,35 +108,16 @@ pub struct NodePoint {
     pub pos: [f64; 2],
 }
 
-/// Facts from `run.json` used by the plots and the report.
+/// A run's `run.json` ([`RunJson`]) with the facts the plots and the report
+/// derive from it.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RunInfo {
-    /// Scenario name.
+    /// `run.json` as written.
+    pub run: RunJson,
+    /// Scenario name (the directory's name when the scenario has none).
     pub name: String,
     /// Scenario description.
     pub description: Option<String>,
-    /// The scenario file.
-    pub scenario_file: Option<String>,
-    /// Run seed.
-    pub seed: Option<u64>,
-    /// `inprocess` or `processes`.
-    pub engine: Option<String>,
-    /// `sync` or `async`.
-    pub mode: Option<String>,
-    /// `logical` or `realtime`.
-    pub clock: Option<String>,
-    /// `gtrs`, `relaxed` or `gtrs_l0`.
-    pub local_solver: Option<String>,
-    /// Node polling before blocking (µs; `run.json` `poll_us`, absent in older runs).
-    pub poll_us: Option<u64>,
-    /// `ok`, `failed` or `interrupted`.
-    pub status: Option<String>,
-    /// Why the run stopped early.
-    pub error: Option<String>,
-    /// Crate version that wrote the run.
-    pub crate_version: Option<String>,
-    /// The command line.
-    pub command_line: Vec<String>,
     /// Transmitter positions (m).
     pub transmitters: Vec<[f64; 2]>,
     /// Receiver (node) positions (m).
@@ -145,8 +126,6 @@ pub struct RunInfo {
     pub edges: Vec<(usize, usize)>,
     /// Samples excluded from `rmse_after_burn_in`.
     pub burn_in: Option<usize>,
-    /// The resolved scenario object, as written.
-    pub scenario: Value,
 }
 
 /// A mean curve with its 5th-95th percentile band across Monte Carlo trials.
@@ -255,13 +234,13 @@ impl RunData {
     /// A short name of the run for titles: `<name> (<mode>, <engine>, seed <seed>)`.
     pub fn title(&self) -> String {
         let mut parts = Vec::new();
-        if let Some(m) = &self.info.mode {
+        if let Some(m) = &self.info.run.mode {
             parts.push(m.clone());
         }
-        if let Some(e) = &self.info.engine {
+        if let Some(e) = &self.info.run.engine {
             parts.push(e.clone());
         }
-        if let Some(s) = self.info.seed {
+        if let Some(s) = self.info.run.seed {
             parts.push(format!("seed {s}"));
         }
         if parts.is_empty() {
