@@ -18,7 +18,7 @@ pub mod processes;
 pub mod threads;
 
 pub use coordinator::{Action, Coordinator, Event, Timer};
-pub use plan::{RealtimePlan, RunPlan, Scheduler, logical_mode};
+pub use plan::{RealtimePlan, RunPlan, Scheduler};
 
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;

@@ -138,7 +138,7 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode) -> NodeConfig {
 }
 
 /// The node mode of a logical-clock run.
-pub fn logical_mode(mode: Mode) -> NodeMode {
+fn logical_mode(mode: Mode) -> NodeMode {
     match mode {
         Mode::Sync => NodeMode::Sync,
         Mode::Async => NodeMode::AsyncLogical,

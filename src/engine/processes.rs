@@ -320,11 +320,6 @@ impl Processes {
         }
     }
 
-    /// Nodes that died so far.
-    pub fn dead(&self) -> &[bool] {
-        &self.dead
-    }
-
     /// Check every child; returns the first newly dead node and how it died.
     pub fn check_children(&mut self) -> Option<(u32, String)> {
         for (i, c) in self.children.iter_mut().enumerate() {
