@@ -20,18 +20,24 @@
 //!
 //! Every estimator is the library's one implementation ([`crate::estimators::online`],
 //! [`crate::estimators::robust`], [`crate::estimators::bounds`], [`crate::estimators::central`],
-//! [`crate::engine`]); this module only adapts them to a track. A step that
-//! fails (degenerate geometry, an empty set) leaves the sample's estimate
-//! empty (online trackers keep their previous estimate) and is counted in
-//! [`BaselineTrack::failures`]; nothing produces a NaN.
+//! [`crate::engine`]). A baseline is an adapter: its configuration builds a
+//! solver of the one problem/solver seam, [`crate::estimators::track`] (whose
+//! `with_*` builders validate the parameters), and [`run_track`] drives it
+//! along the samples; `ml` reuses the reference track and `distributed` runs
+//! the engine. A step that fails (degenerate geometry, an empty set) leaves
+//! the sample's estimate empty (online trackers keep their previous estimate)
+//! and is counted in [`TrackRun::failures`]; nothing produces a NaN.
 
-use crate::estimators::bounds::{self, Region};
 use crate::estimators::gossip::Mode;
-use crate::estimators::online::{self, NewtonDamping, StepSize, Tracker};
+use crate::estimators::online::{self, NewtonDamping, StepSize};
 use crate::estimators::prox::LocalSolver;
 use crate::estimators::robust;
+use crate::estimators::track::{
+    ConfigError, LlsSolver, OnlineRule, OnlineSolver, PocsSolver, RobustMethod, RobustSolver,
+    SampleSolver, Sparsity, TrackProblem, TrackRun, run_track,
+};
 use crate::model::geometry::Vec2;
-use crate::model::measure::{Geometry, SampleMeasurements};
+use crate::model::measure::Geometry;
 use crate::model::synth::Realization;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -252,27 +258,20 @@ impl BaselineCfg {
                 "name {name:?} is reserved for another track.csv column"
             ));
         }
-        match self {
-            // The trackers' own constructors validate their parameters.
-            BaselineCfg::Ogd { step, .. } => online::OgdTracker::new(Vec2::zeros(), *step)
-                .map(|_| ())
-                .map_err(|e| format!("step: {e}")),
-            BaselineCfg::Onm {
-                damping: Some(d), ..
-            } => online::OnmTracker::new(Vec2::zeros(), *d)
-                .map(|_| ())
-                .map_err(|e| format!("damping: {e}")),
+        let has_links = matches!(
+            self,
             BaselineCfg::Ls { .. }
-            | BaselineCfg::Lad { .. }
-            | BaselineCfg::L0os { .. }
-            | BaselineCfg::LqIrls { .. }
-                if !has_bistatic =>
-            {
-                Err(format!(
-                    "{} uses bistatic ranges only, and this scenario has none",
-                    self.kind()
-                ))
-            }
+                | BaselineCfg::Lad { .. }
+                | BaselineCfg::L0os { .. }
+                | BaselineCfg::LqIrls { .. }
+        );
+        if has_links && !has_bistatic {
+            return Err(format!(
+                "{} uses bistatic ranges only, and this scenario has none",
+                self.kind()
+            ));
+        }
+        match self {
             BaselineCfg::L0os { p, kappa, .. } => {
                 let n_links = geometry.transmitters.len() * geometry.receivers.len();
                 let k = match (p, kappa) {
@@ -288,32 +287,67 @@ impl BaselineCfg {
                         "kappa = {k} must be below the number of links ({n_links})"
                     ));
                 }
-                Ok(())
-            }
-            BaselineCfg::LqIrls { q, .. } => {
-                if *q > 1.0 && *q < 2.0 {
-                    Ok(())
-                } else {
-                    Err(format!("q must be in (1, 2), got {q}"))
-                }
-            }
-            BaselineCfg::Pocs { max_iter, tol, .. } => {
-                if *max_iter == 0 {
-                    return Err("max_iter must be at least 1".into());
-                }
-                if tol.is_finite() && *tol >= 0.0 {
-                    Ok(())
-                } else {
-                    Err(format!("tol must be finite and >= 0, got {tol}"))
-                }
             }
             BaselineCfg::Distributed {
                 iterations_per_sample: Some(0),
                 ..
-            } => Err("iterations_per_sample must be at least 1".into()),
-            _ => Ok(()),
+            } => return Err("iterations_per_sample must be at least 1".into()),
+            _ => {}
+        }
+        // The solvers' builders check their own parameters.
+        self.plan().map(|_| ()).map_err(|e| e.to_string())
+    }
+
+    /// How this baseline is computed: a solver of the seam
+    /// ([`crate::estimators::track`]) built from the parameters (which its
+    /// builders validate), the ML reference track, or a run of the engine.
+    fn plan(&self) -> Result<Plan, ConfigError> {
+        let robust =
+            |m| -> Result<Plan, ConfigError> { Ok(Plan::Solver(Box::new(RobustSolver::new(m)?))) };
+        match self {
+            BaselineCfg::Ogd { step, init, .. } => Ok(Plan::Solver(Box::new(
+                OnlineSolver::new(OnlineRule::Ogd(*step))?.with_init(*init),
+            ))),
+            BaselineCfg::Onm { damping, init, .. } => Ok(Plan::Solver(Box::new(
+                OnlineSolver::new(OnlineRule::Onm(damping.unwrap_or_default()))?.with_init(*init),
+            ))),
+            BaselineCfg::Ml { .. } => Ok(Plan::Reference),
+            BaselineCfg::Ls { .. } => robust(RobustMethod::Ls),
+            BaselineCfg::Lad { .. } => robust(RobustMethod::Lad),
+            BaselineCfg::LqIrls { q, .. } => robust(RobustMethod::LqIrls(*q)),
+            BaselineCfg::L0os { p, kappa, .. } => robust(RobustMethod::L0os(match (p, kappa) {
+                (_, Some(k)) => Sparsity::Kappa(*k),
+                (Some(p), None) => Sparsity::Fraction(*p),
+                (None, None) => Sparsity::Kappa(0),
+            })),
+            BaselineCfg::Pocs { max_iter, tol, .. } => Ok(Plan::Solver(Box::new(
+                PocsSolver::default()
+                    .with_max_iter(*max_iter)?
+                    .with_tol(*tol)?,
+            ))),
+            BaselineCfg::Lls { .. } => Ok(Plan::Solver(Box::new(LlsSolver))),
+            BaselineCfg::Distributed {
+                local_solver,
+                mode,
+                iterations_per_sample,
+                ..
+            } => Ok(Plan::Engine(DistributedRun {
+                local_solver: *local_solver,
+                mode: *mode,
+                iterations_per_sample: *iterations_per_sample,
+            })),
         }
     }
+}
+
+/// How one baseline is computed ([`BaselineCfg::plan`]).
+enum Plan {
+    /// A sequential solver, driven by [`run_track`].
+    Solver(Box<dyn SampleSolver>),
+    /// The centralised ML reference track, already solved.
+    Reference,
+    /// The Douglas-Rachford engine with other settings.
+    Engine(DistributedRun),
 }
 
 /// The estimate of one baseline at every sample, and what it cost.
@@ -323,60 +357,10 @@ pub struct BaselineTrack {
     pub name: String,
     /// The kind (`ogd`, `l0os`, ...).
     pub kind: &'static str,
-    /// Estimate per sample (`None` where the estimator failed).
-    pub est: Vec<Option<Vec2>>,
-    /// For online trackers: the estimate *before* each sample (seed 001's
-    /// `x_t` in `f_t(x_t)`, eq. (2)), i.e. the previous estimate or `x_0`.
-    pub before: Option<Vec<Vec2>>,
-    /// Samples whose step failed, and the first reason.
-    pub failures: usize,
-    /// The first failure's message.
-    pub first_failure: Option<String>,
-    /// Wall time of all steps (seconds); `step_seconds / samples` is the
-    /// per-step CPU time of the tracker (single-threaded).
-    pub step_seconds: f64,
-    /// POCS only: samples whose iteration ended feasible.
-    pub feasible: Option<usize>,
-}
-
-impl BaselineTrack {
-    /// Count a failed step; the first reason is kept.
-    fn fail(&mut self, why: String) {
-        self.failures += 1;
-        if self.first_failure.is_none() {
-            self.first_failure = Some(why);
-        }
-    }
-}
-
-/// One-way and bistatic range sets of a sample as discs and ellipses,
-/// enlarged by `rho` (seed 003 Remark 4): the feasible set of the bounds and
-/// of POCS. DOAs are not used.
-pub fn regions_of(geometry: &Geometry, sample: &SampleMeasurements, rho: f64) -> Vec<Region> {
-    let mut out = Vec::new();
-    for (n, node) in sample.nodes.iter().enumerate() {
-        let Some(&r) = geometry.receivers.get(n) else {
-            continue;
-        };
-        if let Some(range) = node.range {
-            out.push(Region::from_range(r, range, rho));
-        }
-        for &(m, rho_m) in &node.bistatic {
-            if let Some(&t) = geometry.transmitters.get(m) {
-                out.push(Region::from_bistatic(t, r, rho_m, rho));
-            }
-        }
-    }
-    out
-}
-
-fn centroid(geometry: &Geometry) -> Vec2 {
-    let all: Vec<&Vec2> = geometry
-        .receivers
-        .iter()
-        .chain(&geometry.transmitters)
-        .collect();
-    all.iter().fold(Vec2::zeros(), |s, p| s + **p) / all.len().max(1) as f64
+    /// The estimates, failures and cost as [`run_track`] records them
+    /// (`est[k]` is `None` where the estimator failed; online trackers keep
+    /// their previous estimate).
+    pub run: TrackRun,
 }
 
 /// What the `distributed` baseline changes in the scenario's own run (each
@@ -409,188 +393,41 @@ pub fn run_baseline(
     ml: (&[Vec2], f64),
     engine: EngineRun<'_>,
 ) -> BaselineTrack {
-    let meas = &real.measurements[..samples];
-    let mut track = BaselineTrack {
+    let mut run = TrackRun::default();
+    if samples > 0 {
+        match cfg.plan() {
+            Ok(Plan::Solver(mut solver)) => {
+                let problem = TrackProblem {
+                    geometry,
+                    samples: &real.measurements[..samples],
+                    truth0: real.truth.as_ref().and_then(|t| t.first().copied()),
+                };
+                run = run_track(&problem, solver.as_mut());
+            }
+            Ok(Plan::Reference) => {
+                run.step_seconds = ml.1;
+                run.est = ml.0.iter().take(samples).map(|x| Some(*x)).collect();
+            }
+            Ok(Plan::Engine(changes)) => {
+                let start = Instant::now();
+                let (est, failure) = engine(changes, samples);
+                run.step_seconds = start.elapsed().as_secs_f64();
+                if let Some(e) = failure {
+                    run.fail(e);
+                }
+                run.est = est;
+            }
+            // The scenario's validation refuses what gets here; stay total.
+            Err(e) => {
+                run.fail(e.to_string());
+                run.failures = samples;
+                run.est = vec![None; samples];
+            }
+        }
+    }
+    BaselineTrack {
         name: cfg.name(),
         kind: cfg.kind(),
-        est: Vec::with_capacity(samples),
-        before: None,
-        failures: 0,
-        first_failure: None,
-        step_seconds: 0.0,
-        feasible: None,
-    };
-    if samples == 0 {
-        return track;
-    }
-    match cfg {
-        BaselineCfg::Ogd { init, step, .. } => {
-            online_track(&mut track, geometry, real, meas, *init, |x0| {
-                online::OgdTracker::new(x0, *step)
-                    .map(|t| Box::new(t) as Box<dyn Tracker>)
-                    .map_err(|e| e.to_string())
-            })
-        }
-        BaselineCfg::Onm { init, damping, .. } => {
-            online_track(&mut track, geometry, real, meas, *init, |x0| {
-                online::OnmTracker::new(x0, damping.unwrap_or_default())
-                    .map(|t| Box::new(t) as Box<dyn Tracker>)
-                    .map_err(|e| e.to_string())
-            })
-        }
-        BaselineCfg::Ml { .. } => {
-            track.step_seconds = ml.1;
-            track.est = ml.0.iter().take(samples).map(|x| Some(*x)).collect();
-        }
-        BaselineCfg::Ls { .. } => robust_track(&mut track, meas, |links| {
-            robust::ls(geometry, links, &Default::default())
-        }),
-        BaselineCfg::Lad { .. } => robust_track(&mut track, meas, |links| {
-            robust::lad(geometry, links, &Default::default())
-        }),
-        BaselineCfg::LqIrls { q, .. } => robust_track(&mut track, meas, |links| {
-            let cfg = robust::IrlsConfig {
-                q: *q,
-                ..Default::default()
-            };
-            robust::lq_irls(geometry, links, &cfg)
-        }),
-        BaselineCfg::L0os { p, kappa, .. } => {
-            let n_links = geometry.transmitters.len() * geometry.receivers.len();
-            robust_track(&mut track, meas, |links| {
-                let k = match (p, kappa) {
-                    (_, Some(k)) => Ok(*k),
-                    // kappa scales with the links actually present.
-                    (Some(p), None) => robust::kappa_from_fraction(*p, links.len().min(n_links)),
-                    (None, None) => Ok(0),
-                };
-                k.and_then(|k| robust::l0os(geometry, links, &robust::L0osConfig::new(k)))
-            })
-        }
-        BaselineCfg::Pocs { max_iter, tol, .. } => {
-            let mut x = centroid(geometry);
-            let mut feasible = 0;
-            for (k, s) in meas.iter().enumerate() {
-                let regions = regions_of(geometry, s, 0.0);
-                let start = Instant::now();
-                let r = bounds::pocs(&regions, x, *max_iter, *tol);
-                track.step_seconds += start.elapsed().as_secs_f64();
-                match r {
-                    Ok(p) => {
-                        feasible += usize::from(p.feasible);
-                        x = p.x;
-                        track.est.push(Some(p.x));
-                    }
-                    Err(e) => {
-                        track.fail(format!("sample {k}: {e}"));
-                        track.est.push(None);
-                    }
-                }
-            }
-            track.feasible = Some(feasible);
-        }
-        BaselineCfg::Lls { .. } => {
-            for (k, s) in meas.iter().enumerate() {
-                let start = Instant::now();
-                let r = online::ols_position(geometry, s).map_err(|e| e.to_string());
-                track.step_seconds += start.elapsed().as_secs_f64();
-                match r {
-                    Ok(x) => track.est.push(Some(x)),
-                    Err(e) => {
-                        track.fail(format!("sample {k}: {e}"));
-                        track.est.push(None);
-                    }
-                }
-            }
-        }
-        BaselineCfg::Distributed {
-            local_solver,
-            mode,
-            iterations_per_sample,
-            ..
-        } => {
-            let changes = DistributedRun {
-                local_solver: *local_solver,
-                mode: *mode,
-                iterations_per_sample: *iterations_per_sample,
-            };
-            let start = Instant::now();
-            let (est, failure) = engine(changes, samples);
-            track.step_seconds = start.elapsed().as_secs_f64();
-            if let Some(e) = failure {
-                track.fail(e);
-            }
-            track.est = est;
-        }
-    }
-    track
-}
-
-/// An online tracker of seeds 000/001 along the samples: `x_0` from `init`
-/// (the exact start needs the truth), one step per sample, the estimate
-/// before each step kept for the dynamic regret. `make` builds the tracker.
-fn online_track(
-    track: &mut BaselineTrack,
-    geometry: &Geometry,
-    real: &Realization,
-    meas: &[SampleMeasurements],
-    init: online::Init,
-    make: impl FnOnce(Vec2) -> Result<Box<dyn Tracker>, String>,
-) {
-    let samples = meas.len();
-    let start = Instant::now();
-    let truth0 = real.truth.as_ref().and_then(|t| t.first().copied());
-    let x0 = match (init, truth0) {
-        (online::Init::Exact, None) => Err(
-            "init = \"exact\" needs the true first position (no truth): use init = \"ols\""
-                .to_string(),
-        ),
-        (_, t0) => init
-            .initial_estimate(geometry, &meas[0], t0.unwrap_or_else(Vec2::zeros))
-            .map_err(|e| format!("initialisation: {e}")),
-    };
-    let mut tracker = match x0.and_then(make) {
-        Ok(t) => t,
-        Err(e) => {
-            track.fail(e);
-            track.failures = samples;
-            track.est = vec![None; samples];
-            return;
-        }
-    };
-    let mut before = Vec::with_capacity(samples);
-    for (k, s) in meas.iter().enumerate() {
-        before.push(tracker.estimate());
-        match tracker.step(geometry, s, k + 1) {
-            Ok(x) => track.est.push(Some(x)),
-            Err(e) => {
-                track.fail(format!("sample {k}: {e}"));
-                track.est.push(Some(tracker.estimate()));
-            }
-        }
-    }
-    track.before = Some(before);
-    track.step_seconds = start.elapsed().as_secs_f64();
-}
-
-/// A per-sample robust estimator of seed 004 on each sample's bistatic
-/// links; `solve` is the estimator (timed alone).
-fn robust_track(
-    track: &mut BaselineTrack,
-    meas: &[SampleMeasurements],
-    solve: impl Fn(&[robust::BistaticLink]) -> Result<robust::Estimate, robust::RobustError>,
-) {
-    for (k, s) in meas.iter().enumerate() {
-        let links = robust::links_from_sample(s);
-        let start = Instant::now();
-        let r = solve(&links);
-        track.step_seconds += start.elapsed().as_secs_f64();
-        match r {
-            Ok(e) => track.est.push(Some(e.position)),
-            Err(e) => {
-                track.fail(format!("sample {k}: {e}"));
-                track.est.push(None);
-            }
-        }
+        run,
     }
 }

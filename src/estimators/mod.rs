@@ -7,7 +7,9 @@
 //!   online OGD/ONM trackers (seeds 000/001, [`online`]), robust one-sample
 //!   estimators (seed 004, [`robust`]) and certified bounds (seed 003,
 //!   [`bounds`]);
-//! * [`baselines`]: the configured baselines, each an adapter over one of them.
+//! * [`track`]: the one problem/solver seam of the sequential estimators,
+//!   with validated `with_*` builders and the executor [`track::run_track`];
+//! * [`baselines`]: the configured baselines, each an adapter over that seam.
 
 pub mod baselines;
 pub mod bounds;
@@ -17,3 +19,4 @@ pub mod local;
 pub mod online;
 pub mod prox;
 pub mod robust;
+pub mod track;

@@ -52,6 +52,17 @@ impl Geometry {
         }
     }
 
+    /// The centroid of every sensor, receivers and transmitters alike (the
+    /// origin for an empty geometry): POCS's first starting point.
+    pub fn centroid(&self) -> Vec2 {
+        let n = self.receivers.len() + self.transmitters.len();
+        self.receivers
+            .iter()
+            .chain(&self.transmitters)
+            .fold(Vec2::zeros(), |s, p| s + *p)
+            / n.max(1) as f64
+    }
+
     /// The body of a scenario's `[geometry]` table:
     /// `transmitters = [[x, y], ...]` and `receivers = [[x, y], ...]`.
     pub fn toml_table(&self) -> String {

@@ -25,9 +25,10 @@
 //!   is empty. Tightness `v - e` and relative tightness `(v - e)/e` are over
 //!   the nonempty samples.
 
-use crate::estimators::baselines::{self, BaselineTrack};
+use crate::estimators::baselines::BaselineTrack;
 use crate::estimators::bounds::{BoundOutcome, Intersection};
 use crate::estimators::online::{self, XHatOptions};
+use crate::estimators::track::regions_of;
 use crate::model::geometry::Vec2;
 use crate::model::metrics;
 use crate::scenario::{BoundKind, Realization, Scenario};
@@ -260,7 +261,7 @@ pub fn score(
         Some(b) => (0..done)
             .map(|k| {
                 let rho = b.rho + b.rho_sigmas * real.sigmas[k].range;
-                let regions = baselines::regions_of(geometry, &meas[k], rho);
+                let regions = regions_of(geometry, &meas[k], rho);
                 if regions.is_empty() {
                     return None;
                 }
@@ -279,7 +280,7 @@ pub fn score(
         ("ml".into(), ml.into_iter().map(Some).collect(), None),
     ];
     for b in baselines {
-        raw.push((b.name.clone(), b.est.clone(), Some(b)));
+        raw.push((b.name.clone(), b.run.est.clone(), Some(b)));
     }
 
     let mut tracks = Vec::with_capacity(raw.len());
@@ -323,7 +324,7 @@ pub fn score(
         }
         let regret_pred = base
             .as_ref()
-            .and_then(|b| b.before.as_ref())
+            .and_then(|b| b.run.before.as_ref())
             .and_then(|before| {
                 let v: Vec<Option<Vec2>> = before.iter().map(|x| Some(*x)).collect();
                 regret_curve(&v)
@@ -336,10 +337,10 @@ pub fn score(
             ) = slopes(r);
         }
         if let Some(b) = &base {
-            m.failures = b.failures;
-            m.first_failure = b.first_failure.clone();
-            m.step_seconds = (done > 0).then(|| b.step_seconds / done as f64);
-            m.feasible_fraction = b.feasible.map(|f| f as f64 / done.max(1) as f64);
+            m.failures = b.run.failures;
+            m.first_failure = b.run.first_failure.clone();
+            m.step_seconds = (done > 0).then(|| b.run.step_seconds / done as f64);
+            m.feasible_fraction = b.run.feasible.map(|f| f as f64 / done.max(1) as f64);
         }
         // Bounds on this track.
         let mut series = Vec::new();

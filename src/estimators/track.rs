@@ -1,0 +1,637 @@
+//! The estimators' one seam, after argmin's problem/solver split: a
+//! [`TrackProblem`] (the geometry, the samples' measurements and, where known,
+//! the true first position) and a [`SampleSolver`] that estimates the target
+//! position one sample at a time, carrying whatever state it needs from one
+//! sample to the next. [`run_track`] is the executor: it drives any solver
+//! along the samples, times it, and records its failures the same way for
+//! every estimator.
+//!
+//! The solvers of the centralised baselines ([`crate::estimators::baselines`])
+//! are adapters over the library's estimators: the online trackers of
+//! seeds 000/001 ([`OnlineSolver`]), the robust estimators of seed 004
+//! ([`RobustSolver`]), POCS of seed 003 ([`PocsSolver`]) and the closed-form
+//! linear least squares ([`LlsSolver`]). Each is configured with validated
+//! `with_*` builders, so a bad parameter is refused where it enters.
+
+use crate::estimators::bounds::{self, Region};
+use crate::estimators::online::{self, NewtonDamping, StepSize, Tracker};
+use crate::estimators::robust;
+use crate::model::geometry::Vec2;
+use crate::model::measure::{Geometry, SampleMeasurements};
+use std::fmt;
+use std::time::Instant;
+
+/// A parameter a solver's builder refused: the key and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfigError {
+    /// The parameter (`q`, `tol`, `step`, ...).
+    pub key: &'static str,
+    /// Why it was refused.
+    pub reason: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.key, self.reason)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+fn refuse(key: &'static str, reason: impl Into<String>) -> ConfigError {
+    ConfigError {
+        key,
+        reason: reason.into(),
+    }
+}
+
+/// The estimation problem of a track: every sample's measurements in one
+/// geometry, and the true first position when a truth file gives it (the
+/// trackers' exact initialisation, seed 000 Sec. V, needs it).
+#[derive(Debug, Clone, Copy)]
+pub struct TrackProblem<'a> {
+    /// Sensor positions.
+    pub geometry: &'a Geometry,
+    /// The measurements of each sample, in order.
+    pub samples: &'a [SampleMeasurements],
+    /// The true position at the first sample, if known.
+    pub truth0: Option<Vec2>,
+}
+
+/// A sequential position estimator: one [`SampleSolver::solve`] per sample.
+///
+/// The contract [`run_track`] relies on: `start` is called once before the
+/// first sample; `solve` returns a finite estimate or the reason it has none;
+/// after a failed `solve` the track records [`SampleSolver::on_failure`].
+pub trait SampleSolver {
+    /// Prepare the track (e.g. choose `x_0`). An error here leaves every
+    /// sample without an estimate.
+    fn start(&mut self, _problem: &TrackProblem<'_>) -> Result<(), String> {
+        Ok(())
+    }
+    /// The estimate held before the next `solve`, for estimators that carry
+    /// one (seed 001's `x_t` in `f_t(x_t)`, eq. (2)); `None` otherwise.
+    fn prior(&self) -> Option<Vec2> {
+        None
+    }
+    /// Estimate sample `k` (0-based).
+    fn solve(
+        &mut self,
+        geometry: &Geometry,
+        sample: &SampleMeasurements,
+        k: usize,
+    ) -> Result<Vec2, String>;
+    /// What the track holds where `solve` failed: nothing by default; an
+    /// online tracker keeps its previous estimate.
+    fn on_failure(&self) -> Option<Vec2> {
+        None
+    }
+    /// Samples whose solve ended feasible, for estimators that report it (POCS).
+    fn feasible(&self) -> Option<usize> {
+        None
+    }
+}
+
+/// What [`run_track`] records of a solver's run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TrackRun {
+    /// Estimate per sample (`None` where the solver has none).
+    pub est: Vec<Option<Vec2>>,
+    /// [`SampleSolver::prior`] before each sample, when the solver has one.
+    pub before: Option<Vec<Vec2>>,
+    /// Samples without a fresh estimate (all of them if `start` failed).
+    pub failures: usize,
+    /// The first failure's message.
+    pub first_failure: Option<String>,
+    /// Wall time of `start` and every `solve` (seconds, single-threaded).
+    pub step_seconds: f64,
+    /// [`SampleSolver::feasible`] at the end.
+    pub feasible: Option<usize>,
+}
+
+impl TrackRun {
+    /// Count a failure; the first reason is kept.
+    pub fn fail(&mut self, why: String) {
+        self.failures += 1;
+        if self.first_failure.is_none() {
+            self.first_failure = Some(why);
+        }
+    }
+}
+
+/// Drive `solver` along every sample of `problem` (the executor of the seam).
+pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> TrackRun {
+    let n = problem.samples.len();
+    let mut run = TrackRun {
+        est: Vec::with_capacity(n),
+        ..TrackRun::default()
+    };
+    if n == 0 {
+        return run;
+    }
+    let start = Instant::now();
+    let started = solver.start(problem);
+    run.step_seconds += start.elapsed().as_secs_f64();
+    if let Err(e) = started {
+        run.fail(e);
+        run.failures = n;
+        run.est = vec![None; n];
+        return run;
+    }
+    let mut before = Vec::with_capacity(n);
+    for (k, s) in problem.samples.iter().enumerate() {
+        if let Some(x) = solver.prior() {
+            before.push(x);
+        }
+        let start = Instant::now();
+        let r = solver.solve(problem.geometry, s, k);
+        run.step_seconds += start.elapsed().as_secs_f64();
+        match r {
+            Ok(x) => run.est.push(Some(x)),
+            Err(e) => {
+                run.fail(format!("sample {k}: {e}"));
+                run.est.push(solver.on_failure());
+            }
+        }
+    }
+    run.before = (before.len() == n).then_some(before);
+    run.feasible = solver.feasible();
+    run
+}
+
+/// Which online tracker of seed 000 an [`OnlineSolver`] runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OnlineRule {
+    /// Online gradient descent (seed 000 eq. (3)) with this step rule.
+    Ogd(StepSize),
+    /// Online Newton method (seed 000 Sec. V) with this damping.
+    Onm(NewtonDamping),
+}
+
+/// An online tracker of seeds 000/001 as a [`SampleSolver`]: `x_0` from its
+/// [`online::Init`], then one update per sample, keeping its estimate where a
+/// step fails.
+pub struct OnlineSolver {
+    rule: OnlineRule,
+    init: online::Init,
+    tracker: Option<Box<dyn Tracker>>,
+}
+
+impl OnlineSolver {
+    /// A tracker with the given rule, validated here (exact initialisation).
+    pub fn new(rule: OnlineRule) -> Result<Self, ConfigError> {
+        match rule {
+            OnlineRule::Ogd(step) => online::OgdTracker::new(Vec2::zeros(), step)
+                .map(|_| ())
+                .map_err(|e| refuse("step", e.to_string()))?,
+            OnlineRule::Onm(d) => online::OnmTracker::new(Vec2::zeros(), d)
+                .map(|_| ())
+                .map_err(|e| refuse("damping", e.to_string()))?,
+        }
+        Ok(OnlineSolver {
+            rule,
+            init: online::Init::default(),
+            tracker: None,
+        })
+    }
+
+    /// How `x_0` is chosen (seed 000 Sec. V).
+    pub fn with_init(mut self, init: online::Init) -> Self {
+        self.init = init;
+        self
+    }
+}
+
+impl SampleSolver for OnlineSolver {
+    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), String> {
+        let x0 = match (self.init, problem.truth0) {
+            (online::Init::Exact, None) => {
+                return Err(
+                    "init = \"exact\" needs the true first position (no truth): use init = \"ols\""
+                        .to_string(),
+                );
+            }
+            (init, t0) => init
+                .initial_estimate(
+                    problem.geometry,
+                    &problem.samples[0],
+                    t0.unwrap_or_else(Vec2::zeros),
+                )
+                .map_err(|e| format!("initialisation: {e}"))?,
+        };
+        let tracker: Box<dyn Tracker> = match self.rule {
+            OnlineRule::Ogd(step) => {
+                Box::new(online::OgdTracker::new(x0, step).map_err(|e| e.to_string())?)
+            }
+            OnlineRule::Onm(d) => {
+                Box::new(online::OnmTracker::new(x0, d).map_err(|e| e.to_string())?)
+            }
+        };
+        self.tracker = Some(tracker);
+        Ok(())
+    }
+
+    fn prior(&self) -> Option<Vec2> {
+        self.tracker.as_ref().map(|t| t.estimate())
+    }
+
+    fn solve(
+        &mut self,
+        geometry: &Geometry,
+        sample: &SampleMeasurements,
+        k: usize,
+    ) -> Result<Vec2, String> {
+        let t = self.tracker.as_mut().ok_or("the tracker was not started")?;
+        t.step(geometry, sample, k + 1).map_err(|e| e.to_string())
+    }
+
+    fn on_failure(&self) -> Option<Vec2> {
+        self.prior()
+    }
+}
+
+/// Which estimator of seed 004 a [`RobustSolver`] runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RobustMethod {
+    /// Nonlinear least squares (eq. (3)).
+    Ls,
+    /// Least absolute deviations by IRLS (eq. (4), `q = 1`).
+    Lad,
+    /// `l_q` IRLS (eq. (4)) with this exponent.
+    LqIrls(f64),
+    /// l0-norm outlier separation (Algorithm 1) with this sparsity.
+    L0os(Sparsity),
+}
+
+/// The sparsity `kappa` of l0-OS: given, or from an outlier fraction of the
+/// links each sample has (seed 004 Sec. IV-A).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sparsity {
+    /// `kappa` itself.
+    Kappa(usize),
+    /// `kappa = round(p L)` over the `L` links present in a sample.
+    Fraction(f64),
+}
+
+/// A robust one-sample estimator of seed 004 on each sample's bistatic links.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RobustSolver {
+    method: RobustMethod,
+}
+
+impl RobustSolver {
+    /// The estimator, its parameters validated (`q` in `(1, 2)`, `p` in `[0, 1]`).
+    pub fn new(method: RobustMethod) -> Result<Self, ConfigError> {
+        match method {
+            RobustMethod::LqIrls(q) if !(q > 1.0 && q < 2.0) => {
+                return Err(refuse("q", format!("must be in (1, 2), got {q}")));
+            }
+            RobustMethod::L0os(Sparsity::Fraction(p)) => {
+                robust::kappa_from_fraction(p, 0).map_err(|e| match e {
+                    robust::RobustError::InvalidConfig { key, reason } => refuse(key, reason),
+                    other => refuse("p", other.to_string()),
+                })?;
+            }
+            _ => {}
+        }
+        Ok(RobustSolver { method })
+    }
+}
+
+impl SampleSolver for RobustSolver {
+    fn solve(
+        &mut self,
+        geometry: &Geometry,
+        sample: &SampleMeasurements,
+        _k: usize,
+    ) -> Result<Vec2, String> {
+        let links = robust::links_from_sample(sample);
+        let r = match self.method {
+            RobustMethod::Ls => robust::ls(geometry, &links, &Default::default()),
+            RobustMethod::Lad => robust::lad(geometry, &links, &Default::default()),
+            RobustMethod::LqIrls(q) => {
+                let cfg = robust::IrlsConfig {
+                    q,
+                    ..Default::default()
+                };
+                robust::lq_irls(geometry, &links, &cfg)
+            }
+            RobustMethod::L0os(sparsity) => {
+                let n_links = geometry.transmitters.len() * geometry.receivers.len();
+                let k = match sparsity {
+                    Sparsity::Kappa(k) => Ok(k),
+                    Sparsity::Fraction(p) => {
+                        robust::kappa_from_fraction(p, links.len().min(n_links))
+                    }
+                };
+                k.and_then(|k| robust::l0os(geometry, &links, &robust::L0osConfig::new(k)))
+            }
+        };
+        r.map(|e| e.position).map_err(|e| e.to_string())
+    }
+}
+
+/// One-way and bistatic range sets of a sample as discs and ellipses,
+/// enlarged by `rho` (seed 003 Remark 4): the feasible set of the bounds and
+/// of POCS. DOAs are not used.
+pub fn regions_of(geometry: &Geometry, sample: &SampleMeasurements, rho: f64) -> Vec<Region> {
+    let mut out = Vec::new();
+    for (n, node) in sample.nodes.iter().enumerate() {
+        let Some(&r) = geometry.receivers.get(n) else {
+            continue;
+        };
+        if let Some(range) = node.range {
+            out.push(Region::from_range(r, range, rho));
+        }
+        for &(m, rho_m) in &node.bistatic {
+            if let Some(&t) = geometry.transmitters.get(m) {
+                out.push(Region::from_bistatic(t, r, rho_m, rho));
+            }
+        }
+    }
+    out
+}
+
+/// POCS onto the farthest disc or ellipse (seed 003 eq. (18)), each sample
+/// started from the previous estimate (the first from the sensors' centroid).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PocsSolver {
+    max_iter: usize,
+    tol: f64,
+    x: Vec2,
+    feasible: usize,
+}
+
+impl Default for PocsSolver {
+    fn default() -> Self {
+        PocsSolver {
+            max_iter: 1000,
+            tol: 1e-9,
+            x: Vec2::zeros(),
+            feasible: 0,
+        }
+    }
+}
+
+impl PocsSolver {
+    /// At most `max_iter >= 1` projections per sample (default 1000).
+    pub fn with_max_iter(mut self, max_iter: usize) -> Result<Self, ConfigError> {
+        if max_iter == 0 {
+            return Err(refuse("max_iter", "must be at least 1"));
+        }
+        self.max_iter = max_iter;
+        Ok(self)
+    }
+
+    /// Feasibility tolerance in metres, finite and `>= 0` (default `1e-9`).
+    pub fn with_tol(mut self, tol: f64) -> Result<Self, ConfigError> {
+        if !(tol.is_finite() && tol >= 0.0) {
+            return Err(refuse("tol", format!("must be finite and >= 0, got {tol}")));
+        }
+        self.tol = tol;
+        Ok(self)
+    }
+}
+
+impl SampleSolver for PocsSolver {
+    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), String> {
+        self.x = problem.geometry.centroid();
+        self.feasible = 0;
+        Ok(())
+    }
+
+    fn solve(
+        &mut self,
+        geometry: &Geometry,
+        sample: &SampleMeasurements,
+        _k: usize,
+    ) -> Result<Vec2, String> {
+        let regions = regions_of(geometry, sample, 0.0);
+        let p =
+            bounds::pocs(&regions, self.x, self.max_iter, self.tol).map_err(|e| e.to_string())?;
+        self.feasible += usize::from(p.feasible);
+        self.x = p.x;
+        Ok(p.x)
+    }
+
+    fn feasible(&self) -> Option<usize> {
+        Some(self.feasible)
+    }
+}
+
+/// The closed-form linear least squares of [`online::ols_position`] per sample.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LlsSolver;
+
+impl SampleSolver for LlsSolver {
+    fn solve(
+        &mut self,
+        geometry: &Geometry,
+        sample: &SampleMeasurements,
+        _k: usize,
+    ) -> Result<Vec2, String> {
+        online::ols_position(geometry, sample).map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::measure::NodeMeasurements;
+    use approx::assert_abs_diff_eq;
+
+    /// Noise-free one-way ranges and bistatic ranges of `x` from every
+    /// receiver of seed 002's network.
+    fn exact(g: &Geometry, x: Vec2) -> SampleMeasurements {
+        SampleMeasurements {
+            nodes: g
+                .receivers
+                .iter()
+                .map(|r| NodeMeasurements {
+                    bistatic: g
+                        .transmitters
+                        .iter()
+                        .enumerate()
+                        .map(|(m, t)| (m, (x - t).norm() + (x - r).norm()))
+                        .collect(),
+                    doa: None,
+                    range: Some((x - r).norm()),
+                })
+                .collect(),
+        }
+    }
+
+    fn path() -> Vec<Vec2> {
+        (0..6)
+            .map(|k| Vec2::new(400.0 + 10.0 * k as f64, 300.0 - 5.0 * k as f64))
+            .collect()
+    }
+
+    /// A solver that fails on the samples listed, and otherwise returns the
+    /// sample index as its x coordinate.
+    struct Scripted {
+        fail_at: Vec<usize>,
+        keep: bool,
+        last: Option<Vec2>,
+    }
+
+    impl SampleSolver for Scripted {
+        fn solve(
+            &mut self,
+            _: &Geometry,
+            _: &SampleMeasurements,
+            k: usize,
+        ) -> Result<Vec2, String> {
+            if self.fail_at.contains(&k) {
+                return Err(format!("scripted failure {k}"));
+            }
+            let x = Vec2::new(k as f64, 0.0);
+            self.last = Some(x);
+            Ok(x)
+        }
+        fn on_failure(&self) -> Option<Vec2> {
+            if self.keep { self.last } else { None }
+        }
+    }
+
+    #[test]
+    fn the_executor_counts_failures_keeps_the_first_reason_and_records_what_the_solver_holds() {
+        let g = Geometry::seed002();
+        let samples: Vec<_> = path().iter().map(|x| exact(&g, *x)).collect();
+        let problem = TrackProblem {
+            geometry: &g,
+            samples: &samples,
+            truth0: None,
+        };
+        for keep in [false, true] {
+            let mut s = Scripted {
+                fail_at: vec![2, 4],
+                keep,
+                last: None,
+            };
+            let run = run_track(&problem, &mut s);
+            assert_eq!(run.failures, 2);
+            assert_eq!(
+                run.first_failure.as_deref(),
+                Some("sample 2: scripted failure 2")
+            );
+            assert_eq!(run.est.len(), 6);
+            assert_eq!(run.est[3], Some(Vec2::new(3.0, 0.0)));
+            let held = keep.then(|| Vec2::new(1.0, 0.0));
+            assert_eq!(run.est[2], held);
+            assert_eq!(run.before, None, "a solver without a prior records none");
+            assert_eq!(run.feasible, None);
+        }
+    }
+
+    #[test]
+    fn a_tracker_that_cannot_start_leaves_every_sample_empty_and_says_why() {
+        let g = Geometry::seed002();
+        let samples: Vec<_> = path().iter().map(|x| exact(&g, *x)).collect();
+        let problem = TrackProblem {
+            geometry: &g,
+            samples: &samples,
+            truth0: None,
+        };
+        let mut ogd = OnlineSolver::new(OnlineRule::Ogd(StepSize::Constant { eta: 0.1 })).unwrap();
+        let run = run_track(&problem, &mut ogd);
+        assert_eq!(run.failures, 6);
+        assert_eq!(run.est, vec![None; 6]);
+        assert!(run.first_failure.unwrap().contains("use init = \"ols\""));
+    }
+
+    #[test]
+    fn an_online_tracker_records_its_estimate_before_each_step_starting_from_x0() {
+        let g = Geometry::seed002();
+        let truth = path();
+        let samples: Vec<_> = truth.iter().map(|x| exact(&g, *x)).collect();
+        let problem = TrackProblem {
+            geometry: &g,
+            samples: &samples,
+            truth0: Some(truth[0]),
+        };
+        let mut onm = OnlineSolver::new(OnlineRule::Onm(NewtonDamping::default())).unwrap();
+        let run = run_track(&problem, &mut onm);
+        assert_eq!(run.failures, 0);
+        let before = run.before.expect("an online tracker has a prior");
+        assert_eq!(
+            before[0], truth[0],
+            "exact initialisation: x_0 is the truth"
+        );
+        for (b, e) in before[1..].iter().zip(&run.est) {
+            assert_eq!(Some(*b), *e, "x_t before step t+1");
+        }
+        // Noise-free ranges: one Newton step from the previous position lands
+        // close to the new one (the target moves 11 m per sample).
+        for (e, x) in run.est.iter().zip(&truth) {
+            assert!((e.unwrap() - x).norm() < 1.0, "{e:?} vs {x:?}");
+        }
+    }
+
+    #[test]
+    fn noise_free_samples_are_recovered_by_every_per_sample_solver() {
+        let g = Geometry::seed002();
+        let truth = path();
+        let samples: Vec<_> = truth.iter().map(|x| exact(&g, *x)).collect();
+        let problem = TrackProblem {
+            geometry: &g,
+            samples: &samples,
+            truth0: None,
+        };
+        let mut solvers: Vec<(&str, Box<dyn SampleSolver>)> = vec![
+            ("lls", Box::new(LlsSolver)),
+            ("ls", Box::new(RobustSolver::new(RobustMethod::Ls).unwrap())),
+            (
+                "lad",
+                Box::new(RobustSolver::new(RobustMethod::Lad).unwrap()),
+            ),
+            (
+                "lq",
+                Box::new(RobustSolver::new(RobustMethod::LqIrls(1.5)).unwrap()),
+            ),
+            (
+                "l0os",
+                Box::new(RobustSolver::new(RobustMethod::L0os(Sparsity::Kappa(1))).unwrap()),
+            ),
+            (
+                "pocs",
+                Box::new(PocsSolver::default().with_tol(1e-9).unwrap()),
+            ),
+        ];
+        for (name, s) in &mut solvers {
+            let run = run_track(&problem, s.as_mut());
+            assert_eq!(run.failures, 0, "{name}: {:?}", run.first_failure);
+            for (e, x) in run.est.iter().zip(&truth) {
+                let e = e.unwrap();
+                assert_abs_diff_eq!(e.x, x.x, epsilon = 1e-3);
+                assert_abs_diff_eq!(e.y, x.y, epsilon = 1e-3);
+            }
+            if *name == "pocs" {
+                assert_eq!(run.feasible, Some(6), "consistent sets are reached");
+            }
+        }
+    }
+
+    #[test]
+    fn the_builders_refuse_bad_parameters_by_name() {
+        let key = |r: Result<PocsSolver, ConfigError>| r.unwrap_err().key;
+        assert_eq!(key(PocsSolver::default().with_max_iter(0)), "max_iter");
+        assert_eq!(key(PocsSolver::default().with_tol(-1.0)), "tol");
+        assert_eq!(key(PocsSolver::default().with_tol(f64::NAN)), "tol");
+        for q in [1.0, 2.0, f64::NAN] {
+            let e = RobustSolver::new(RobustMethod::LqIrls(q)).unwrap_err();
+            assert_eq!(e.key, "q");
+        }
+        let e = RobustSolver::new(RobustMethod::L0os(Sparsity::Fraction(1.5))).unwrap_err();
+        assert_eq!(e.key, "p");
+        let e = OnlineSolver::new(OnlineRule::Ogd(StepSize::Constant { eta: -1.0 })).err();
+        assert_eq!(e.map(|e| e.key), Some("step"));
+        assert!(RobustSolver::new(RobustMethod::LqIrls(1.5)).is_ok());
+        assert!(
+            PocsSolver::default()
+                .with_max_iter(1)
+                .and_then(|p| p.with_tol(0.0))
+                .is_ok()
+        );
+    }
+}
