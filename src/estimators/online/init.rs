@@ -166,12 +166,86 @@ pub fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
     }
 }
 
+/// One row of the lifted bistatic system: a bistatic range `rho` from the
+/// focus `lift` (whose distance to the target is lifted into an unknown of
+/// its own, one per `key`) and the focus `other`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiftedRow {
+    /// Which lifted distance this row's `lift` focus has (`0..n_keys`).
+    pub key: usize,
+    /// The focus whose distance `d_key = ||x - lift||` is an unknown.
+    pub lift: Vec2,
+    /// The other focus.
+    pub other: Vec2,
+    /// The bistatic range `||x - lift|| + ||x - other||`.
+    pub rho: f64,
+}
+
+/// Closed-form linear least squares of bistatic ranges, the one implementation
+/// for the trackers' OLS start and the `lls` baseline ([`ols_position`]) and
+/// the robust estimators' linear start (seed 004, [`crate::estimators::robust`]).
+///
+/// Squaring `||x - lift|| = rho - ||x - other||` gives, for every row, the
+/// equation of seed 002 eq. (9) linear in `x` and the lifted `d_key`:
+/// `[2 (other - lift)^T, -2 rho] [x; d_key] = ||other||^2 - rho^2 - ||lift||^2`,
+/// written in coordinates centred on `centre` for conditioning. Each `d_key`
+/// is eliminated in closed form (the Schur complement of its column), which
+/// leaves a 2x2 system in `x`. `None` when that system is singular
+/// (`det <= 1e-10 tr^2`) or the solution is not finite.
+pub fn lifted_bistatic_ls(
+    rows: impl IntoIterator<Item = LiftedRow>,
+    n_keys: usize,
+    centre: Vec2,
+) -> Option<Vec2> {
+    // Per key: S_aa (3 entries), s_ac (2), S_cc, s_ag (2), s_cg.
+    let mut acc = vec![[0.0f64; 9]; n_keys];
+    for row in rows {
+        let (t, r) = (row.other - centre, row.lift - centre);
+        let a = 2.0 * (t - r);
+        let c = -2.0 * row.rho;
+        let g = t.norm_squared() - row.rho * row.rho - r.norm_squared();
+        let k = acc.get_mut(row.key)?;
+        k[0] += a.x * a.x;
+        k[1] += a.x * a.y;
+        k[2] += a.y * a.y;
+        k[3] += a.x * c;
+        k[4] += a.y * c;
+        k[5] += c * c;
+        k[6] += a.x * g;
+        k[7] += a.y * g;
+        k[8] += c * g;
+    }
+    let (mut m00, mut m01, mut m11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for k in &acc {
+        m00 += k[0];
+        m01 += k[1];
+        m11 += k[2];
+        b0 += k[6];
+        b1 += k[7];
+        if k[5] > 0.0 {
+            m00 -= k[3] * k[3] / k[5];
+            m01 -= k[3] * k[4] / k[5];
+            m11 -= k[4] * k[4] / k[5];
+            b0 -= k[3] * k[8] / k[5];
+            b1 -= k[4] * k[8] / k[5];
+        }
+    }
+    let det = m00 * m11 - m01 * m01;
+    let tr = m00 + m11;
+    if !(det.is_finite() && tr > 0.0 && det > OLS_RANK_REL * tr * tr) {
+        return None;
+    }
+    let e = Vec2::new((m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det) + centre;
+    (e.x.is_finite() && e.y.is_finite()).then_some(e)
+}
+
+/// [`lifted_bistatic_ls`] of `(m, n, rho)` triples, lifting the transmitter
+/// distances (`lift_tx`) or the receiver distances, centred on the foci's mean.
 pub(super) fn ols_bistatic(
     geometry: &Geometry,
     bistatic: &[(usize, usize, f64)],
     lift_tx: bool,
 ) -> Result<Vec2, String> {
-    // Column index of each lifted focus.
     let key = |b: &(usize, usize, f64)| if lift_tx { b.0 } else { b.1 };
     let mut lifted: Vec<usize> = bistatic.iter().map(key).collect();
     lifted.sort_unstable();
@@ -184,35 +258,38 @@ pub(super) fn ols_bistatic(
             "{label}-lifted bistatic system has {rows} equations for {cols} unknowns"
         ));
     }
-    let mut a = nalgebra::DMatrix::<f64>::zeros(rows, cols);
-    let mut b = nalgebra::DVector::<f64>::zeros(rows);
-    for (i, bi) in bistatic.iter().enumerate() {
-        let (m, n, rho) = *bi;
-        let (lift, other) = if lift_tx {
-            (geometry.transmitters[m], geometry.receivers[n])
+    let row = |&(m, n, rho): &(usize, usize, f64)| {
+        let (t, r) = (geometry.transmitters[m], geometry.receivers[n]);
+        if lift_tx {
+            LiftedRow {
+                key: m,
+                lift: t,
+                other: r,
+                rho,
+            }
         } else {
-            (geometry.receivers[n], geometry.transmitters[m])
-        };
-        let j = lifted.partition_point(|&k| k < key(bi));
-        let row = 2.0 * (lift - other);
-        a[(i, 0)] = row.x;
-        a[(i, 1)] = row.y;
-        a[(i, 2 + j)] = 2.0 * rho;
-        b[i] = rho * rho + lift.norm_squared() - other.norm_squared();
-    }
-    let svd = a.svd(true, true);
-    let smax = svd.singular_values.max();
-    let smin = svd.singular_values.min();
-    if smin.is_nan() || smin <= OLS_RANK_REL * smax {
-        return Err(format!("{label}-lifted bistatic system is rank deficient"));
-    }
-    let z = svd
-        .solve(&b, 0.0)
-        .map_err(|e| format!("{label}-lifted solve failed: {e}"))?;
-    let x = Vec2::new(z[0], z[1]);
-    if x.x.is_finite() && x.y.is_finite() {
-        Ok(x)
+            LiftedRow {
+                key: n,
+                lift: r,
+                other: t,
+                rho,
+            }
+        }
+    };
+    let sum: Vec2 = bistatic
+        .iter()
+        .map(|b| geometry.transmitters[b.0])
+        .sum::<Vec2>()
+        + bistatic
+            .iter()
+            .map(|b| geometry.receivers[b.1])
+            .sum::<Vec2>();
+    let centre = sum / (2.0 * rows as f64);
+    let n_keys = if lift_tx {
+        geometry.transmitters.len()
     } else {
-        Err(format!("{label}-lifted solution is non-finite"))
-    }
+        geometry.receivers.len()
+    };
+    lifted_bistatic_ls(bistatic.iter().map(row), n_keys, centre)
+        .ok_or_else(|| format!("{label}-lifted bistatic system is rank deficient"))
 }

@@ -116,50 +116,17 @@ impl Problem {
     }
 
     /// Linear LS on the rows `[2 (t - r)^T, -2 s] [e; d_j] = ||t||^2 - s^2 - ||r||^2`
-    /// of seed 002 eq. (9) (coordinates centred on the sensor centroid), with
-    /// each receiver's `d_j` eliminated in closed form. `None` if singular.
+    /// of seed 002 eq. (9), each receiver's `d_j` lifted
+    /// ([`crate::estimators::online::lifted_bistatic_ls`], centred on the sensor
+    /// centroid). `None` if singular.
     pub(super) fn linear_init(&self) -> Option<Vec2> {
-        // Per receiver: S_aa (3 entries), s_ac (2), S_cc, s_ag (2), s_cg.
-        let mut acc = vec![[0.0f64; 9]; self.n_rx];
-        let c0 = self.centroid;
-        for l in 0..self.len() {
-            let (t, r) = (self.t[l] - c0, self.r[l] - c0);
-            let a = 2.0 * (t - r);
-            let c = -2.0 * self.s[l];
-            let g = t.norm_squared() - self.s[l] * self.s[l] - r.norm_squared();
-            let k = &mut acc[self.rx[l]];
-            k[0] += a.x * a.x;
-            k[1] += a.x * a.y;
-            k[2] += a.y * a.y;
-            k[3] += a.x * c;
-            k[4] += a.y * c;
-            k[5] += c * c;
-            k[6] += a.x * g;
-            k[7] += a.y * g;
-            k[8] += c * g;
-        }
-        let (mut m00, mut m01, mut m11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for k in &acc {
-            m00 += k[0];
-            m01 += k[1];
-            m11 += k[2];
-            b0 += k[6];
-            b1 += k[7];
-            if k[5] > 0.0 {
-                m00 -= k[3] * k[3] / k[5];
-                m01 -= k[3] * k[4] / k[5];
-                m11 -= k[4] * k[4] / k[5];
-                b0 -= k[3] * k[8] / k[5];
-                b1 -= k[4] * k[8] / k[5];
-            }
-        }
-        let det = m00 * m11 - m01 * m01;
-        let tr = m00 + m11;
-        if !(det.is_finite() && tr > 0.0 && det > 1e-10 * tr * tr) {
-            return None;
-        }
-        let e = Vec2::new((m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det) + c0;
-        (e.x.is_finite() && e.y.is_finite()).then_some(e)
+        let rows = (0..self.len()).map(|l| crate::estimators::online::LiftedRow {
+            key: self.rx[l],
+            lift: self.r[l],
+            other: self.t[l],
+            rho: self.s[l],
+        });
+        crate::estimators::online::lifted_bistatic_ls(rows, self.n_rx, self.centroid)
     }
 }
 
