@@ -176,7 +176,8 @@ pub struct Counters {
     pub prox_solves: u64,
     /// Gossip messages sent.
     pub messages_out: u64,
-    /// Gossip messages received.
+    /// Gossip messages received from other nodes (the sync root's own
+    /// broadcast, looped back, is not counted).
     pub messages_in: u64,
     /// Declined exchanges (realtime; as initiator).
     pub declines: u64,

@@ -209,7 +209,12 @@ impl NodeCore {
                 }
             }
             Input::Peer(m) => {
-                self.counters.messages_in += 1;
+                // The sync root's broadcast comes back to it; that loopback
+                // copy is not a message from a peer, and when it arrives
+                // relative to the round's end is up to the transport.
+                if m.from() != self.cfg.id {
+                    self.counters.messages_in += 1;
+                }
                 self.on_peer(m, out)
             }
         }
@@ -715,10 +720,19 @@ mod tests {
                 "{o:?}"
             );
         }
-        // The root ignores the loopback of its own broadcast.
+        // The root ignores the loopback of its own broadcast, and does not
+        // count it as a message received: its counters are the same whether
+        // the loopback arrives before or after its report.
+        let before = nodes[0].counters;
+        assert_eq!(before.messages_in, u64::from(n - 1));
         let mut o = Vec::new();
         nodes[0].handle(Input::Peer(avg), &mut o);
         assert!(o.is_empty());
+        assert_eq!(nodes[0].counters, before);
+        for node in &nodes[1..] {
+            assert_eq!(node.counters.messages_in, 1, "the average");
+            assert_eq!(node.counters.messages_out, 1, "the reflected point");
+        }
     }
 
     #[test]
