@@ -146,6 +146,8 @@ pub fn evaluate(
             })
             .collect(),
         bounds: tb.bounds.clone(),
+        theta_bar: tb.clone(),
+        ml: ml.clone(),
         baselines: scored.tracks[2..]
             .iter()
             .map(|t| (t.name.clone(), t.metrics.clone()))
@@ -154,20 +156,6 @@ pub fn evaluate(
         expect: Vec::new(),
     };
     (m, scored)
-}
-
-/// The flat metric namespace of a run (`theta_bar.rmse`, `ogd.ctte`,
-/// `pocs.bounds.upp_maxdis.coverage`, ...): what `[expect] holds` and
-/// `trials.csv` use.
-pub fn flat_metrics(m: &RunMetrics, scored: &Scored) -> std::collections::BTreeMap<String, f64> {
-    let mut f = scored.flat();
-    f.insert("theta_bar.max_disagreement".into(), m.max_disagreement);
-    f.insert("theta_bar.iterations".into(), m.iterations as f64);
-    f.insert("theta_bar.prox_solves".into(), m.prox_solves as f64);
-    if let Some(c) = m.crlb_rms {
-        f.insert("crlb_rms".into(), c);
-    }
-    f
 }
 
 /// Check the scenario's `[expect]` block against one run's metrics.

@@ -19,7 +19,7 @@ mod evaluate;
 mod results;
 mod write;
 
-pub use evaluate::{check_expect, evaluate, expect_results, flat_metrics, unknown_metric};
+pub use evaluate::{check_expect, evaluate, expect_results, unknown_metric};
 pub use results::*;
 pub use write::{write_csv, write_json, write_trace, write_track_csv};
 
@@ -118,7 +118,7 @@ impl Outcome {
     /// Every scalar metric by the names `[expect]` uses (`theta_bar.rmse`,
     /// `ml.rmse`, `ogd.ctte`, ...).
     pub fn flat(&self) -> BTreeMap<String, f64> {
-        flat_metrics(&self.metrics, &self.scored)
+        self.metrics.flat()
     }
 }
 
@@ -171,7 +171,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
     } = execute(sc, opts, progress);
     let (mut metrics, scored) = evaluate(sc, &real, &record, error.as_ref(), opts);
     if error.is_none() && opts.check_expect {
-        metrics.expect = check_expect(sc, &flat_metrics(&metrics, &scored));
+        metrics.expect = check_expect(sc, &metrics.flat());
     }
     Outcome {
         metrics,

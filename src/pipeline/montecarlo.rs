@@ -7,7 +7,7 @@
 //!
 //! * `trials.csv`: `trial,seed,failed,<metric columns>`, one row per trial
 //!   (`failed` is 1 for a trial whose engine stopped early);
-//!   the columns are the flat metric names of [`crate::pipeline::flat_metrics`]
+//!   the columns are the flat metric names of [`crate::pipeline::RunMetrics::flat`]
 //!   (`theta_bar.rmse`, `ogd.ctte`, `pocs.bounds.upp_maxdis.coverage`, ...);
 //! * `summary.json`: `trials`, `seeds`, per-sample mean and 5th/95th
 //!   percentile curves of every track's error, running CTTE and regret
@@ -88,7 +88,7 @@ fn trial_of(
     scored: &Scored,
     idx: &[usize],
 ) -> Trial {
-    let flat = pipeline::flat_metrics(m, scored);
+    let flat = m.flat();
     let curves = scored
         .tracks
         .iter()

@@ -49,7 +49,15 @@ pub struct Death {
 }
 
 /// The contents of `metrics.json`. Error metrics are `null` without truth.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// Every track's metrics are a [`TrackMetrics`]: the distributed estimate's in
+/// `theta_bar`, the centralised ML reference's in `ml`, each baseline's in
+/// `baselines.NAME`. The top-level `rmse` ... `regret`, `ml_rmse` and `bounds`
+/// repeat the most used of them under the names scripts have always read.
+/// A key missing from the file (one written by an older version) reads as
+/// its default.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct RunMetrics {
     /// RMSE of `theta_bar` over all samples.
     pub rmse: Option<f64>,
@@ -105,12 +113,62 @@ pub struct RunMetrics {
     pub nodes: Vec<NodeCounters>,
     /// Certified bounds on `theta_bar` (`[bounds]`), by bound name.
     pub bounds: BTreeMap<String, BoundMetrics>,
+    /// Every metric of the distributed estimate `theta_bar`.
+    pub theta_bar: TrackMetrics,
+    /// Every metric of the centralised ML reference track `ml`.
+    pub ml: TrackMetrics,
     /// Every baseline's metrics, by track name.
     pub baselines: BTreeMap<String, TrackMetrics>,
     /// `x_hat_t` solves (regret) that stopped at 5000 iterations.
     pub x_hat_not_converged: usize,
     /// The scenario's `[expect]` checks on this run.
     pub expect: Vec<ExpectResult>,
+}
+
+impl RunMetrics {
+    /// Read `metrics.json`. A file written before the tracks' metrics were
+    /// embedded has `theta_bar`'s only at the top level and the ML
+    /// reference's only as `ml_rmse`: those fill `theta_bar` and `ml`.
+    pub fn from_json(v: serde_json::Value) -> Result<RunMetrics, serde_json::Error> {
+        let mut m: RunMetrics = serde_json::from_value(v)?;
+        if m.theta_bar == TrackMetrics::default() {
+            m.theta_bar = TrackMetrics {
+                rmse: m.rmse,
+                rmse_after_burn_in: m.rmse_after_burn_in,
+                median_error: m.median_error,
+                final_error: m.final_error,
+                ctte: m.ctte,
+                regret: m.regret,
+                bounds: m.bounds.clone(),
+                ..TrackMetrics::default()
+            };
+        }
+        if m.ml == TrackMetrics::default() {
+            m.ml.rmse = m.ml_rmse;
+        }
+        Ok(m)
+    }
+
+    /// Every scalar metric by the names `[expect]` uses: `theta_bar.rmse`,
+    /// `ml.rmse`, `NAME.ctte`, `NAME.bounds.BOUND.coverage` for every track,
+    /// plus `theta_bar.max_disagreement`, `theta_bar.iterations`,
+    /// `theta_bar.prox_solves` and `crlb_rms`: the columns of `trials.csv`,
+    /// and what the report's comparison table lists.
+    pub fn flat(&self) -> BTreeMap<String, f64> {
+        let mut f = BTreeMap::new();
+        score::flatten_into(&mut f, "theta_bar", &self.theta_bar);
+        score::flatten_into(&mut f, "ml", &self.ml);
+        for (name, m) in &self.baselines {
+            score::flatten_into(&mut f, name, m);
+        }
+        f.insert("theta_bar.max_disagreement".into(), self.max_disagreement);
+        f.insert("theta_bar.iterations".into(), self.iterations as f64);
+        f.insert("theta_bar.prox_solves".into(), self.prox_solves as f64);
+        if let Some(c) = self.crlb_rms {
+            f.insert("crlb_rms".into(), c);
+        }
+        f
+    }
 }
 
 /// One `[expect]` check as recorded in `metrics.json`.

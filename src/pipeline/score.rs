@@ -59,6 +59,7 @@ pub struct BoundMetrics {
 
 /// Metrics of one track. Error metrics are `None` without truth.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default)]
 pub struct TrackMetrics {
     /// RMSE over all samples with an estimate.
     pub rmse: Option<f64>,
@@ -142,16 +143,6 @@ impl Scored {
     /// The track called `name`.
     pub fn track(&self, name: &str) -> Option<&ScoredTrack> {
         self.tracks.iter().find(|t| t.name == name)
-    }
-
-    /// Flat metrics `TRACK.METRIC` (and `TRACK.bounds.BOUND.METRIC`), the
-    /// namespace of `[expect] holds` and the columns of `trials.csv`.
-    pub fn flat(&self) -> BTreeMap<String, f64> {
-        let mut out = BTreeMap::new();
-        for t in &self.tracks {
-            flatten_into(&mut out, &t.name, &t.metrics);
-        }
-        out
     }
 }
 

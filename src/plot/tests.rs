@@ -79,7 +79,7 @@ fn data() -> RunData {
     RunData {
         dir: "unit".into(),
         info: info(),
-        metrics: metrics.as_object().unwrap().clone(),
+        metrics: Some(crate::pipeline::RunMetrics::from_json(metrics).unwrap()),
         track: parse_track_csv(Path::new("track.csv"), &csv_of(TRACK)).unwrap(),
         nodes: nodes(),
         iterations: None,
@@ -337,7 +337,7 @@ fn a_run_without_samples_still_renders_every_figure_with_a_note() {
     )
     .unwrap();
     d.nodes.clear();
-    d.metrics.clear();
+    d.metrics = None;
     for fig in run_figures(&d) {
         assert_ranges_cover(&fig);
         let svg = render_svg(&fig).unwrap();

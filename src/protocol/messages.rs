@@ -171,6 +171,7 @@ impl PeerMsg {
 
 /// Per-node counters, reported to the coordinator.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Counters {
     /// Prox solves.
     pub prox_solves: u64,

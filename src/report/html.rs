@@ -68,7 +68,6 @@ table { border-collapse: collapse; margin: 8px 0 12px; font-size: 14px; }
 th, td { border: 1px solid #d4d4d4; padding: 4px 10px; text-align: left; vertical-align: top; }
 th { background: #f1f3f5; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", monospace; }
-td.computed { color: #555; font-style: italic; }
 td.better { background: #e6f4ea; } td.worse { background: #fce8e6; }
 .status-ok { color: #137333; font-weight: bold; } .status-bad { color: #b3261e; font-weight: bold; }
 figure.plot { margin: 18px 0 28px; }

@@ -46,7 +46,7 @@ pub fn report_html(d: &RunData, figs: &[(Figure, String)]) -> String {
             esc(e)
         );
     }
-    if let Some(n) = d.metrics.get("note").and_then(Value::as_str) {
+    if let Some(n) = d.metrics.as_ref().and_then(|m| m.note.as_deref()) {
         let _ = writeln!(s, "<p class=\"note\">Note: {}</p>", esc(n));
     }
     s.push_str("<h2 id=\"scenario\">Scenario</h2>\n");
@@ -100,7 +100,6 @@ pub fn default_comparison_path(a: &Path, b: &Path) -> PathBuf {
 mod tests {
     use super::*;
     use crate::plot::data::{RunInfo, Track, TrackKind, TrackTable};
-    use approx::assert_abs_diff_eq;
     use serde_json::json;
 
     fn data() -> RunData {
@@ -118,13 +117,16 @@ mod tests {
                 burn_in: Some(1),
                 ..RunInfo::default()
             },
-            metrics: json!({"rmse": 5.5, "ml_rmse": 1.25, "iterations": 10,
-                "baselines": {"ogd": {"rmse": 7.0, "dynamic_regret": 3.0}},
-                "bounds": {"minball": {"coverage": 1.0}},
-                "realtime": {"declines": 4}})
-            .as_object()
-            .unwrap()
-            .clone(),
+            metrics: Some(
+                crate::pipeline::RunMetrics::from_json(json!({"rmse": 5.5, "ml_rmse": 1.25, "iterations": 10,
+                    "ml": {"rmse": 1.25, "ctte": 19.5},
+                    "baselines": {"ogd": {"rmse": 7.0, "regret": 3.0}},
+                    "bounds": {"minball": {"coverage": 1.0, "invalid_fraction": 0.0,
+                        "empty_fraction": 0.0, "mean_bound": 4.0, "seconds_per_instance": 1e-5}},
+                    "realtime": {"iterations_per_sample_min": 1, "iterations_per_sample_median": 2.0,
+                        "iterations_per_sample_max": 3, "declines": 4, "iterations_per_second": 5.0}}))
+                .unwrap(),
+            ),
             track: TrackTable {
                 sample: vec![0.0, 1.0, 2.0, 3.0],
                 truth: vec![Some([0.0, 0.0]); 4],
@@ -144,58 +146,49 @@ mod tests {
     }
 
     #[test]
-    fn track_metrics_prefer_metrics_json_and_compute_the_rest_from_track_csv() {
+    fn track_metrics_are_read_from_metrics_json_and_never_computed() {
         let d = data();
         let tm = track_metrics(&d);
-        assert_eq!(
-            tm.columns,
-            [
-                "rmse",
-                "rmse_after_burn_in",
-                "median_error",
-                "final_error",
-                "ctte",
-                "dynamic_regret"
-            ]
-        );
         let row = |n: &str| &tm.rows.iter().find(|r| r.0 == n).unwrap().2;
         let col = |c: &str| tm.columns.iter().position(|x| x == c).unwrap();
-        // theta_bar: rmse from metrics.json, the rest computed like metrics::score.
+        // Columns in TRACK_KEYS order first, then the rest alphabetically.
+        assert_eq!(tm.columns[..2], ["rmse", "ctte"]);
+        assert!(tm.columns.contains(&"regret".to_string()));
+        // theta_bar: an older file without the `theta_bar` object is read
+        // with its top-level metrics; the error series of track.csv is not scored.
         let tb = row(THETA_BAR);
-        assert_eq!(
-            tb[col("rmse")],
-            Some(Cell {
-                value: 5.5,
-                computed: false
-            })
-        );
-        let s = crate::model::metrics::score(&[10.0, 4.0, 2.0, 3.0], 1).unwrap();
-        let c = tb[col("rmse_after_burn_in")].unwrap();
-        assert!(c.computed);
-        assert_abs_diff_eq!(c.value, s.rmse_after_burn_in, epsilon = 1e-12);
-        assert_abs_diff_eq!(tb[col("ctte")].unwrap().value, 19.0, epsilon = 1e-12);
-        // ML: rmse is ml_rmse.
-        assert_abs_diff_eq!(row(ML)[col("rmse")].unwrap().value, 1.25);
-        // ogd: given values kept; a gap in its errors means nothing is computed.
-        let ogd = row("ogd");
-        assert_abs_diff_eq!(ogd[col("dynamic_regret")].unwrap().value, 3.0);
-        assert_eq!(ogd[col("ctte")], None);
+        assert_eq!(tb[col("rmse")], Some(5.5));
+        assert_eq!(tb[col("ctte")], None, "19.0 from track.csv is not computed");
+        // ML from the `ml` object, ogd from `baselines.ogd`.
+        assert_eq!(row(ML)[col("ctte")], Some(19.5));
+        assert_eq!(row("ogd")[col("regret")], Some(3.0));
+        assert_eq!(row("ogd")[col("ctte")], None);
+        // Without metrics.json there is no table.
+        let mut none = d.clone();
+        none.metrics = None;
+        assert!(track_metrics(&none).rows.is_empty());
     }
 
     #[test]
-    fn flat_metrics_include_baselines_bounds_and_realtime() {
-        let f = flat_metrics(&data().metrics);
+    fn the_comparison_names_metrics_as_expect_does_with_the_run_counters_after_them() {
+        let d = data();
+        let f = flat_metrics(d.metrics.as_ref());
         let keys: Vec<&str> = f.iter().map(|x| x.0.as_str()).collect();
-        assert_eq!(keys[0], "rmse");
+        assert_eq!(keys[0], "theta_bar.rmse");
         for k in [
-            "baselines.ogd.rmse",
-            "baselines.ogd.dynamic_regret",
-            "bounds.minball.coverage",
+            "ml.ctte",
+            "ogd.rmse",
+            "ogd.regret",
+            "theta_bar.bounds.minball.coverage",
+            "theta_bar.iterations",
             "realtime.declines",
-            "iterations",
+            "wall_seconds",
         ] {
             assert!(keys.contains(&k), "{k} missing from {keys:?}");
         }
+        let pos = |k: &str| keys.iter().position(|x| *x == k).unwrap();
+        assert!(pos("ml.ctte") < pos("ogd.rmse"));
+        assert!(pos("ogd.rmse") < pos("wall_seconds"));
     }
 
     #[test]

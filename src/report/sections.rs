@@ -59,7 +59,7 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     add(
         "samples",
         get(sc, &["target", "samples"]).map(show).map(|s| {
-            match d.metrics.get("samples_completed").and_then(Value::as_u64) {
+            match d.metrics.as_ref().map(|m| m.samples_completed) {
                 Some(c) => format!("{c} completed of {s}"),
                 None => s,
             }
@@ -133,7 +133,8 @@ pub(super) fn kv_table(rows: &[(String, String)]) -> String {
 pub(super) fn track_metrics_html(d: &RunData) -> String {
     let tm = track_metrics(d);
     if tm.rows.is_empty() {
-        return "<p class=\"note\">No track metrics (metrics.json has none and track.csv has no tracks).</p>\n".into();
+        return "<p class=\"note\">No track metrics (the directory has no metrics.json).</p>\n"
+            .into();
     }
     let mut s = String::from("<table id=\"track-metrics\">\n<tr><th>track</th>");
     for c in &tm.columns {
@@ -145,7 +146,6 @@ pub(super) fn track_metrics_html(d: &RunData) -> String {
         let _ = write!(s, "<th>{}{unit}</th>", esc(c));
     }
     s.push_str("</tr>\n");
-    let mut any_computed = false;
     for (name, label, cells) in &tm.rows {
         let _ = write!(
             s,
@@ -155,12 +155,8 @@ pub(super) fn track_metrics_html(d: &RunData) -> String {
         );
         for c in cells {
             match c {
-                Some(c) if c.computed => {
-                    any_computed = true;
-                    let _ = write!(s, "<td class=\"num computed\">{}</td>", fmt_num(c.value));
-                }
-                Some(c) => {
-                    let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(c.value));
+                Some(v) => {
+                    let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(*v));
                 }
                 None => s.push_str("<td class=\"num\">–</td>"),
             }
@@ -168,19 +164,21 @@ pub(super) fn track_metrics_html(d: &RunData) -> String {
         s.push_str("</tr>\n");
     }
     s.push_str("</table>\n");
-    if any_computed {
-        s.push_str("<p class=\"note\">Values in italics are not in metrics.json; the report computed them from the error series of track.csv with the same definitions.</p>\n");
-    }
     s
 }
 
 pub(super) fn run_metrics_html(d: &RunData) -> String {
+    let Some(m) = &d.metrics else {
+        return String::new();
+    };
     let skip = |k: &str| {
         TRACK_KEYS.contains(&k)
             || matches!(
                 k,
                 "baselines"
                     | "bounds"
+                    | "theta_bar"
+                    | "ml"
                     | "nodes"
                     | "deaths"
                     | "realtime"
@@ -191,7 +189,11 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
             )
     };
     let mut rows: Vec<(String, String)> = Vec::new();
-    for (k, v) in &d.metrics {
+    let all = match serde_json::to_value(m) {
+        Ok(Value::Object(o)) => o,
+        _ => Map::new(),
+    };
+    for (k, v) in &all {
         if skip(k) || v.is_null() {
             continue;
         }
@@ -206,24 +208,16 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
         };
         rows.push((k.clone(), format!("{text}{unit}")));
     }
-    if let Some(Value::Object(rt)) = d.metrics.get("realtime") {
+    if let Some(Value::Object(rt)) = all.get("realtime") {
         for (k, v) in rt {
             rows.push((format!("realtime.{k}"), show(v)));
         }
     }
-    if let Some(Value::Array(deaths)) = d.metrics.get("deaths")
-        && !deaths.is_empty()
-    {
-        let list: Vec<String> = deaths
+    if !m.deaths.is_empty() {
+        let list: Vec<String> = m
+            .deaths
             .iter()
-            .map(|x| {
-                format!(
-                    "node {} at sample {} ({})",
-                    x.get("node").map(show).unwrap_or_default(),
-                    x.get("sample").map(show).unwrap_or_default(),
-                    x.get("how").map(show).unwrap_or_default()
-                )
-            })
+            .map(|x| format!("node {} at sample {} ({})", x.node, x.sample, x.how))
             .collect();
         rows.push(("deaths".into(), list.join("; ")));
     }
@@ -274,28 +268,25 @@ pub(super) fn objects_table(
 }
 
 pub(super) fn bounds_html(d: &RunData) -> String {
-    match d.metrics.get("bounds") {
-        Some(Value::Object(b)) if !b.is_empty() => {
-            let rows: Vec<(String, Map<String, Value>)> = b
-                .iter()
-                .map(|(k, v)| {
-                    let o = match v {
-                        Value::Object(o) => o.clone(),
-                        other => {
-                            let mut m = Map::new();
-                            m.insert("value".into(), other.clone());
-                            m
-                        }
-                    };
-                    (k.clone(), o)
-                })
-                .collect();
-            format!(
-                "<h3>Bounds</h3>\n{}",
-                objects_table("bounds", "bound", &rows)
-            )
-        }
-        _ => String::new(),
+    let Some(m) = d.metrics.as_ref().filter(|m| !m.bounds.is_empty()) else {
+        return String::new();
+    };
+    let rows: Vec<(String, Map<String, Value>)> = m
+        .bounds
+        .iter()
+        .map(|(k, v)| (k.clone(), object(v)))
+        .collect();
+    format!(
+        "<h3>Bounds</h3>\n{}",
+        objects_table("bounds", "bound", &rows)
+    )
+}
+
+/// A typed record as a JSON object, for the generic tables.
+fn object(v: &impl serde::Serialize) -> Map<String, Value> {
+    match serde_json::to_value(v) {
+        Ok(Value::Object(o)) => o,
+        _ => Map::new(),
     }
 }
 
@@ -305,10 +296,11 @@ pub(super) fn nodes_html(d: &RunData) -> String {
         return String::new();
     }
     let rows: Vec<(String, Map<String, Value>)> = nodes
-        .into_iter()
-        .map(|mut o| {
-            let id = o.remove("node").map(|v| show(&v)).unwrap_or_default();
-            (format!("R{id}"), o)
+        .iter()
+        .map(|c| {
+            let mut o = object(c);
+            o.remove("node");
+            (format!("R{}", c.node), o)
         })
         .collect();
     format!(

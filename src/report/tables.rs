@@ -1,7 +1,9 @@
-//! The metrics tables of a run: every track's metrics, and `metrics.json` flattened for
-//! comparisons.
+//! The metrics tables of a run: every track's metrics, and the run's metrics
+//! flattened for comparisons. Both read the typed `metrics.json`
+//! ([`RunMetrics`]) and compute nothing.
 
 use super::*;
+use crate::pipeline::RunMetrics;
 
 /// Track metrics shown first, in this order (m, except `regret`).
 pub const TRACK_KEYS: [&str; 6] = [
@@ -13,85 +15,71 @@ pub const TRACK_KEYS: [&str; 6] = [
     "regret",
 ];
 
-/// One cell of the track metrics table.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Cell {
-    /// The value.
-    pub value: f64,
-    /// Computed here from `track.csv` (not found in `metrics.json`).
-    pub computed: bool,
-}
-
 /// The metrics table of every track.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MetricsTable {
-    /// Column keys.
+    /// Column keys ([`crate::pipeline::score::TrackMetrics`] fields with a value in some row).
     pub columns: Vec<String>,
-    /// Rows: track name, legend label, cells per column.
-    pub rows: Vec<(String, String, Vec<Option<Cell>>)>,
+    /// Rows: track name, legend label, value per column.
+    pub rows: Vec<(String, String, Vec<Option<f64>>)>,
 }
 
 pub(super) fn num(v: &Value) -> Option<f64> {
     v.as_f64().filter(|f| f.is_finite())
 }
 
-/// Metrics of every track: `theta_bar` from the top level of `metrics.json`,
-/// the ML reference from `ml_rmse`, baselines from `baselines.NAME`; whatever
-/// is missing is computed from the error series of `track.csv` with
-/// [`crate::model::metrics::score`] (and marked as computed).
+/// The finite numbers of a serialised value, by key.
+fn numbers(v: &impl serde::Serialize) -> Map<String, Value> {
+    match serde_json::to_value(v) {
+        Ok(Value::Object(o)) => o.into_iter().filter(|(_, v)| num(v).is_some()).collect(),
+        _ => Map::new(),
+    }
+}
+
+/// Metrics of every track as `metrics.json` records them: `theta_bar`, the
+/// ML reference `ml` and `baselines.NAME`, in the order of `track.csv` (then
+/// any track only `metrics.json` has). A value the file does not hold stays
+/// empty; nothing is computed here.
 pub fn track_metrics(data: &RunData) -> MetricsTable {
-    let mut columns: Vec<String> = Vec::new();
-    let mut rows: Vec<(String, String, Map<String, Value>, bool)> = Vec::new();
-    let baselines = data
-        .metrics
-        .get("baselines")
-        .and_then(Value::as_object)
-        .cloned()
-        .unwrap_or_default();
+    let Some(m) = &data.metrics else {
+        return MetricsTable {
+            columns: Vec::new(),
+            rows: Vec::new(),
+        };
+    };
     let mut names: Vec<(String, String)> = data
         .track
         .tracks
         .iter()
         .map(|t| (t.name.clone(), t.label()))
         .collect();
-    if names.is_empty() && data.metrics.contains_key("rmse") {
-        names.push((THETA_BAR.into(), "distributed estimate".into()));
+    for (n, label) in [(THETA_BAR, "distributed estimate"), (ML, "centralised ML")] {
+        if !names.iter().any(|(x, _)| x == n) {
+            names.push((n.into(), label.into()));
+        }
     }
-    for n in baselines.keys() {
+    for n in m.baselines.keys() {
         if !names.iter().any(|(x, _)| x == n) {
             names.push((n.clone(), n.clone()));
         }
     }
-    for (name, label) in names {
-        let mut given = Map::new();
-        if name == THETA_BAR {
-            for k in TRACK_KEYS {
-                if let Some(v) = data.metrics.get(k).filter(|v| num(v).is_some()) {
-                    given.insert(k.into(), v.clone());
-                }
-            }
-        } else if name == ML {
-            if let Some(v) = data.metrics.get("ml_rmse").filter(|v| num(v).is_some()) {
-                given.insert("rmse".into(), v.clone());
-            }
-        } else if let Some(Value::Object(o)) = baselines.get(&name) {
-            for (k, v) in o {
-                if num(v).is_some() {
-                    given.insert(k.clone(), v.clone());
-                }
-            }
-        }
+    let rows: Vec<(String, String, Map<String, Value>)> = names
+        .into_iter()
+        .filter_map(|(name, label)| {
+            let metrics = match name.as_str() {
+                THETA_BAR => m.theta_bar.clone(),
+                ML => m.ml.clone(),
+                other => m.baselines.get(other)?.clone(),
+            };
+            Some((name, label, numbers(&metrics)))
+        })
+        .collect();
+    let mut columns: Vec<String> = Vec::new();
+    for (_, _, given) in &rows {
         for k in given.keys() {
             if !columns.contains(k) {
                 columns.push(k.clone());
             }
-        }
-        rows.push((name, label, given, false));
-    }
-    for k in TRACK_KEYS {
-        let computable = k != "regret" || data.track.tracks.iter().any(|t| t.regret.is_some());
-        if computable && !columns.iter().any(|c| c == k) {
-            columns.push(k.into());
         }
     }
     let rank = |c: &str| {
@@ -101,90 +89,55 @@ pub fn track_metrics(data: &RunData) -> MetricsTable {
             .unwrap_or(TRACK_KEYS.len())
     };
     columns.sort_by(|a, b| rank(a).cmp(&rank(b)).then(a.cmp(b)));
-    let burn_in = data.info.burn_in.unwrap_or(0);
-    let out_rows = rows
+    let rows = rows
         .into_iter()
-        .map(|(name, label, given, _)| {
-            let track = data.track.track(&name);
-            let computed: Option<crate::model::metrics::TrackScore> = track.and_then(|t| {
-                let e: Option<Vec<f64>> = t.error.iter().copied().collect();
-                let e = e.filter(|e| !e.is_empty())?;
-                crate::model::metrics::score(&e, burn_in.min(e.len() - 1))
-            });
-            let regret_last = track
-                .and_then(|t| t.regret.as_ref())
-                .and_then(|r| r.iter().rev().find_map(|x| *x));
-            let cells = columns
-                .iter()
-                .map(|c| {
-                    if let Some(v) = given.get(c).and_then(num) {
-                        return Some(Cell {
-                            value: v,
-                            computed: false,
-                        });
-                    }
-                    let v = match (c.as_str(), &computed) {
-                        ("rmse", Some(s)) => Some(s.rmse),
-                        ("rmse_after_burn_in", Some(s)) => Some(s.rmse_after_burn_in),
-                        ("median_error", Some(s)) => Some(s.median_error),
-                        ("final_error", Some(s)) => Some(s.final_error),
-                        ("ctte", Some(s)) => Some(s.ctte),
-                        ("regret", _) => regret_last,
-                        _ => None,
-                    };
-                    v.map(|value| Cell {
-                        value,
-                        computed: true,
-                    })
-                })
-                .collect();
+        .map(|(name, label, given)| {
+            let cells = columns.iter().map(|c| given.get(c).and_then(num)).collect();
             (name, label, cells)
         })
         .collect();
-    MetricsTable {
-        columns,
-        rows: out_rows,
-    }
+    MetricsTable { columns, rows }
 }
 
-/// Flatten `metrics.json` into `key -> number` for the comparison table:
-/// top-level numbers, `realtime.*`, `baselines.NAME.*`, `bounds.NAME.*`.
-pub fn flat_metrics(m: &Map<String, Value>) -> Vec<(String, f64)> {
-    let mut out = Vec::new();
-    for (k, v) in m {
-        match v {
-            Value::Number(_) => {
-                if let Some(f) = num(v) {
-                    out.push((k.clone(), f));
-                }
+/// The run's metrics by flat name for the comparison table: every track's
+/// metrics as `[expect]` names them ([`RunMetrics::flat`]: `theta_bar.rmse`,
+/// `ml.rmse`, `NAME.ctte`, ...), then `wall_seconds`, `startup_seconds`,
+/// `samples_completed` and `realtime.*`.
+pub fn flat_metrics(m: Option<&RunMetrics>) -> Vec<(String, f64)> {
+    let Some(m) = m else {
+        return Vec::new();
+    };
+    let flat = m.flat();
+    let group = |k: &str| match k.split('.').next() {
+        Some(THETA_BAR) => 0,
+        Some(ML) => 1,
+        _ if k.contains('.') => 2,
+        _ => 3,
+    };
+    let rank = |k: &str| {
+        let last = k.rsplit('.').next().unwrap_or(k);
+        let depth = k.matches('.').count();
+        (
+            group(k),
+            TRACK_KEYS
+                .iter()
+                .position(|t| *t == last && depth == 1)
+                .unwrap_or(TRACK_KEYS.len()),
+        )
+    };
+    let mut out: Vec<(String, f64)> = flat.into_iter().filter(|(_, v)| v.is_finite()).collect();
+    out.push(("wall_seconds".into(), m.wall_seconds));
+    if let Some(s) = m.startup_seconds {
+        out.push(("startup_seconds".into(), s));
+    }
+    out.push(("samples_completed".into(), m.samples_completed as f64));
+    if let Some(rt) = &m.realtime {
+        for (k, v) in numbers(rt) {
+            if let Some(f) = num(&v) {
+                out.push((format!("realtime.{k}"), f));
             }
-            Value::Object(o) if k == "realtime" => {
-                for (k2, v2) in o {
-                    if let Some(f) = num(v2) {
-                        out.push((format!("realtime.{k2}"), f));
-                    }
-                }
-            }
-            Value::Object(o) if k == "baselines" || k == "bounds" => {
-                for (name, inner) in o {
-                    if let Value::Object(inner) = inner {
-                        for (k2, v2) in inner {
-                            if let Some(f) = num(v2) {
-                                out.push((format!("{k}.{name}.{k2}"), f));
-                            }
-                        }
-                    }
-                }
-            }
-            _ => {}
         }
     }
-    let rank = |c: &str| {
-        TRACK_KEYS
-            .iter()
-            .position(|k| *k == c)
-            .unwrap_or(TRACK_KEYS.len() + usize::from(c.contains('.')))
-    };
     out.sort_by_key(|a| rank(&a.0));
     out
 }

@@ -338,6 +338,13 @@ fn run_json_and_summary_json_are_exactly_their_typed_schemas() {
     assert!(typed.curves.contains_key("theta_bar") && typed.curves.contains_key("ml"));
     // metrics.json likewise.
     let metrics = read("metrics.json");
-    let typed: pipeline::RunMetrics = serde_json::from_value(metrics.clone()).unwrap();
+    let typed = pipeline::RunMetrics::from_json(metrics.clone()).unwrap();
     assert_eq!(serde_json::to_value(&typed).unwrap(), metrics);
+    // Every track's metrics are embedded: the top-level ones are theta_bar's,
+    // ml_rmse is the ML reference's.
+    assert!(typed.theta_bar.ctte_mid.is_some());
+    assert_eq!(typed.rmse, typed.theta_bar.rmse);
+    assert_eq!(typed.ctte, typed.theta_bar.ctte);
+    assert_eq!(typed.ml_rmse, typed.ml.rmse);
+    assert!(typed.ml.rmse_after_burn_in.is_some());
 }

@@ -122,7 +122,10 @@ fn report_of_two_runs_compares_them_side_by_side() {
     let html = read(&page);
     assert_self_contained(&html);
     assert!(html.contains("id=\"metrics-diff\""));
-    assert!(html.contains("<tr><th>rmse</th>"), "diff table lacks rmse");
+    assert!(
+        html.contains("<tr><th>theta_bar.rmse</th>"),
+        "diff table lacks theta_bar.rmse"
+    );
     for id in [
         "plot-compare-error",
         "plot-compare-ctte",

@@ -9,8 +9,8 @@ pub use json::*;
 pub use tables::*;
 
 use crate::model::error::InputError;
-use crate::pipeline::{Band, McSummary, RunJson};
-use serde_json::{Map, Value};
+use crate::pipeline::{Band, McSummary, NodeCounters, RunJson, RunMetrics};
+use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 /// Name of the distributed estimate `theta_bar` in track lists and in
@@ -209,8 +209,8 @@ pub struct RunData {
     pub dir: PathBuf,
     /// `run.json`.
     pub info: RunInfo,
-    /// `metrics.json` (empty when absent in a Monte Carlo directory).
-    pub metrics: Map<String, Value>,
+    /// `metrics.json` (absent in a Monte Carlo directory without one).
+    pub metrics: Option<RunMetrics>,
     /// `track.csv` (empty when absent in a Monte Carlo directory).
     pub track: TrackTable,
     /// `nodes.csv`: every node's `theta` after every sample.
@@ -223,12 +223,8 @@ pub struct RunData {
 
 impl RunData {
     /// Per-node counters of `metrics.json` (`nodes` array).
-    pub fn node_counters(&self) -> Vec<Map<String, Value>> {
-        self.metrics
-            .get("nodes")
-            .and_then(Value::as_array)
-            .map(|a| a.iter().filter_map(|v| v.as_object().cloned()).collect())
-            .unwrap_or_default()
+    pub fn node_counters(&self) -> &[NodeCounters] {
+        self.metrics.as_ref().map_or(&[], |m| &m.nodes)
     }
 
     /// A short name of the run for titles: `<name> (<mode>, <engine>, seed <seed>)`.
@@ -291,10 +287,12 @@ pub fn load_run(dir: &Path) -> Result<RunData, InputError> {
     };
     let metrics = match need("metrics.json")? {
         Some(p) => match read_json(&p)? {
-            Value::Object(m) => m,
+            v @ Value::Object(_) => Some(RunMetrics::from_json(v).map_err(|e| {
+                InputError::file(&p, format!("not the metrics of a sonarnet run: {e}"))
+            })?),
             _ => return Err(InputError::file(&p, "expected a JSON object")),
         },
-        None => Map::new(),
+        None => None,
     };
     let track = match need("track.csv")? {
         Some(p) => parse_track_csv(&p, &read_csv(&p)?)?,

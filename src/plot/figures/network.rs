@@ -2,10 +2,6 @@
 
 use super::*;
 
-pub(super) fn counter(m: &serde_json::Map<String, serde_json::Value>, k: &str) -> Option<u64> {
-    m.get(k).and_then(serde_json::Value::as_u64)
-}
-
 /// Sequential light-to-dark blue for `t` in `[0, 1]`.
 pub(super) fn heat(t: f64) -> Rgb {
     let t = t.clamp(0.0, 1.0);
@@ -31,8 +27,8 @@ pub fn network_figure(data: &RunData) -> Figure {
         .map(|i| {
             counters
                 .iter()
-                .find(|c| counter(c, "node") == Some(i as u64))
-                .and_then(|c| counter(c, "prox_solves"))
+                .find(|c| c.node == i)
+                .map(|c| c.counters.prox_solves)
         })
         .collect();
     let lo = prox.iter().flatten().copied().min().unwrap_or(0) as f64;
@@ -56,9 +52,7 @@ pub fn network_figure(data: &RunData) -> Figure {
         .fold(f64::INFINITY, f64::min);
     let compact = rx.len() > 10 || closest < 0.15 * span;
     for (i, p) in rx.iter().enumerate() {
-        let c = counters
-            .iter()
-            .find(|c| counter(c, "node") == Some(i as u64));
+        let c = counters.iter().find(|c| c.node == i).map(|c| c.counters);
         let color = match prox[i] {
             Some(v) if hi > lo => heat(0.15 + 0.85 * (v as f64 - lo) / (hi - lo)),
             Some(_) => heat(0.6),
@@ -71,13 +65,12 @@ pub fn network_figure(data: &RunData) -> Figure {
         });
         let mut lines = vec![format!("R{i}")];
         if let Some(c) = c {
-            let g = |k| counter(c, k).map_or("-".into(), |v| v.to_string());
             if compact {
-                lines[0] = format!("R{i} · {}", g("prox_solves"));
+                lines[0] = format!("R{i} · {}", c.prox_solves);
             } else {
-                lines.push(format!("prox {}", g("prox_solves")));
-                lines.push(format!("msg {}↑ {}↓", g("messages_out"), g("messages_in")));
-                lines.push(format!("declines {}", g("declines")));
+                lines.push(format!("prox {}", c.prox_solves));
+                lines.push(format!("msg {}↑ {}↓", c.messages_out, c.messages_in));
+                lines.push(format!("declines {}", c.declines));
             }
         }
         panel.labels.push(Label {
