@@ -240,7 +240,6 @@ pub fn crlb(obs: &[Obs], sigmas: &Sigmas, x: &Vec2) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::measure::NodeMeasurements;
     use approx::assert_relative_eq;
 
     /// The first four receivers of the seed 002 network.
@@ -251,22 +250,7 @@ mod tests {
     }
 
     fn exact(g: &Geometry, x: &Vec2) -> SampleMeasurements {
-        SampleMeasurements {
-            nodes: g
-                .receivers
-                .iter()
-                .map(|r| NodeMeasurements {
-                    bistatic: g
-                        .transmitters
-                        .iter()
-                        .enumerate()
-                        .map(|(m, t)| (m, measure::bistatic_range(x, t, r)))
-                        .collect(),
-                    doa: Some(measure::doa(x, r)),
-                    range: None,
-                })
-                .collect(),
-        }
+        SampleMeasurements::noise_free(g, x, true, false)
     }
 
     #[test]

@@ -437,28 +437,11 @@ impl SampleSolver for LlsSolver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::measure::NodeMeasurements;
     use approx::assert_abs_diff_eq;
 
-    /// Noise-free one-way ranges and bistatic ranges of `x` from every
-    /// receiver of seed 002's network.
+    /// Noise-free one-way ranges and bistatic ranges of `x` from every receiver.
     fn exact(g: &Geometry, x: Vec2) -> SampleMeasurements {
-        SampleMeasurements {
-            nodes: g
-                .receivers
-                .iter()
-                .map(|r| NodeMeasurements {
-                    bistatic: g
-                        .transmitters
-                        .iter()
-                        .enumerate()
-                        .map(|(m, t)| (m, (x - t).norm() + (x - r).norm()))
-                        .collect(),
-                    doa: None,
-                    range: Some((x - r).norm()),
-                })
-                .collect(),
-        }
+        SampleMeasurements::noise_free(g, &x, false, true)
     }
 
     fn path() -> Vec<Vec2> {

@@ -88,6 +88,31 @@ pub struct SampleMeasurements {
     pub nodes: Vec<NodeMeasurements>,
 }
 
+impl SampleMeasurements {
+    /// What every receiver measures of a target at `x` without noise: the
+    /// bistatic range from each transmitter (seed 002 eq. 1), and the DOA
+    /// (eq. 2) and one-way range where asked for. For tests and examples
+    /// that need exact data.
+    pub fn noise_free(geometry: &Geometry, x: &Vec2, with_doa: bool, with_range: bool) -> Self {
+        SampleMeasurements {
+            nodes: geometry
+                .receivers
+                .iter()
+                .map(|r| NodeMeasurements {
+                    bistatic: geometry
+                        .transmitters
+                        .iter()
+                        .enumerate()
+                        .map(|(m, t)| (m, bistatic_range(x, t, r)))
+                        .collect(),
+                    doa: with_doa.then(|| doa(x, r)),
+                    range: with_range.then(|| one_way_range(x, r)),
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Noise standard deviations of one sample, as the centralised estimators
 /// weight them (`1/sigma^2`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
