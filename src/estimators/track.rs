@@ -439,15 +439,35 @@ mod tests {
     use super::*;
     use approx::assert_abs_diff_eq;
 
-    /// Noise-free one-way ranges and bistatic ranges of `x` from every receiver.
-    fn exact(g: &Geometry, x: Vec2) -> SampleMeasurements {
-        SampleMeasurements::noise_free(g, &x, false, true)
+    /// Seed 002's network and a target moving 11 m per sample, measured
+    /// without noise (bistatic and one-way ranges).
+    struct Fixture {
+        g: Geometry,
+        truth: Vec<Vec2>,
+        samples: Vec<SampleMeasurements>,
     }
 
-    fn path() -> Vec<Vec2> {
-        (0..6)
-            .map(|k| Vec2::new(400.0 + 10.0 * k as f64, 300.0 - 5.0 * k as f64))
-            .collect()
+    impl Fixture {
+        fn new() -> Self {
+            let g = Geometry::seed002();
+            let truth: Vec<Vec2> = (0..6)
+                .map(|k| Vec2::new(400.0 + 10.0 * k as f64, 300.0 - 5.0 * k as f64))
+                .collect();
+            let samples = truth
+                .iter()
+                .map(|x| SampleMeasurements::noise_free(&g, x, false, true))
+                .collect();
+            Fixture { g, truth, samples }
+        }
+
+        /// The problem, with the true first position or without.
+        fn problem(&self, with_truth: bool) -> TrackProblem<'_> {
+            TrackProblem {
+                geometry: &self.g,
+                samples: &self.samples,
+                truth0: with_truth.then_some(self.truth[0]),
+            }
+        }
     }
 
     /// A solver that fails on the samples listed, and otherwise returns the
@@ -479,13 +499,8 @@ mod tests {
 
     #[test]
     fn the_executor_counts_failures_keeps_the_first_reason_and_records_what_the_solver_holds() {
-        let g = Geometry::seed002();
-        let samples: Vec<_> = path().iter().map(|x| exact(&g, *x)).collect();
-        let problem = TrackProblem {
-            geometry: &g,
-            samples: &samples,
-            truth0: None,
-        };
+        let f = Fixture::new();
+        let problem = f.problem(false);
         for keep in [false, true] {
             let mut s = Scripted {
                 fail_at: vec![2, 4],
@@ -509,13 +524,8 @@ mod tests {
 
     #[test]
     fn a_tracker_that_cannot_start_leaves_every_sample_empty_and_says_why() {
-        let g = Geometry::seed002();
-        let samples: Vec<_> = path().iter().map(|x| exact(&g, *x)).collect();
-        let problem = TrackProblem {
-            geometry: &g,
-            samples: &samples,
-            truth0: None,
-        };
+        let f = Fixture::new();
+        let problem = f.problem(false);
         let mut ogd = OnlineSolver::new(OnlineRule::Ogd(StepSize::Constant { eta: 0.1 })).unwrap();
         let run = run_track(&problem, &mut ogd);
         assert_eq!(run.failures, 6);
@@ -525,14 +535,9 @@ mod tests {
 
     #[test]
     fn an_online_tracker_records_its_estimate_before_each_step_starting_from_x0() {
-        let g = Geometry::seed002();
-        let truth = path();
-        let samples: Vec<_> = truth.iter().map(|x| exact(&g, *x)).collect();
-        let problem = TrackProblem {
-            geometry: &g,
-            samples: &samples,
-            truth0: Some(truth[0]),
-        };
+        let f = Fixture::new();
+        let truth = &f.truth;
+        let problem = f.problem(true);
         let mut onm = OnlineSolver::new(OnlineRule::Onm(NewtonDamping::default())).unwrap();
         let run = run_track(&problem, &mut onm);
         assert_eq!(run.failures, 0);
@@ -546,21 +551,16 @@ mod tests {
         }
         // Noise-free ranges: one Newton step from the previous position lands
         // close to the new one (the target moves 11 m per sample).
-        for (e, x) in run.est.iter().zip(&truth) {
+        for (e, x) in run.est.iter().zip(truth) {
             assert!((e.unwrap() - x).norm() < 1.0, "{e:?} vs {x:?}");
         }
     }
 
     #[test]
     fn noise_free_samples_are_recovered_by_every_per_sample_solver() {
-        let g = Geometry::seed002();
-        let truth = path();
-        let samples: Vec<_> = truth.iter().map(|x| exact(&g, *x)).collect();
-        let problem = TrackProblem {
-            geometry: &g,
-            samples: &samples,
-            truth0: None,
-        };
+        let f = Fixture::new();
+        let truth = &f.truth;
+        let problem = f.problem(false);
         let mut solvers: Vec<(&str, Box<dyn SampleSolver>)> = vec![
             ("lls", Box::new(LlsSolver)),
             ("ls", Box::new(RobustSolver::new(RobustMethod::Ls).unwrap())),
@@ -584,7 +584,7 @@ mod tests {
         for (name, s) in &mut solvers {
             let run = run_track(&problem, s.as_mut());
             assert_eq!(run.failures, 0, "{name}: {:?}", run.first_failure);
-            for (e, x) in run.est.iter().zip(&truth) {
+            for (e, x) in run.est.iter().zip(truth) {
                 let e = e.unwrap();
                 assert_abs_diff_eq!(e.x, x.x, epsilon = 1e-3);
                 assert_abs_diff_eq!(e.y, x.y, epsilon = 1e-3);
