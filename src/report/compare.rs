@@ -70,8 +70,8 @@ pub fn comparison_html(
     // Metrics diff.
     s.push_str("<h2 id=\"metrics\">Metrics diff</h2>\n<table id=\"metrics-diff\">\n<tr><th>metric</th><th>A</th><th>B</th><th>B − A</th><th>B / A</th></tr>\n");
     let (fa, fb) = (
-        flat_metrics(a.metrics.as_ref()),
-        flat_metrics(b.metrics.as_ref()),
+        comparison_metrics(a.metrics.as_ref()),
+        comparison_metrics(b.metrics.as_ref()),
     );
     let mut keys: Vec<String> = fa.iter().map(|r| r.0.clone()).collect();
     for (k, _) in &fb {

@@ -172,7 +172,7 @@ mod tests {
     #[test]
     fn the_comparison_names_metrics_as_expect_does_with_the_run_counters_after_them() {
         let d = data();
-        let f = flat_metrics(d.metrics.as_ref());
+        let f = comparison_metrics(d.metrics.as_ref());
         let keys: Vec<&str> = f.iter().map(|x| x.0.as_str()).collect();
         assert_eq!(keys[0], "theta_bar.rmse");
         for k in [

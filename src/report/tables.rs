@@ -103,7 +103,7 @@ pub fn track_metrics(data: &RunData) -> MetricsTable {
 /// metrics as `[expect]` names them ([`RunMetrics::flat`]: `theta_bar.rmse`,
 /// `ml.rmse`, `NAME.ctte`, ...), then `wall_seconds`, `startup_seconds`,
 /// `samples_completed` and `realtime.*`.
-pub fn flat_metrics(m: Option<&RunMetrics>) -> Vec<(String, f64)> {
+pub fn comparison_metrics(m: Option<&RunMetrics>) -> Vec<(String, f64)> {
     let Some(m) = m else {
         return Vec::new();
     };
