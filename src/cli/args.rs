@@ -1,6 +1,7 @@
 //! The command line's clap types: subcommands, flags and their help text.
 
 use super::*;
+use crate::estimators::gossip::ProxScaling;
 
 /// Emulated distributed multistatic sonar network: asynchronous Douglas-Rachford
 /// gossip with exact GTRS local steps.
@@ -86,6 +87,24 @@ impl From<ModeArg> for Mode {
     }
 }
 
+/// The command-line spelling of [`ProxScaling`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProxScalingArg {
+    /// `prox_{gamma f_v}`, seed 002 eq. (11) (the paper's experiments).
+    None,
+    /// `prox_{gamma p_v^-1 f_v}`, seed 002 eq. (5): step gamma / p_v.
+    InverseProbability,
+}
+
+impl From<ProxScalingArg> for ProxScaling {
+    fn from(p: ProxScalingArg) -> Self {
+        match p {
+            ProxScalingArg::None => ProxScaling::None,
+            ProxScalingArg::InverseProbability => ProxScaling::InverseProbability,
+        }
+    }
+}
+
 /// The command-line spelling of [`EngineKind`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum EngineArg {
@@ -150,6 +169,10 @@ pub struct RunArgs {
     /// Gossip mode (overrides algorithm.mode).
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
+    /// Prox scaling of async gossip (overrides algorithm.prox_scaling): none
+    /// (eq. 11) or inverse-probability (eq. 5, each node's step gamma / p_v).
+    #[arg(long, value_enum)]
+    pub prox_scaling: Option<ProxScalingArg>,
     /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
     /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
     /// outlier rows per node separated).

@@ -137,6 +137,9 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         if let Some(s) = args.seed {
             sc = sc.with_seed(s);
         }
+        if let Some(p) = args.prox_scaling {
+            sc = sc.with_prox_scaling(p.into());
+        }
         if let Some(m) = args.mode() {
             sc = sc.with_mode(m)?;
         }
@@ -355,6 +358,14 @@ fn run_single(
                 cli,
                 "--clock",
                 "realtime clocks need --engine processes and async mode",
+            )
+            .into());
+        }
+        if sc.algorithm.schedule.is_some() {
+            return Err(crate::model::error::InputError::at(
+                &sc.path,
+                "algorithm.schedule",
+                "a replayed schedule sequences the logical clock; with --clock realtime every node draws its own exchanges",
             )
             .into());
         }

@@ -136,7 +136,7 @@ impl<'a> Coordinator<'a> {
                 sample: 0,
                 snapshot: None,
                 got: vec![false; n],
-                last_theta: vec![plan.init_u(); n],
+                last_theta: plan.nodes.iter().map(|c| c.init_u).collect(),
                 updates_before: 0,
             },
         };

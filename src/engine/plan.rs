@@ -7,8 +7,7 @@
 //! plan, never the scenario.
 
 use super::{Clock, EngineError};
-use crate::estimators::gossip::Mode;
-use crate::model::geometry::Vec3;
+use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
 use crate::protocol::{NodeConfig, NodeMode};
@@ -84,8 +83,14 @@ impl RunPlan {
                 (NodeMode::Realtime, Some(rt))
             }
         };
+        if clock == Clock::Realtime && sc.algorithm.schedule.is_some() {
+            return Err(EngineError::Unsupported(
+                "algorithm.schedule: a replayed schedule sequences the logical clock; the realtime clock draws its own exchanges".into(),
+            ));
+        }
+        let gammas = prox_steps_of(sc);
         let nodes = (0..sc.graph.len())
-            .map(|i| node_config(sc, i, node_mode))
+            .map(|i| node_config(sc, i, node_mode, gammas[i]))
             .collect();
         Ok(RunPlan {
             seed: sc.seed,
@@ -107,19 +112,32 @@ impl RunPlan {
         self.nodes.len()
     }
 
-    /// The state every node starts from (`algorithm.init_u`).
-    pub fn init_u(&self) -> Vec3 {
-        self.nodes.first().map(|c| c.init_u).unwrap_or_default()
-    }
-
     /// A fresh async scheduler for this plan.
     pub fn scheduler(&self) -> Scheduler<'_> {
         Scheduler::new(self)
     }
 }
 
+/// Each node's prox step: `gamma`, or with `prox_scaling =
+/// "inverse_probability"` `gamma / p_v` (seed 002 eq. 5), where `p_v` is the
+/// probability that node `v` computes in an iteration: 1 in sync mode, the
+/// empirical frequency over the whole file for a replayed schedule, and
+/// otherwise that of the drawn schedule (`v` uniform, then a uniform
+/// neighbour; the realtime clock draws the same, every node waking at one
+/// rate and calling a uniform neighbour), [`gossip::computing_probabilities`].
+fn prox_steps_of(sc: &Scenario) -> Vec<f64> {
+    let a = &sc.algorithm;
+    let n = sc.graph.len();
+    let p = match (a.mode, &a.schedule) {
+        (Mode::Sync, _) => None,
+        (Mode::Async, Some((_, s))) => Some(gossip::empirical_probabilities(s, n)),
+        (Mode::Async, None) => Some(gossip::computing_probabilities(&sc.graph)),
+    };
+    gossip::prox_steps(a.gamma, a.prox_scaling, p.as_deref(), n)
+}
+
 /// The configuration of node `id` in `sc` (what the node is allowed to know).
-fn node_config(sc: &Scenario, id: usize, mode: NodeMode) -> NodeConfig {
+fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConfig {
     NodeConfig {
         id: id as u32,
         n_nodes: sc.graph.len() as u32,
@@ -127,10 +145,11 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode) -> NodeConfig {
         transmitters: sc.geometry.transmitters.clone(),
         neighbours: sc.graph.neighbours(id).iter().map(|&w| w as u32).collect(),
         omega: sc.measurements.omega,
-        gamma: sc.algorithm.gamma,
+        gamma,
         solver: sc.algorithm.local_solver,
         kappa: sc.algorithm.kappa,
-        init_u: sc.algorithm.init_u,
+        init_u: sc.algorithm.init_u[id],
+        first_fix: sc.algorithm.init == crate::scenario::InitMode::FirstFix,
         seed: sc.seed,
         mode,
         trace_iterations: sc.trace_iterations,

@@ -114,6 +114,29 @@ impl LocalProblem {
         Self::from_rows(anchor, Vec::new(), Vec::new(), Vec::new())
     }
 
+    /// The node's own fix of this sample, where a deployed node starts
+    /// (`algorithm.init = "first_fix"`): the relaxed least-squares solution
+    /// `H^{-1} c` of eq. (9), without the cone constraint (12), when the node
+    /// has at least 3 rows and `H` is positive definite with a finite
+    /// solution; otherwise the centroid of `transmitters` (the receiver
+    /// itself if there are none), with `d` its distance to the receiver.
+    pub fn first_fix(&self, transmitters: &[Vec2]) -> Vec3 {
+        if self.rows.len() >= 3
+            && let Some(ch) = self.h.cholesky()
+        {
+            let x = ch.solve(&self.c);
+            if x.iter().all(|v| v.is_finite()) {
+                return x;
+            }
+        }
+        let centre = if transmitters.is_empty() {
+            self.anchor
+        } else {
+            transmitters.iter().sum::<Vec2>() / transmitters.len() as f64
+        };
+        Vec3::new(centre.x, centre.y, (centre - self.anchor).norm())
+    }
+
     /// `f_v(theta~) = 1/2 ||B theta~ - g||^2`.
     pub fn cost(&self, theta: &Vec3) -> f64 {
         0.5 * self.residuals(theta).iter().map(|e| e * e).sum::<f64>()
@@ -136,5 +159,49 @@ impl LocalProblem {
     /// The cone constraint of eq. (12): `||theta~[0:2] - r_v|| - theta~[2]`.
     pub fn cone_violation(&self, theta: &Vec3) -> f64 {
         (Vec2::new(theta[0], theta[1]) - self.anchor).norm() - theta[2]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::measure::{Geometry, SampleMeasurements};
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn the_first_fix_of_noise_free_rows_is_the_lifted_true_position() {
+        let g = Geometry::seed002();
+        let x = Vec2::new(512.0, 433.0);
+        let s = SampleMeasurements::noise_free(&g, &x, true, false);
+        for (v, r) in g.receivers.iter().enumerate() {
+            // Two bistatic rows and two DOA rows: B theta~ = g at theta~ = [x, d].
+            let p = LocalProblem::build(*r, &g.transmitters, 1.0, &s.nodes[v]);
+            let fix = p.first_fix(&g.transmitters);
+            let want = Vec3::new(x.x, x.y, (x - r).norm());
+            for k in 0..3 {
+                // H = B^T B squares the conditioning of rows of scale 1e3 and 1.
+                assert_relative_eq!(fix[k], want[k], max_relative = 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn a_node_with_fewer_than_three_rows_starts_at_the_transmitters_centroid() {
+        let g = Geometry::seed002();
+        let x = Vec2::new(512.0, 433.0);
+        let s = SampleMeasurements::noise_free(&g, &x, false, false);
+        let r = g.receivers[0];
+        let p = LocalProblem::build(r, &g.transmitters, 1.0, &s.nodes[0]);
+        assert_eq!(p.rows.len(), 2);
+        let c = Vec2::new(1000.0, 1000.0);
+        assert_eq!(
+            p.first_fix(&g.transmitters),
+            Vec3::new(c.x, c.y, (c - r).norm())
+        );
+        // No transmitters and no rows: the receiver itself.
+        assert_eq!(
+            LocalProblem::empty(r).first_fix(&[]),
+            Vec3::new(r.x, r.y, 0.0)
+        );
     }
 }

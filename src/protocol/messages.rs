@@ -35,6 +35,10 @@ pub struct NodeConfig {
     pub kappa: usize,
     /// Initial `u` (and `theta`).
     pub init_u: Vec3,
+    /// Start instead from the node's own fix of the first sample it gets
+    /// ([`crate::estimators::local::LocalProblem::first_fix`]).
+    #[serde(default)]
+    pub first_fix: bool,
     /// Run seed (the node's own clock RNG derives from it and `id`).
     pub seed: u64,
     /// How the run is clocked.

@@ -91,6 +91,8 @@ pub struct NodeCore {
     /// working on an earlier sample (the coordinator may send several samples ahead);
     /// run in order once that sample is done.
     queued: VecDeque<Command>,
+    /// A sample has been received (`first_fix` starts from the first).
+    started: bool,
 }
 
 impl NodeCore {
@@ -113,6 +115,7 @@ impl NodeCore {
             alive: cfg.neighbours.clone(),
             rng,
             queued: VecDeque::new(),
+            started: false,
             cfg,
         }
     }
@@ -236,6 +239,11 @@ impl NodeCore {
                     self.cfg.omega,
                     &meas,
                 );
+                if self.cfg.first_fix && !self.started {
+                    self.u = self.problem.first_fix(&self.cfg.transmitters);
+                    self.theta = self.u;
+                }
+                self.started = true;
             }
             Command::SyncRounds {
                 sample,
@@ -567,6 +575,7 @@ mod tests {
             solver,
             kappa,
             init_u: Vec3::zeros(),
+            first_fix: false,
             seed: 7,
             mode: NodeMode::Sync,
             trace_iterations: false,
@@ -643,6 +652,30 @@ mod tests {
         assert_eq!(ahead.u(), step.u());
         assert_eq!(ahead.theta(), step.theta());
         assert_eq!(out2, out, "same outputs in the same order");
+    }
+
+    #[test]
+    fn a_first_fix_node_starts_from_its_first_sample_and_only_that_one() {
+        let mut cfg = config(LocalSolver::Gtrs, 1);
+        cfg.first_fix = true;
+        cfg.init_u = Vec3::new(7.0, 7.0, 7.0);
+        let mut node = NodeCore::new(cfg.clone());
+        assert_eq!(node.u(), cfg.init_u);
+        let mut out = Vec::new();
+        let sample = |k: u32| {
+            Input::Command(Command::Sample {
+                sample: k,
+                meas: meas(10.0 + k as f64),
+            })
+        };
+        node.handle(sample(0), &mut out);
+        let want = LocalProblem::build(cfg.anchor, &cfg.transmitters, cfg.omega, &meas(10.0))
+            .first_fix(&cfg.transmitters);
+        assert_eq!(node.u(), want);
+        assert_eq!(node.theta(), want);
+        node.handle(sample(1), &mut out);
+        assert_eq!(node.u(), want, "a later sample does not restart the node");
+        assert!(out.is_empty());
     }
 
     #[test]

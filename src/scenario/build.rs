@@ -410,7 +410,24 @@ impl Scenario {
                 "must be at least 1",
             ));
         }
-        if !a.init_u.iter().all(|x| x.is_finite()) {
+        let n_nodes = graph.len();
+        let init_u: Vec<Vec3> = match &a.init_u {
+            InitU::One(u) => vec![Vec3::new(u[0], u[1], u[2]); n_nodes],
+            InitU::PerNode(us) => {
+                if us.len() != n_nodes {
+                    return Err(InputError::at(
+                        path,
+                        "algorithm.init_u",
+                        format!(
+                            "has {} entries, one per node is {n_nodes} (or give one [x, y, d] for all)",
+                            us.len()
+                        ),
+                    ));
+                }
+                us.iter().map(|u| Vec3::new(u[0], u[1], u[2])).collect()
+            }
+        };
+        if !init_u.iter().all(|u| u.iter().all(|x| x.is_finite())) {
             return Err(InputError::at(path, "algorithm.init_u", "must be finite"));
         }
         if a.burn_in >= samples {
@@ -466,7 +483,9 @@ impl Scenario {
             iterations_per_sample: a.iterations_per_sample,
             local_solver: a.local_solver,
             kappa: a.kappa,
-            init_u: Vec3::new(a.init_u[0], a.init_u[1], a.init_u[2]),
+            prox_scaling: a.prox_scaling,
+            init: a.init,
+            init_u,
             schedule,
             burn_in: a.burn_in,
         };
@@ -490,7 +509,7 @@ impl Scenario {
             variant: None,
             file,
         };
-        sc.check_schedule_length()?;
+        sc.check_schedule()?;
         sc.check_kappa()?;
         Ok(sc)
     }

@@ -65,8 +65,12 @@ pub struct Algorithm {
     pub local_solver: LocalSolver,
     /// Outlier budget per node of `gtrs_l0`.
     pub kappa: usize,
-    /// Initial `u`.
-    pub init_u: Vec3,
+    /// Each node's prox scaling (seed 002 eq. 5 or eq. 11).
+    pub prox_scaling: crate::estimators::gossip::ProxScaling,
+    /// Where the nodes start.
+    pub init: InitMode,
+    /// Initial `u` of each node (`init_u[i]` is node `i`'s).
+    pub init_u: Vec<Vec3>,
     /// A replayed async schedule, `(v, w)` per iteration, and its file.
     pub schedule: Option<(PathBuf, Vec<(usize, usize)>)>,
     /// Burn-in samples.
@@ -171,7 +175,14 @@ impl Scenario {
         self.samples * self.algorithm.iterations_per_sample
     }
 
-    fn check_schedule_length(&self) -> Result<(), InputError> {
+    fn check_schedule(&self) -> Result<(), InputError> {
+        if let (Mode::Sync, Some(_)) = (self.algorithm.mode, &self.algorithm.schedule) {
+            return Err(InputError::at(
+                &self.path,
+                "algorithm.schedule",
+                "a replayed schedule gives the (v, w) pair of each async iteration; this run is sync (algorithm.mode or --mode), where every node computes every round",
+            ));
+        }
         if let (Mode::Async, Some((p, s))) = (self.algorithm.mode, &self.algorithm.schedule) {
             let need = self.total_iterations();
             if s.len() < need {
@@ -226,8 +237,14 @@ impl Scenario {
     /// Override the gossip mode.
     pub fn with_mode(mut self, mode: Mode) -> Result<Self, InputError> {
         self.algorithm.mode = mode;
-        self.check_schedule_length()?;
+        self.check_schedule()?;
         Ok(self)
+    }
+
+    /// Override the prox scaling (`algorithm.prox_scaling`, seed 002 eq. 5 or 11).
+    pub fn with_prox_scaling(mut self, p: crate::estimators::gossip::ProxScaling) -> Self {
+        self.algorithm.prox_scaling = p;
+        self
     }
 
     /// Override the local solver (see [`Scenario::check_kappa`] for `gtrs_l0`).
@@ -249,7 +266,7 @@ impl Scenario {
             return Err(cli_error("--iterations-per-sample", "must be at least 1"));
         }
         self.algorithm.iterations_per_sample = n;
-        self.check_schedule_length()?;
+        self.check_schedule()?;
         Ok(self)
     }
 
@@ -276,7 +293,7 @@ impl Scenario {
             ));
         }
         self.samples = n;
-        self.check_schedule_length()?;
+        self.check_schedule()?;
         Ok(self)
     }
 

@@ -268,15 +268,131 @@ pub struct AlgorithmCfg {
     /// below the number of rows of every node that has measurements.
     #[serde(default = "default_kappa")]
     pub kappa: usize,
-    /// Initial `u` of every node.
+    /// How each node scales its prox: `none` (seed 002 eq. 11, default) or
+    /// `inverse_probability` (eq. 5, step `gamma / p_v`).
     #[serde(default)]
-    pub init_u: [f64; 3],
+    pub prox_scaling: crate::estimators::gossip::ProxScaling,
+    /// Where the nodes start: `init_u` (default) or `first_fix`, each node's
+    /// own least-squares fix of the first sample.
+    #[serde(default)]
+    pub init: InitMode,
+    /// Initial `u`: one `[x, y, d]` for every node, or one per node
+    /// (`[[x, y, d], ...]`, one entry per receiver). Ignored with `first_fix`.
+    #[serde(default)]
+    pub init_u: InitU,
     /// Replay this async schedule (CSV `iteration,v,w`) instead of drawing one.
     #[serde(default)]
     pub schedule: Option<String>,
     /// Samples excluded from the `*_after_burn_in` metrics.
     #[serde(default)]
     pub burn_in: usize,
+}
+
+/// `algorithm.init`: where every node's `u` starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitMode {
+    /// From `algorithm.init_u` (default).
+    #[default]
+    InitU,
+    /// From the node's own fix of its first sample, as a deployed node would
+    /// start: the relaxed least-squares solution of its rows of seed 002
+    /// eq. (9) where it has at least 3 rows, else the transmitters' centroid
+    /// ([`crate::estimators::local::LocalProblem::first_fix`]).
+    FirstFix,
+}
+
+/// `algorithm.init_u`: one initial `u` for every node, or one per node.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum InitU {
+    /// `[x, y, d]` for every node.
+    One([f64; 3]),
+    /// `[[x, y, d], ...]`, one per node in node order.
+    PerNode(Vec<[f64; 3]>),
+}
+
+impl Default for InitU {
+    fn default() -> Self {
+        InitU::One([0.0; 3])
+    }
+}
+
+/// One entry of `init_u`: a number (of the one `[x, y, d]`) or a node's
+/// `[x, y, d]`.
+enum InitItem {
+    Num(f64),
+    Triple(Vec<f64>),
+}
+
+impl<'de> Deserialize<'de> for InitItem {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = InitItem;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or an [x, y, d] array")
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<InitItem, E> {
+                Ok(InitItem::Num(v))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<InitItem, E> {
+                Ok(InitItem::Num(v as f64))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<InitItem, E> {
+                Ok(InitItem::Num(v as f64))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut a: A,
+            ) -> Result<InitItem, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = a.next_element::<f64>()? {
+                    v.push(x);
+                }
+                Ok(InitItem::Triple(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl<'de> Deserialize<'de> for InitU {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        const EXPECTED: &str = "[x, y, d] for every node, or [[x, y, d], ...] with one per node";
+        let items = Vec::<InitItem>::deserialize(d)?;
+        let nums: Option<Vec<f64>> = items
+            .iter()
+            .map(|i| match i {
+                InitItem::Num(x) => Some(*x),
+                InitItem::Triple(_) => None,
+            })
+            .collect();
+        if let Some(n) = nums {
+            return <[f64; 3]>::try_from(n.as_slice())
+                .map(InitU::One)
+                .map_err(|_| {
+                    D::Error::custom(format!("{} numbers: expected {EXPECTED}", n.len()))
+                });
+        }
+        items
+            .into_iter()
+            .enumerate()
+            .map(|(k, i)| match i {
+                InitItem::Triple(t) => <[f64; 3]>::try_from(t.as_slice()).map_err(|_| {
+                    D::Error::custom(format!(
+                        "entry {k} has {} numbers: expected {EXPECTED}",
+                        t.len()
+                    ))
+                }),
+                InitItem::Num(_) => Err(D::Error::custom(format!(
+                    "entry {k} is a number among [x, y, d] arrays: expected {EXPECTED}"
+                ))),
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map(InitU::PerNode)
+    }
 }
 
 fn default_solver() -> LocalSolver {

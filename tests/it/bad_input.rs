@@ -154,6 +154,79 @@ fn a_schedule_that_names_a_non_edge_is_rejected() {
     );
 }
 
+/// A valid 3-iteration schedule for GOOD with one iteration per sample.
+const SCHEDULE: &str = "iteration,v,w\n0,0,1\n1,1,2\n2,2,1\n";
+
+fn with_schedule(mode: &str) -> String {
+    GOOD.replace(
+        "iterations_per_sample = 5",
+        "iterations_per_sample = 1\nschedule = \"s.csv\"",
+    )
+    .replace("mode = \"async\"", &format!("mode = \"{mode}\""))
+}
+
+#[test]
+fn a_replayed_schedule_is_refused_in_sync_mode_naming_the_key() {
+    let (code, stderr, p) = run_bad(&with_schedule("sync"), &[("s.csv", SCHEDULE)]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["algorithm.schedule", "this run is sync"],
+    );
+    // Also when --mode sync turns an async file sync.
+    let (code, stderr, p) = run_bad_with(
+        &with_schedule("async"),
+        &[("s.csv", SCHEDULE)],
+        &["--mode", "sync"],
+    );
+    assert_clear(code, &stderr, &p, &["algorithm.schedule", "sync"]);
+    // The same async file runs.
+    let (code, stderr, _) = run_bad_with(
+        &with_schedule("async"),
+        &[("s.csv", SCHEDULE)],
+        &["--engine", "inprocess", "--quiet"],
+    );
+    assert_eq!(code, 0, "{stderr}");
+}
+
+#[test]
+fn a_replayed_schedule_is_refused_with_the_realtime_clock_naming_the_key() {
+    let text = format!(
+        "{}\n[realtime]\nsample_period_ms = 20.0\nwake_rate_hz = 100.0\n",
+        with_schedule("async")
+    );
+    let (code, stderr, p) = run_bad_with(&text, &[("s.csv", SCHEDULE)], &["--clock", "realtime"]);
+    assert_clear(code, &stderr, &p, &["algorithm.schedule", "realtime"]);
+}
+
+#[test]
+fn per_node_initial_states_must_number_the_nodes() {
+    let text = GOOD.replace(
+        "iterations_per_sample = 5",
+        "iterations_per_sample = 5\ninit_u = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]",
+    );
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["algorithm.init_u", "has 2 entries", "3"],
+    );
+    let text = GOOD.replace(
+        "iterations_per_sample = 5",
+        "iterations_per_sample = 5\nprox_scaling = \"inverse\"",
+    );
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["line 20", "inverse_probability"]);
+    let text = GOOD.replace(
+        "iterations_per_sample = 5",
+        "iterations_per_sample = 5\ninit = \"fix\"",
+    );
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["line 20", "first_fix"]);
+}
+
 #[test]
 fn a_negative_gamma_is_rejected_with_its_key() {
     let text = GOOD.replace("gamma = 1e-6", "gamma = -1.0");

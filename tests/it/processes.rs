@@ -94,6 +94,17 @@ fn async_processes_reproduce_the_inprocess_engine_on_the_spiral() {
 }
 
 #[test]
+fn async_processes_reproduce_the_inprocess_engine_with_the_eq_5_prox_scaling() {
+    equivalence_at(
+        &scenario("mourya2017-spiral.toml"),
+        "async",
+        "30",
+        &["--prox-scaling", "inverse-probability"],
+        &[],
+    );
+}
+
+#[test]
 fn sync_processes_reproduce_the_inprocess_engine_on_the_spiral() {
     equivalence("mourya2017-spiral.toml", "sync", "30");
 }
