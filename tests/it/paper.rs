@@ -92,3 +92,128 @@ fn async_gtrs_tracks_the_spiral_within_20_m_and_relaxed_is_3x_worse() {
         "relaxed {relaxed:.3} m is not 3x worse than GTRS {gtrs:.3} m"
     );
 }
+
+/// The convergence study of README ("Convergence on the spiral"): mean
+/// `rmse_after_burn_in` over seeds 0-4 against `iterations_per_sample` (at
+/// the file's `gamma = 2e-8`) and against `gamma` (at 50 iterations), for
+/// sync, async eq. (11) and async eq. (5). Prints both tables as Markdown
+/// and draws `target/convergence.svg`. Run it with
+/// `cargo test --release --test it -- --ignored convergence_study --nocapture`.
+#[test]
+#[ignore = "a study (165 runs, about a minute), not a check: run it to regenerate README's tables"]
+fn convergence_study() {
+    use sonarnet::plot::{Figure, LegendItem, Marker, Panel, Rgb, Series, Style, Swatch};
+    let modes = [
+        ("sync", Mode::Sync, ProxScaling::None),
+        ("async eq. 11", Mode::Async, ProxScaling::None),
+        ("async eq. 5", Mode::Async, ProxScaling::InverseProbability),
+    ];
+    let mean = |mode: Mode, scaling: ProxScaling, ips: usize, gamma: f64| -> f64 {
+        let mut s = 0.0;
+        for seed in 0..5 {
+            let mut sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+                .unwrap()
+                .with_seed(seed)
+                .with_mode(mode)
+                .unwrap()
+                .with_prox_scaling(scaling)
+                .with_iterations_per_sample(ips)
+                .unwrap();
+            sc.algorithm.gamma = gamma;
+            let out = sc.run(&sonarnet::pipeline::RunOptions::inprocess());
+            assert!(out.error.is_none(), "{:?}", out.error);
+            s += out.metrics.rmse_after_burn_in.unwrap();
+        }
+        s / 5.0
+    };
+    let ips = [10usize, 20, 50, 100, 200];
+    let gammas = [1e-9, 3e-9, 1e-8, 3e-8, 1e-7, 1e-6];
+    let by_ips: Vec<Vec<f64>> = modes
+        .iter()
+        .map(|&(_, m, p)| ips.iter().map(|&n| mean(m, p, n, 2e-8)).collect())
+        .collect();
+    let by_gamma: Vec<Vec<f64>> = modes
+        .iter()
+        .map(|&(_, m, p)| gammas.iter().map(|&g| mean(m, p, 50, g)).collect())
+        .collect();
+    let table = |head: &str, xs: Vec<String>, rows: &[Vec<f64>]| {
+        println!("| {head} | {} |", xs.join(" | "));
+        println!("|---|{}", "---|".repeat(xs.len()));
+        for ((name, _, _), r) in modes.iter().zip(rows) {
+            let cells: Vec<String> = r.iter().map(|v| format!("{v:.2}")).collect();
+            println!("| {name} | {} |", cells.join(" | "));
+        }
+        println!();
+    };
+    println!("rmse_after_burn_in (m), mean over seeds 0-4, gamma = 2e-8:\n");
+    table(
+        "iterations_per_sample",
+        ips.iter().map(|n| n.to_string()).collect(),
+        &by_ips,
+    );
+    println!("rmse_after_burn_in (m), mean over seeds 0-4, 50 iterations per sample:\n");
+    table(
+        "gamma",
+        gammas.iter().map(|g| format!("{g:e}")).collect(),
+        &by_gamma,
+    );
+    // The plot: one panel per sweep, log y.
+    let colors = [Rgb(31, 119, 180), Rgb(214, 39, 40), Rgb(44, 160, 44)];
+    let all: Vec<f64> = by_ips.iter().chain(&by_gamma).flatten().copied().collect();
+    let (lo, hi) = all
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+    let panel = |x_label: &str, xs: Vec<f64>, rows: &[Vec<f64>]| {
+        let mut p = Panel::new(320, x_label, "rmse_after_burn_in (m)");
+        p.log_y = true;
+        p.x_range = (
+            xs[0] - 0.05 * (xs[xs.len() - 1] - xs[0]),
+            xs[xs.len() - 1] * 1.0 + 0.05 * (xs[xs.len() - 1] - xs[0]),
+        );
+        p.y_range = (lo * 0.8, hi * 1.25);
+        for (((name, _, _), r), c) in modes.iter().zip(rows).zip(colors) {
+            let pts: Vec<(f64, f64)> = xs.iter().copied().zip(r.iter().copied()).collect();
+            p.series.push(Series {
+                name: name.to_string(),
+                segments: vec![pts.clone()],
+                style: Style::line(c, 2),
+            });
+            p.series.push(Series {
+                name: format!("{name} points"),
+                segments: vec![pts],
+                style: Style::markers(c, Marker::Circle, 5),
+            });
+        }
+        p
+    };
+    let fig = Figure {
+        name: "convergence".into(),
+        title: "mourya2017-spiral: rmse_after_burn_in, mean of seeds 0-4".into(),
+        width: 900,
+        panels: vec![
+            panel(
+                "iterations per sample (gamma = 2e-8)",
+                ips.iter().map(|&n| n as f64).collect(),
+                &by_ips,
+            ),
+            panel(
+                "log10 gamma (50 iterations per sample)",
+                gammas.iter().map(|g| g.log10()).collect(),
+                &by_gamma,
+            ),
+        ],
+        legend: modes
+            .iter()
+            .zip(colors)
+            .map(|((name, _, _), c)| LegendItem {
+                label: name.to_string(),
+                swatch: Swatch::Line(Style::line(c, 2)),
+            })
+            .collect(),
+    };
+    let svg = sonarnet::plot::render_svg(&fig).unwrap();
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/convergence.svg");
+    std::fs::write(&path, svg).unwrap();
+    sonarnet::plot::render_png(&fig, &path.with_extension("png")).unwrap();
+    println!("plot: {} (and .png)", path.display());
+}
