@@ -226,7 +226,15 @@ impl<'a> Coordinator<'a> {
                 continue;
             }
             let meas = meas.clone();
-            out.push(send(i, Command::Sample { sample, meas }));
+            let sigmas = self.real.sigmas[k];
+            out.push(send(
+                i,
+                Command::Sample {
+                    sample,
+                    meas,
+                    sigmas,
+                },
+            ));
             if let Some(rt) = start_clock {
                 out.push(Action::Send {
                     node: i as u32,

@@ -173,7 +173,7 @@ pub fn run_node<T: Transport>(
 
 fn log_command(id: u32, c: &Command) {
     match c {
-        Command::Sample { sample, meas } => {
+        Command::Sample { sample, meas, .. } => {
             eprintln!(
                 "[node {id}] sample {sample}: {} measurements",
                 meas.bistatic.len() + meas.doa.is_some() as usize + meas.range.is_some() as usize

@@ -11,7 +11,7 @@ use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
 use crate::protocol::{NodeConfig, NodeMode};
-use crate::scenario::Scenario;
+use crate::scenario::{RowWeights, Scenario};
 use rand::RngExt;
 use std::time::Duration;
 
@@ -150,6 +150,7 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConf
         kappa: sc.algorithm.kappa,
         init_u: sc.algorithm.init_u[id],
         first_fix: sc.algorithm.init == crate::scenario::InitMode::FirstFix,
+        noise_weights: sc.algorithm.row_weights == RowWeights::Noise,
         seed: sc.seed,
         mode,
         trace_iterations: sc.trace_iterations,

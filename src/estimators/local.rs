@@ -11,7 +11,7 @@
 //! `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2`.
 
 use crate::model::geometry::{Mat3, Vec2, Vec3};
-use crate::model::measure::NodeMeasurements;
+use crate::model::measure::{NodeMeasurements, Sigmas};
 
 /// What kind of measurement produced a row of `B_v` (used by robust solvers
 /// and diagnostics).
@@ -80,6 +80,76 @@ impl LocalProblem {
             kinds.push(RowKind::Range);
         }
         Self::from_rows(anchor, rows, g, kinds)
+    }
+
+    /// [`LocalProblem::build`], with every row divided by its noise standard
+    /// deviation to first order when `sigmas` is given (`algorithm.row_weights
+    /// = "noise"`; beyond the paper), so that `f_v` weighs each measurement
+    /// as the ML cost does:
+    ///
+    /// * a bistatic row by `2 rho_{m,v} sigma_rho` (its residual moves by
+    ///   `2 (rho - d) d rho <= 2 rho d rho` when `rho` moves by `d rho`);
+    /// * both DOA rows by `omega d_hat sigma_phi`, where `d_hat` is the node's
+    ///   own range estimate from this sample: the point at distance `d` along
+    ///   the DOA ray whose bistatic range through `t_m` is `rho_m`,
+    ///   `d_m = (rho_m^2 - ||t_m - r||^2) / (2 (rho_m - (t_m - r) . e_phi))`,
+    ///   averaged over the transmitters where it is positive and finite (half
+    ///   the mean bistatic range if none is; the DOA rows stay as they are if
+    ///   the node has no bistatic range);
+    /// * a one-way range row by `sigma_rho`.
+    ///
+    /// A divisor that is not finite and positive (a zero sigma) leaves its row
+    /// as it is. The rows stay rows of the same lifted problem, so the exact
+    /// prox (eq. 13) applies unchanged.
+    pub fn build_weighted(
+        anchor: Vec2,
+        transmitters: &[Vec2],
+        omega: f64,
+        meas: &NodeMeasurements,
+        sigmas: Option<&Sigmas>,
+    ) -> LocalProblem {
+        let p = Self::build(anchor, transmitters, omega, meas);
+        let Some(sig) = sigmas else {
+            return p;
+        };
+        let d_hat = meas.doa.and_then(|phi| {
+            let e = Vec2::new(phi.cos(), phi.sin());
+            let ds: Vec<f64> = meas
+                .bistatic
+                .iter()
+                .filter_map(|&(m, rho)| {
+                    let tr = transmitters.get(m)? - anchor;
+                    let d = (rho * rho - tr.norm_squared()) / (2.0 * (rho - tr.dot(&e)));
+                    (d.is_finite() && d > 0.0).then_some(d)
+                })
+                .collect();
+            if !ds.is_empty() {
+                Some(ds.iter().sum::<f64>() / ds.len() as f64)
+            } else if !meas.bistatic.is_empty() {
+                Some(
+                    meas.bistatic.iter().map(|b| b.1).sum::<f64>()
+                        / (2.0 * meas.bistatic.len() as f64),
+                )
+            } else {
+                None
+            }
+        });
+        let divisor = |kind: &RowKind, row: &[f64; 3]| match kind {
+            RowKind::Bistatic(_) => Some(-row[2] * sig.range),
+            RowKind::Doa(_) => d_hat.map(|d| omega * d * sig.doa),
+            RowKind::Range => Some(sig.range),
+        };
+        let mut rows = p.rows;
+        let mut g = p.g;
+        for ((row, gi), kind) in rows.iter_mut().zip(g.iter_mut()).zip(&p.kinds) {
+            if let Some(s) = divisor(kind, row).filter(|s| s.is_finite() && *s > 0.0) {
+                for x in row.iter_mut() {
+                    *x /= s;
+                }
+                *gi /= s;
+            }
+        }
+        Self::from_rows(anchor, rows, g, p.kinds)
     }
 
     /// Build from explicit rows (used by tests and robust solvers that drop rows).
@@ -165,7 +235,7 @@ impl LocalProblem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::measure::{Geometry, SampleMeasurements};
+    use crate::model::measure::{Geometry, SampleMeasurements, Sigmas};
     use approx::assert_relative_eq;
 
     #[test]
@@ -183,6 +253,47 @@ mod tests {
                 assert_relative_eq!(fix[k], want[k], max_relative = 1e-6);
             }
         }
+    }
+
+    #[test]
+    fn noise_weights_divide_each_row_by_its_first_order_noise_std() {
+        let g = Geometry::seed002();
+        let x = Vec2::new(512.0, 433.0);
+        let s = SampleMeasurements::noise_free(&g, &x, true, true);
+        let sig = Sigmas {
+            range: 5.0,
+            doa: 0.5,
+        };
+        let r = g.receivers[2];
+        let plain = LocalProblem::build(r, &g.transmitters, 2.0, &s.nodes[2]);
+        let w = LocalProblem::build_weighted(r, &g.transmitters, 2.0, &s.nodes[2], Some(&sig));
+        assert_eq!(w.kinds, plain.kinds);
+        // Noise-free data: the range estimate along the DOA ray is exact.
+        let d = (x - r).norm();
+        for (i, kind) in plain.kinds.iter().enumerate() {
+            let div = match kind {
+                RowKind::Bistatic(m) => 2.0 * s.nodes[2].bistatic[*m].1 * sig.range,
+                RowKind::Doa(_) => 2.0 * d * sig.doa,
+                RowKind::Range => sig.range,
+            };
+            for k in 0..3 {
+                assert_relative_eq!(w.rows[i][k], plain.rows[i][k] / div, max_relative = 1e-9);
+            }
+            assert_relative_eq!(w.g[i], plain.g[i] / div, max_relative = 1e-9);
+        }
+        // Without sigmas, or with zero sigmas, nothing changes.
+        assert_eq!(
+            LocalProblem::build_weighted(r, &g.transmitters, 2.0, &s.nodes[2], None),
+            plain
+        );
+        let zero = Sigmas {
+            range: 0.0,
+            doa: 0.0,
+        };
+        assert_eq!(
+            LocalProblem::build_weighted(r, &g.transmitters, 2.0, &s.nodes[2], Some(&zero)),
+            plain
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! which is all the reassembly needs.
 
 use crate::model::geometry::Vec3;
-use crate::model::measure::NodeMeasurements;
+use crate::model::measure::{NodeMeasurements, Sigmas};
 use crate::protocol::{Command, Counters, PeerMsg, Report};
 use crate::transport::wire::{COORDINATOR_ID, Frame};
 
@@ -93,7 +93,11 @@ pub enum Control {
 pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
     let co = COORDINATOR_ID;
     match c {
-        Control::Command(Command::Sample { sample, meas }) => {
+        Control::Command(Command::Sample {
+            sample,
+            meas,
+            sigmas,
+        }) => {
             let s = *sample;
             let mut n = 0;
             for &(m, v) in &meas.bistatic {
@@ -108,7 +112,14 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
                 out.push(frame(kind::MEAS_RANGE, co, s, 0, 0, &[v]));
                 n += 1;
             }
-            out.push(frame(kind::SAMPLE_END, co, s, n, 0, &[]));
+            out.push(frame(
+                kind::SAMPLE_END,
+                co,
+                s,
+                n,
+                0,
+                &[sigmas.range, sigmas.doa],
+            ));
         }
         Control::Command(Command::SyncRounds {
             sample,
@@ -326,6 +337,10 @@ impl NodeDecoder {
                 c(Command::Sample {
                     sample: f.sample,
                     meas,
+                    sigmas: Sigmas {
+                        range: f.data[0],
+                        doa: f.data[1],
+                    },
                 })
             }
             SYNC_ROUNDS => c(Command::SyncRounds {
@@ -499,6 +514,10 @@ mod tests {
         let cmds = vec![
             Control::Command(Command::Sample {
                 sample: 3,
+                sigmas: Sigmas {
+                    range: 5.0,
+                    doa: 0.25,
+                },
                 meas: NodeMeasurements {
                     bistatic: vec![(0, 1234.5), (1, 0.1 + 0.2)],
                     doa: Some(-2.5),
@@ -609,6 +628,10 @@ mod tests {
         encode_control(
             &Control::Command(Command::Sample {
                 sample: 0,
+                sigmas: Sigmas {
+                    range: 1.0,
+                    doa: 0.1,
+                },
                 meas: NodeMeasurements {
                     bistatic: vec![(0, 1.0), (1, 2.0)],
                     doa: None,

@@ -4,7 +4,7 @@
 
 use crate::estimators::prox::LocalSolver;
 use crate::model::geometry::{Vec2, Vec3};
-use crate::model::measure::NodeMeasurements;
+use crate::model::measure::{NodeMeasurements, Sigmas};
 
 /// Everything a node knows about the world: itself, its neighbours and the
 /// transmitters. It never learns another node's measurements or state except
@@ -39,6 +39,11 @@ pub struct NodeConfig {
     /// ([`crate::estimators::local::LocalProblem::first_fix`]).
     #[serde(default)]
     pub first_fix: bool,
+    /// Divide each row of the local cost by its noise standard deviation
+    /// (`algorithm.row_weights = "noise"`,
+    /// [`crate::estimators::local::LocalProblem::build_weighted`]).
+    #[serde(default)]
+    pub noise_weights: bool,
     /// Run seed (the node's own clock RNG derives from it and `id`).
     pub seed: u64,
     /// How the run is clocked.
@@ -74,6 +79,10 @@ pub enum Command {
         sample: u32,
         /// The node's measurements.
         meas: NodeMeasurements,
+        /// The noise standard deviations of this sample (what a sonar's
+        /// own error model gives; `row_weights = "noise"` divides the rows of
+        /// the local cost by them).
+        sigmas: Sigmas,
     },
     /// Sync mode: run `rounds` synchronous rounds numbered from `first_round`,
     /// then report [`Report::SampleDone`].

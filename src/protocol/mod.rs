@@ -231,13 +231,18 @@ impl NodeCore {
 
     fn on_command(&mut self, c: Command, out: &mut Vec<Output>) {
         match c {
-            Command::Sample { sample, meas } => {
+            Command::Sample {
+                sample,
+                meas,
+                sigmas,
+            } => {
                 self.sample = sample;
-                self.problem = LocalProblem::build(
+                self.problem = LocalProblem::build_weighted(
                     self.cfg.anchor,
                     &self.cfg.transmitters,
                     self.cfg.omega,
                     &meas,
+                    self.cfg.noise_weights.then_some(&sigmas),
                 );
                 if self.cfg.first_fix && !self.started {
                     self.u = self.problem.first_fix(&self.cfg.transmitters);
@@ -561,7 +566,7 @@ impl NodeCore {
 mod tests {
     use super::*;
     use crate::estimators::prox::LocalSolver;
-    use crate::model::measure::NodeMeasurements;
+    use crate::model::measure::{NodeMeasurements, Sigmas};
 
     fn config(solver: LocalSolver, kappa: usize) -> NodeConfig {
         NodeConfig {
@@ -576,6 +581,7 @@ mod tests {
             kappa,
             init_u: Vec3::zeros(),
             first_fix: false,
+            noise_weights: false,
             seed: 7,
             mode: NodeMode::Sync,
             trace_iterations: false,
@@ -614,6 +620,10 @@ mod tests {
             Input::Command(Command::Sample {
                 sample: k,
                 meas: meas(10.0 + k as f64),
+                sigmas: Sigmas {
+                    range: 5.0,
+                    doa: 0.5,
+                },
             })
         };
         // One sample at a time.
@@ -666,6 +676,10 @@ mod tests {
             Input::Command(Command::Sample {
                 sample: k,
                 meas: meas(10.0 + k as f64),
+                sigmas: Sigmas {
+                    range: 5.0,
+                    doa: 0.5,
+                },
             })
         };
         node.handle(sample(0), &mut out);
@@ -696,6 +710,10 @@ mod tests {
                 Input::Command(Command::Sample {
                     sample: 0,
                     meas: meas(10.0 + i as f64),
+                    sigmas: Sigmas {
+                        range: 5.0,
+                        doa: 0.5,
+                    },
                 }),
                 &mut o,
             );

@@ -485,6 +485,7 @@ impl Scenario {
             kappa: a.kappa,
             prox_scaling: a.prox_scaling,
             init: a.init,
+            row_weights: a.row_weights,
             init_u,
             schedule,
             burn_in: a.burn_in,

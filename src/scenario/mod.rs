@@ -69,6 +69,8 @@ pub struct Algorithm {
     pub prox_scaling: crate::estimators::gossip::ProxScaling,
     /// Where the nodes start.
     pub init: InitMode,
+    /// How each node weighs the rows of its cost.
+    pub row_weights: RowWeights,
     /// Initial `u` of each node (`init_u[i]` is node `i`'s).
     pub init_u: Vec<Vec3>,
     /// A replayed async schedule, `(v, w)` per iteration, and its file.

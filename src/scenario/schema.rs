@@ -276,6 +276,10 @@ pub struct AlgorithmCfg {
     /// own least-squares fix of the first sample.
     #[serde(default)]
     pub init: InitMode,
+    /// `none` (seed 002 eq. 9, default) or `noise`: each row of the local
+    /// cost divided by its noise standard deviation.
+    #[serde(default)]
+    pub row_weights: RowWeights,
     /// Initial `u`: one `[x, y, d]` for every node, or one per node
     /// (`[[x, y, d], ...]`, one entry per receiver). Ignored with `first_fix`.
     #[serde(default)]
@@ -300,6 +304,18 @@ pub enum InitMode {
     /// eq. (9) where it has at least 3 rows, else the transmitters' centroid
     /// ([`crate::estimators::local::LocalProblem::first_fix`]).
     FirstFix,
+}
+
+/// `algorithm.row_weights`: how the rows of each node's cost are weighted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RowWeights {
+    /// Unweighted, seed 002 eq. (9) (default).
+    #[default]
+    None,
+    /// Each row divided by its first-order noise standard deviation
+    /// ([`crate::estimators::local::LocalProblem::build_weighted`]).
+    Noise,
 }
 
 /// `algorithm.init_u`: one initial `u` for every node, or one per node.

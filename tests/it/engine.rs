@@ -8,7 +8,7 @@ use sonarnet::estimators::local::LocalProblem;
 use sonarnet::estimators::prox::{LocalSolver, prox};
 use sonarnet::model::geometry::{Vec2, Vec3};
 use sonarnet::pipeline;
-use sonarnet::scenario::{InitMode, Mode, Scenario};
+use sonarnet::scenario::{InitMode, Mode, RowWeights, Scenario};
 
 /// Seed 002 eq. (5)'s `p_v` for the drawn schedule, written out again from
 /// the definition: `P(v draws) + sum_w P(neighbour w draws and calls v)`,
@@ -54,13 +54,15 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
     let mut sched = plan.scheduler();
     let mut out = Vec::new();
     for k in 0..sc.samples {
+        let weights = (a.row_weights == RowWeights::Noise).then_some(&real.sigmas[k]);
         let probs: Vec<LocalProblem> = (0..n)
             .map(|i| {
-                LocalProblem::build(
+                LocalProblem::build_weighted(
                     sc.geometry.receivers[i],
                     &sc.geometry.transmitters,
                     sc.measurements.omega,
                     &real.measurements[k].nodes[i],
+                    weights,
                 )
             })
             .collect();
@@ -162,6 +164,17 @@ fn async_engine_with_the_eq_5_prox_scaling_equals_its_transcription_bit_for_bit(
         let (a, _) = crate::util::record(&sc, &sc.realize());
         let (b, _) = crate::util::record(&plain, &plain.realize());
         assert_ne!(a.thetas[0][0], b.thetas[0][0], "{file}");
+    }
+}
+
+#[test]
+fn noise_weighted_local_costs_equal_the_transcription_bit_for_bit() {
+    for mode in [Mode::Async, Mode::Sync] {
+        let mut sc =
+            load(mode, "mourya2017-spiral.toml").with_prox_scaling(ProxScaling::InverseProbability);
+        sc.algorithm.row_weights = RowWeights::Noise;
+        sc.algorithm.gamma = 30.0;
+        check_scenario(&sc, "mourya2017-spiral.toml");
     }
 }
 

@@ -104,6 +104,21 @@ fn async_processes_reproduce_the_inprocess_engine_with_the_eq_5_prox_scaling() {
     );
 }
 
+/// The noise-weighted costs need each sample's sigmas at the nodes: they
+/// travel in the sample's frames.
+#[test]
+fn processes_reproduce_the_inprocess_engine_with_noise_weighted_costs() {
+    let sc = scenario("mourya2017-spiral-eq5.toml");
+    equivalence_at(&sc, "sync", "15", &["--variant", "sync-weighted"], &[]);
+    equivalence_at(
+        &sc,
+        "async",
+        "15",
+        &["--variant", "async-eq5-weighted"],
+        &[],
+    );
+}
+
 #[test]
 fn sync_processes_reproduce_the_inprocess_engine_on_the_spiral() {
     equivalence("mourya2017-spiral.toml", "sync", "30");

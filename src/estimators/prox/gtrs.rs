@@ -1248,6 +1248,40 @@ pub(crate) mod tests {
         }
     }
 
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, .. ProptestConfig::default() })]
+        /// `row_weights = "noise"`: the exact prox of the weighted cost (rows
+        /// divided by their noise standard deviations) is still the global
+        /// minimiser on the cone.
+        #[test]
+        fn gtrs_matches_brute_force_on_noise_weighted_costs(
+            v in 0usize..6,
+            target in (0.0f64..1000.0, 0.0f64..1000.0),
+            noise in prop::array::uniform3(-3.0f64..3.0),
+            du in (-300.0f64..300.0, -300.0f64..300.0, -300.0f64..300.0),
+            log_gamma in -1.0f64..3.0,
+        ) {
+            let geometry = crate::model::measure::Geometry::seed002();
+            let tx = &geometry.transmitters;
+            let x = Vec2::new(target.0, target.1);
+            let r = geometry.receivers[v];
+            let sig = crate::model::measure::Sigmas { range: 5.0, doa: 0.05 };
+            let meas = NodeMeasurements {
+                bistatic: tx
+                    .iter()
+                    .enumerate()
+                    .map(|(k, t)| (k, (x - t).norm() + (x - r).norm() + sig.range * noise[k]))
+                    .collect(),
+                doa: Some((x.y - r.y).atan2(x.x - r.x) + sig.doa * noise[2]),
+                range: None,
+            };
+            let p = LocalProblem::build_weighted(r, tx, 1.0, &meas, Some(&sig));
+            let u = Vec3::new(x.x + du.0, x.y + du.1, (x - r).norm() + du.2);
+            let c = Case { p, u, gamma: 10f64.powf(log_gamma), scale: 3000.0 };
+            check_against_brute_force(&c, 201)?;
+        }
+    }
+
     #[test]
     fn gtrs_recovers_the_noise_free_target_when_u_is_the_truth() {
         // With noise-free data and u = the lifted truth, the truth is the global
