@@ -596,6 +596,18 @@ mod tests {
         }
     }
 
+    /// Sample `k`'s command: one bistatic range `10 + k` and a DOA.
+    fn sample(k: u32) -> Input {
+        Input::Command(Command::Sample {
+            sample: k,
+            meas: meas(10.0 + k as f64),
+            sigmas: Sigmas {
+                range: 5.0,
+                doa: 0.5,
+            },
+        })
+    }
+
     /// Two async nodes, each with a one-step plan per sample against the other.
     fn plan(sample: u32) -> Command {
         Command::AsyncPlan {
@@ -614,16 +626,6 @@ mod tests {
                 from: 0,
                 seq: k,
                 r: partner_r(k),
-            })
-        };
-        let sample = |k: u32| {
-            Input::Command(Command::Sample {
-                sample: k,
-                meas: meas(10.0 + k as f64),
-                sigmas: Sigmas {
-                    range: 5.0,
-                    doa: 0.5,
-                },
             })
         };
         // One sample at a time.
@@ -672,16 +674,6 @@ mod tests {
         let mut node = NodeCore::new(cfg.clone());
         assert_eq!(node.u(), cfg.init_u);
         let mut out = Vec::new();
-        let sample = |k: u32| {
-            Input::Command(Command::Sample {
-                sample: k,
-                meas: meas(10.0 + k as f64),
-                sigmas: Sigmas {
-                    range: 5.0,
-                    doa: 0.5,
-                },
-            })
-        };
         node.handle(sample(0), &mut out);
         let want = LocalProblem::build(cfg.anchor, &cfg.transmitters, cfg.omega, &meas(10.0))
             .first_fix(&cfg.transmitters);
