@@ -48,10 +48,10 @@ pub fn evaluate(
     opts: &RunOptions,
 ) -> (RunMetrics, Scored) {
     let done = record.thetas.len();
-    let est: Vec<Vec2> = record
-        .thetas
-        .iter()
-        .map(|t| metrics::theta_bar(t))
+    // theta_bar is the mean of the nodes alive at each sample: a dead node's
+    // frozen estimate is left out from the sample its death was noticed.
+    let est: Vec<Vec2> = (0..done)
+        .map(|k| metrics::theta_bar(&record.alive_thetas(k)))
         .collect();
     // The centralised ML reference, solved once for the `ml` track and any
     // `ml` baseline.

@@ -4,7 +4,7 @@
 //! Outputs (one directory per run; every file carries the seed):
 //! * `run.json`: resolved scenario, seed, crate version, engine, mode, clock, command line, status;
 //! * `track.csv`: `sample,true_x,true_y,est_x,est_y,error,ml_x,ml_y,crlb,ctte,seed`;
-//! * `nodes.csv`: `sample,node,x,y,d,seed`;
+//! * `nodes.csv`: `sample,node,x,y,d,alive,seed`;
 //! * `schedule.csv`: `iteration,v,w,seed` (async runs);
 //! * `measurements.csv`: every measurement in the trace format (replayable);
 //! * `iterations.csv`: `iteration,sample,node,x,y,d,seed` with `--trace-iterations`;

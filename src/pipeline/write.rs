@@ -33,15 +33,18 @@ impl Outcome {
         write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
         write_csv(
             &dir.join("nodes.csv"),
-            &["sample", "node", "x", "y", "d", "seed"],
+            &["sample", "node", "x", "y", "d", "alive", "seed"],
             record.thetas.iter().enumerate().flat_map(|(k, ts)| {
+                let alive = record.alive.get(k);
                 ts.iter().enumerate().map(move |(i, t)| {
+                    let up = alive.and_then(|m| m.get(i)).copied().unwrap_or(true);
                     vec![
                         k.to_string(),
                         i.to_string(),
                         num(t[0]),
                         num(t[1]),
                         num(t[2]),
+                        up.to_string(),
                         sc.seed.to_string(),
                     ]
                 })

@@ -462,6 +462,105 @@ fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() 
     assert_nothing_left(&run_id_of(&out));
 }
 
+/// A realtime run of the spiral in which node 2 is SIGKILLed `after` the
+/// nodes are up; returns the results directory and the sample at which the
+/// death was noticed.
+fn realtime_run_killing_node_2(
+    tmp: &TempDir,
+    name: &str,
+    after: Duration,
+) -> (std::path::PathBuf, usize) {
+    let out = tmp.path().join(name);
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = spawn_sonarnet(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--clock",
+        "realtime",
+        "--samples",
+        "80",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let nodes = wait_for_children(child.id(), 6);
+    std::thread::sleep(after);
+    let victim = nodes
+        .iter()
+        .copied()
+        .find(|p| {
+            String::from_utf8_lossy(
+                &std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default(),
+            )
+            .contains("\"id\":2,")
+        })
+        .expect("node 2 process");
+    // SAFETY: plain kill(2).
+    unsafe { libc::kill(victim as i32, libc::SIGKILL) };
+    let o = wait_watchdog(child, "realtime run with node 2 killed", LIMIT);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = metrics(&out);
+    assert_eq!(m["deaths"][0]["node"], 2, "{m}");
+    let at = m["deaths"][0]["sample"].as_u64().unwrap() as usize;
+    assert_nothing_left(&run_id_of(&out));
+    (out, at)
+}
+
+/// The error column of track.csv from sample `from` on.
+fn errors_from(out: &std::path::Path, from: usize) -> Vec<f64> {
+    read_rows(&out.join("track.csv"))
+        .iter()
+        .skip(from)
+        .map(|r| r[5].parse::<f64>().unwrap())
+        .collect()
+}
+
+#[test]
+fn after_a_death_theta_bar_is_the_mean_of_the_live_nodes_and_tracks_as_without_that_node() {
+    let tmp = TempDir::new("death-theta-bar");
+    // Node 2 dies about a third of the way in, and, for the reference, right
+    // at the start: the same seed, so the five other nodes see the same data.
+    let (late, at) = realtime_run_killing_node_2(&tmp, "late", Duration::from_millis(600));
+    let (early, _) = realtime_run_killing_node_2(&tmp, "early", Duration::from_millis(0));
+    assert!(at > 10 && at < 70, "death noticed at sample {at}");
+    // nodes.csv: node 2 is alive before the death and not from then on, and
+    // est_x of track.csv is the mean of the live nodes' x.
+    let nodes = read_rows(&late.join("nodes.csv"));
+    let track = read_rows(&late.join("track.csv"));
+    for k in [at - 1, at, at + 5] {
+        let rows: Vec<&Vec<String>> = nodes.iter().filter(|r| r[0] == k.to_string()).collect();
+        assert_eq!(rows.len(), 6);
+        assert_eq!(
+            rows[2][5],
+            if k < at { "true" } else { "false" },
+            "sample {k}"
+        );
+        let live: Vec<f64> = rows
+            .iter()
+            .filter(|r| r[5] == "true")
+            .map(|r| r[2].parse().unwrap())
+            .collect();
+        let mean = live.iter().sum::<f64>() / live.len() as f64;
+        let est: f64 = track[k][3].parse().unwrap();
+        assert!(
+            (est - mean).abs() <= 1e-9 * mean.abs(),
+            "sample {k}: est_x {est} vs live mean {mean}"
+        );
+    }
+    // After the death (and 5 samples for the consensus to settle without it)
+    // the track is as good as that of the network that lost node 2 at once.
+    let rms = |e: &[f64]| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt();
+    let (a, b) = (
+        rms(&errors_from(&late, at + 5)),
+        rms(&errors_from(&early, at + 5)),
+    );
+    eprintln!("after the death: {a:.2} m; without node 2 from the start: {b:.2} m");
+    assert!(
+        a <= 1.3 * b,
+        "after a death {a:.2} m > 1.3 x {b:.2} m without that node"
+    );
+}
+
 #[test]
 fn realtime_gossip_with_enough_iterations_meets_the_async_accuracy_bound() {
     let tmp = TempDir::new("realtime");
