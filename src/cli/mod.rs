@@ -249,6 +249,15 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// The results directory must be writable before the run starts (exit 2
+/// otherwise, naming `--out`).
+fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
+    pipeline::check_out_dir(dir).map_err(|reason| {
+        crate::model::error::InputError::at(std::path::Path::new("<command line>"), "--out", reason)
+            .into()
+    })
+}
+
 fn default_dir(args: &RunArgs, sc: &Scenario, many: bool, tail: &str) -> PathBuf {
     match &args.out {
         Some(o) if many => o.join(sc.variant.as_deref().unwrap_or("base")),
@@ -305,10 +314,7 @@ fn run_monte_carlo_command(
         poll_us: 0,
         verbose: false,
     };
-    std::fs::create_dir_all(&opts.out_dir).map_err(|e| RunError::Output {
-        path: opts.out_dir.clone(),
-        source: e,
-    })?;
+    check_out(&opts.out_dir)?;
     let bar = opts.progress.then(|| {
         let b = indicatif::ProgressBar::new(trials as u64);
         if let Ok(style) = indicatif::ProgressStyle::with_template(
@@ -403,6 +409,7 @@ fn run_single(
         poll_us: args.poll_us,
         verbose: args.verbose,
     };
+    check_out(&opts.out_dir)?;
     let bar = progress_bar(&opts, sc.samples as u64);
     let mut tick = |k: usize, it: u64| {
         if let Some(b) = &bar {

@@ -21,7 +21,7 @@ mod write;
 
 pub use evaluate::{check_expect, evaluate, expect_results, unknown_metric};
 pub use results::*;
-pub use write::{write_csv, write_json, write_trace, write_track_csv};
+pub use write::{check_out_dir, write_csv, write_json, write_trace, write_track_csv};
 
 use crate::engine::{EngineError, RunRecord};
 use crate::model::error::InputError;
@@ -153,6 +153,11 @@ impl Scenario {
     /// [`Scenario::run`], then write the results directory `opts.out_dir`
     /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
     pub fn run_and_write(&self, opts: &RunOptions) -> Result<Outcome, RunError> {
+        // The directory must be writable before any work is done.
+        check_out_dir(&opts.out_dir).map_err(|reason| RunError::Output {
+            path: opts.out_dir.clone(),
+            source: std::io::Error::other(reason),
+        })?;
         let out = self.run(opts);
         out.write(self, opts)?;
         Ok(out)

@@ -253,6 +253,20 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
     }
 }
 
+/// Make sure the results directory `dir` can be written before any work
+/// starts: create it (and its parents) and write and remove a probe file in
+/// it. Returns the reason it cannot be used, e.g. an existing file of that
+/// name, a path below a file, or a read-only place.
+pub fn check_out_dir(dir: &Path) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(format!("{} exists and is not a directory", dir.display()));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let probe = dir.join(".sonarnet-write-check");
+    std::fs::write(&probe, b"").map_err(|e| format!("cannot write in {}: {e}", dir.display()))?;
+    std::fs::remove_file(&probe).map_err(|e| format!("cannot remove {}: {e}", probe.display()))
+}
+
 /// Write a CSV file with a header and string rows.
 pub fn write_csv(
     path: &Path,

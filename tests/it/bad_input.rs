@@ -391,3 +391,34 @@ fn with_a_trace_kappa_is_checked_against_the_most_rows_each_node_ever_has() {
     assert_eq!(e.location.as_deref(), Some("algorithm.kappa"));
     assert!(e.reason.contains("node 1 has 2"), "{e}");
 }
+
+#[test]
+fn an_unusable_out_directory_is_refused_before_the_run_naming_out() {
+    let tmp = TempDir::new("bad-out");
+    let p = tmp.write("scenario.toml", GOOD);
+    let file = tmp.write("taken", "not a directory");
+    for (out, why) in [
+        (file.clone(), "is not a directory"),
+        (file.join("below"), "cannot create"),
+        (
+            std::path::PathBuf::from("/proc/sonarnet-x"),
+            "cannot create",
+        ),
+    ] {
+        for extra in [&[][..], &["--trials", "3"][..]] {
+            let mut args = vec!["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()];
+            args.extend_from_slice(extra);
+            let o = sonarnet(&args, Duration::from_secs(60));
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{out:?} {extra:?}: {stderr}");
+            assert_eq!(stderr.matches("error:").count(), 1, "{stderr}");
+            assert!(stderr.contains("--out") && stderr.contains(why), "{stderr}");
+            // Refused before any work: nothing ran, so nothing was summarised.
+            assert!(
+                o.stdout.is_empty(),
+                "{}",
+                String::from_utf8_lossy(&o.stdout)
+            );
+        }
+    }
+}
