@@ -17,7 +17,7 @@ use sonarnet::engine::processes::NodeLaunch;
 use sonarnet::transport::IoxTransport;
 use std::process::ExitCode;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// One sonar receiver of a sonarnet run (started by `sonarnet run --engine processes`).
@@ -63,7 +63,10 @@ where
         return ExitCode::from(2);
     }
     match run(launch) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(Ended::Stopped) => ExitCode::SUCCESS,
+        // Told to stop by a signal, not by the coordinator: say so, as a
+        // shell does (128 + SIGTERM), so the coordinator can name the cause.
+        Ok(Ended::Signalled) => ExitCode::from(SIGNALLED),
         Err(e) => {
             eprintln!("sonarnet-node: error: {e}");
             ExitCode::from(1)
@@ -71,7 +74,18 @@ where
     }
 }
 
-fn run(launch: NodeLaunch) -> Result<(), String> {
+/// The exit status of a node stopped by SIGTERM or SIGINT (128 + 15).
+const SIGNALLED: u8 = 143;
+
+/// How a node's run ended without an error.
+enum Ended {
+    /// The coordinator's `Stop`.
+    Stopped,
+    /// SIGTERM or SIGINT.
+    Signalled,
+}
+
+fn run(launch: NodeLaunch) -> Result<Ended, String> {
     let term = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
         signal_hook::flag::register(sig, Arc::clone(&term)).map_err(|e| e.to_string())?;
@@ -86,5 +100,10 @@ fn run(launch: NodeLaunch) -> Result<(), String> {
         term: &term,
         coordinator_alive: &alive,
     };
-    run_node(&mut tx, launch.node, &opts).map_err(|e| e.to_string())
+    run_node(&mut tx, launch.node, &opts).map_err(|e| e.to_string())?;
+    Ok(if term.load(Ordering::Relaxed) {
+        Ended::Signalled
+    } else {
+        Ended::Stopped
+    })
 }

@@ -189,7 +189,8 @@ pub struct RunArgs {
     /// Douglas-Rachford iterations per sample (overrides the scenario).
     #[arg(long)]
     pub iterations_per_sample: Option<usize>,
-    /// Number of samples to run (at most the scenario's).
+    /// Number of samples to run (overrides target.samples; with a trace, at
+    /// most its length; must exceed algorithm.burn_in).
     #[arg(long)]
     pub samples: Option<usize>,
     /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>].

@@ -135,10 +135,17 @@ pub fn run_node<T: Transport>(
             timing.busy_seconds += busy.elapsed().as_secs_f64();
             continue;
         }
+        let mut gone: Vec<u32> = Vec::new();
         for o in outputs.drain(..) {
             match o {
                 Output::Peer { to, msg } => {
-                    tx.send(Endpoint::Node(to), &codec::encode_peer(&msg))?
+                    match tx.send(Endpoint::Node(to), &codec::encode_peer(&msg)) {
+                        // A neighbour that exited on its own (SIGTERM, a panic,
+                        // an error exit) is down, as if the coordinator had said
+                        // so; the coordinator also notices and tells the others.
+                        Err(TransportError::PeerGone { .. }) => gone.push(to),
+                        r => r?,
+                    }
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
                 Output::Report(r @ Report::IterationDone { .. }) => {
@@ -165,6 +172,12 @@ pub fn run_node<T: Transport>(
                     }
                 }
             }
+        }
+        for node in gone {
+            if opts.verbose {
+                eprintln!("[node {id}] node {node} has exited: treated as down");
+            }
+            core.handle(Input::Command(Command::NodeDown { node }), &mut outputs);
         }
         tx.flush()?;
         timing.busy_seconds += busy.elapsed().as_secs_f64();

@@ -184,6 +184,7 @@ pub struct Processes {
 fn status_text(s: &ExitStatus) -> String {
     use std::os::unix::process::ExitStatusExt;
     match (s.code(), s.signal()) {
+        (Some(143), _) => "exit code 143: stopped by SIGTERM or SIGINT".into(),
         (Some(c), _) => format!("exit code {c}"),
         (None, Some(sig)) => format!("killed by signal {sig}"),
         _ => "unknown status".into(),
@@ -386,8 +387,12 @@ impl Processes {
         codec::encode_control(c, &mut self.encoded);
         let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
         for f in &self.encoded {
-            tx.send(Endpoint::Node(node), f)
-                .map_err(EngineError::Transport)?;
+            match tx.send(Endpoint::Node(node), f) {
+                // The node exited between two child checks: the next check
+                // reports its death with its exit status.
+                Err(TransportError::PeerGone { .. }) => return Ok(()),
+                r => r.map_err(EngineError::Transport)?,
+            }
         }
         Ok(())
     }

@@ -106,6 +106,16 @@ pub enum TransportError {
         /// How long the sender waited.
         waited: Duration,
     },
+    /// The receiver had taken frames from this sender before and has since
+    /// closed its inbox: its process exited. Returned at once, where waiting
+    /// for a full buffer would last the whole send timeout.
+    #[error("{from} could not deliver a frame to {to}: {to} has closed its inbox (it exited)")]
+    PeerGone {
+        /// The sending endpoint.
+        from: Endpoint,
+        /// The destination that is gone.
+        to: Endpoint,
+    },
     /// A broadcast could not be delivered to every group member within the send
     /// timeout (a member's buffer stayed full, or not all members came up).
     #[error(

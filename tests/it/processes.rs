@@ -462,12 +462,14 @@ fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() 
     assert_nothing_left(&run_id_of(&out));
 }
 
-/// A realtime run of the spiral in which node 2 is SIGKILLed `after` the
-/// nodes are up; returns the results directory and the sample at which the
-/// death was noticed.
-fn realtime_run_killing_node_2(
+/// A realtime run of the spiral (80 samples) in which `node` gets `signal`
+/// `after` the nodes are up; returns the results directory and the sample at
+/// which the death was noticed.
+fn realtime_run_signalling(
     tmp: &TempDir,
     name: &str,
+    node: u32,
+    signal: i32,
     after: Duration,
 ) -> (std::path::PathBuf, usize) {
     let out = tmp.path().join(name);
@@ -485,6 +487,7 @@ fn realtime_run_killing_node_2(
     ]);
     let nodes = wait_for_children(child.id(), 6);
     std::thread::sleep(after);
+    let tag = format!("\"id\":{node},");
     let victim = nodes
         .iter()
         .copied()
@@ -492,18 +495,50 @@ fn realtime_run_killing_node_2(
             String::from_utf8_lossy(
                 &std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default(),
             )
-            .contains("\"id\":2,")
+            .contains(&tag)
         })
-        .expect("node 2 process");
+        .expect("the node's process");
     // SAFETY: plain kill(2).
-    unsafe { libc::kill(victim as i32, libc::SIGKILL) };
-    let o = wait_watchdog(child, "realtime run with node 2 killed", LIMIT);
+    unsafe { libc::kill(victim as i32, signal) };
+    let o = wait_watchdog(child, "realtime run with a node signalled", LIMIT);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let m = metrics(&out);
-    assert_eq!(m["deaths"][0]["node"], 2, "{m}");
+    assert_eq!(m["samples_completed"], 80, "{m}");
+    assert_eq!(m["deaths"][0]["node"], node, "{m}");
     let at = m["deaths"][0]["sample"].as_u64().unwrap() as usize;
     assert_nothing_left(&run_id_of(&out));
     (out, at)
+}
+
+fn realtime_run_killing_node_2(
+    tmp: &TempDir,
+    name: &str,
+    after: Duration,
+) -> (std::path::PathBuf, usize) {
+    realtime_run_signalling(tmp, name, 2, libc::SIGKILL, after)
+}
+
+/// A node that exits on its own (here SIGTERM: it stops cleanly) is a death
+/// like a SIGKILL: named with its cause, and its neighbours do not wait for
+/// it (they used to block 10 s sending to it, then fail the run).
+#[test]
+fn a_node_that_exits_on_its_own_in_realtime_mode_is_a_named_death_and_the_run_continues() {
+    let tmp = TempDir::new("term-realtime");
+    for (i, node) in [5u32, 2].into_iter().enumerate() {
+        let (out, at) = realtime_run_signalling(
+            &tmp,
+            &format!("run{i}"),
+            node,
+            libc::SIGTERM,
+            Duration::from_millis(500),
+        );
+        let m = metrics(&out);
+        assert_eq!(m["status"], "ok");
+        let how = m["deaths"][0]["how"].as_str().unwrap();
+        assert!(how.contains("SIGTERM"), "{how}");
+        assert_eq!(m["deaths"].as_array().unwrap().len(), 1, "{m}");
+        assert!(at < 80);
+    }
 }
 
 /// The error column of track.csv from sample `from` on.
@@ -518,10 +553,12 @@ fn errors_from(out: &std::path::Path, from: usize) -> Vec<f64> {
 #[test]
 fn after_a_death_theta_bar_is_the_mean_of_the_live_nodes_and_tracks_as_without_that_node() {
     let tmp = TempDir::new("death-theta-bar");
-    // Node 2 dies about a third of the way in, and, for the reference, right
-    // at the start: the same seed, so the five other nodes see the same data.
-    let (late, at) = realtime_run_killing_node_2(&tmp, "late", Duration::from_millis(600));
-    let (early, _) = realtime_run_killing_node_2(&tmp, "early", Duration::from_millis(0));
+    // Node 2 dies about half way in, and, for the reference, a few samples
+    // after the start (a death during start-up fails the run): the same seed,
+    // so the five other nodes see the same data.
+    let (late, at) = realtime_run_killing_node_2(&tmp, "late", Duration::from_millis(900));
+    let (early, early_at) = realtime_run_killing_node_2(&tmp, "early", Duration::from_millis(300));
+    assert!(early_at + 5 < at, "deaths at {early_at} and {at}");
     assert!(at > 10 && at < 70, "death noticed at sample {at}");
     // nodes.csv: node 2 is alive before the death and not from then on, and
     // est_x of track.csv is the mean of the live nodes' x.

@@ -146,6 +146,11 @@ struct Peer {
     pending: bool,
     /// Sent to since the last successful shutdown check.
     unconfirmed: bool,
+    /// Index of the receiver's inbox service in `pubsub_services`.
+    service: usize,
+    /// A frame has reached the receiver (so an inbox without subscriber
+    /// afterwards means it exited, not that it has not come up yet).
+    connected: bool,
 }
 
 /// A node's membership in the broadcast group.
@@ -254,6 +259,8 @@ impl IoxTransport {
                 pool,
                 pending: false,
                 unconfirmed: false,
+                service: pubsub_services.len(),
+                connected: false,
             });
             pubsub_services.push(s);
             event_services.push(e);
@@ -342,6 +349,8 @@ impl IoxTransport {
                 pool,
                 pending: false,
                 unconfirmed: false,
+                service: pubsub_services.len(),
+                connected: false,
             });
             pubsub_services.push(s);
             event_services.push(e);
@@ -357,6 +366,8 @@ impl IoxTransport {
                 pool,
                 pending: false,
                 unconfirmed: false,
+                service: pubsub_services.len(),
+                connected: false,
             });
             pubsub_services.push(s);
             event_services.push(e);
@@ -635,6 +646,7 @@ impl Transport for IoxTransport {
                 .map_err(|e| TransportError::ipc(format!("sending to {to}"), e))?;
             if delivered > 0 {
                 let peer = &mut self.peers[slot];
+                peer.connected = true;
                 peer.unconfirmed = true;
                 if !peer.pending {
                     peer.pending = true;
@@ -642,7 +654,17 @@ impl Transport for IoxTransport {
                 }
                 return Ok(());
             }
-            // Not delivered: the receiver's buffer is full or it has no inbox yet.
+            // Not delivered: the receiver's buffer is full, it has no inbox yet,
+            // or it had one and exited.
+            let peer = &self.peers[slot];
+            if peer.connected
+                && self.pubsub_services[peer.service]
+                    .dynamic_config()
+                    .number_of_subscribers()
+                    == 0
+            {
+                return Err(TransportError::PeerGone { from: self.me, to });
+            }
             let start = match started {
                 Some(s) => s,
                 None => {
