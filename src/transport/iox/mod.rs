@@ -42,7 +42,9 @@
 //!   and retries, until the topology's send timeout; then it returns
 //!   [`TransportError::SendTimeout`]. Because a blocked sender keeps draining its own
 //!   inbox, endpoints that send to each other cannot deadlock; only a receiver that
-//!   stops calling `recv`/`send` (or died) makes senders time out.
+//!   stops calling `recv`/`send` (or was killed) makes senders time out. A receiver
+//!   that took frames from this sender before and has since closed its inbox (its
+//!   process exited cleanly or with an error) is [`TransportError::PeerGone`] at once.
 //! * Broadcasts first wait (same back-off and draining) until all `N` members have
 //!   subscribed, then publish with a backpressure handler that retries a full member
 //!   buffer until the send timeout and then fails
@@ -891,6 +893,36 @@ mod tests {
                 n0.broadcast(&frame(0, 0)),
                 Err(TransportError::BroadcastUnavailable(_))
             ));
+        }
+        assert_eq!(run_resources(topo.run_id()), Vec::<PathBuf>::new());
+    }
+
+    #[test]
+    fn a_send_to_a_receiver_that_closed_its_inbox_fails_with_peer_gone_not_a_timeout() {
+        let topo = RunTopology::ring(super::super::unique_run_id(), 2, 2)
+            .unwrap()
+            .with_send_timeout(Duration::from_secs(30));
+        {
+            let mut c = IoxTransport::coordinator(&topo).unwrap();
+            let mut n0 = IoxTransport::node(&topo, 0).unwrap();
+            let mut n1 = IoxTransport::node(&topo, 1).unwrap();
+            let to1 = Endpoint::Node(1);
+            n0.send(to1, &frame(0, 1)).unwrap();
+            n0.flush().unwrap();
+            let mut out = Vec::new();
+            n1.recv(&mut out, Some(Duration::from_secs(10))).unwrap();
+            assert_eq!(out, vec![frame(0, 1)]);
+            // Node 1 exits (its inbox closes, as when its process ends).
+            drop(n1);
+            let err = n0.send(to1, &frame(0, 2)).unwrap_err();
+            assert!(
+                matches!(err, TransportError::PeerGone { to, .. } if to == to1),
+                "{err}"
+            );
+            // The coordinator never sent to node 1: for it the inbox might
+            // not be up yet, so it would wait (not tried here: 30 s).
+            c.shutdown(Duration::from_secs(10)).unwrap();
+            n0.shutdown(Duration::from_secs(10)).unwrap();
         }
         assert_eq!(run_resources(topo.run_id()), Vec::<PathBuf>::new());
     }
