@@ -111,7 +111,7 @@ pub fn run_node<T: Transport>(
                 }
                 Some(NodeInput::Control(Control::StartClock(rate))) => {
                     let wait = core.draw_wait(rate);
-                    clock = Some((rate, Instant::now() + Duration::from_secs_f64(wait)));
+                    clock = Some((rate, after(Instant::now(), wait)));
                 }
                 Some(NodeInput::Control(Control::Stop)) => {
                     if opts.verbose {
@@ -126,10 +126,7 @@ pub fn run_node<T: Transport>(
         {
             core.handle(Input::Command(Command::Tick), &mut outputs);
             let wait = core.draw_wait(rate);
-            clock = Some((
-                rate,
-                next.max(Instant::now()) + Duration::from_secs_f64(wait),
-            ));
+            clock = Some((rate, after(next.max(Instant::now()), wait)));
         }
         if outputs.is_empty() {
             timing.busy_seconds += busy.elapsed().as_secs_f64();
@@ -184,6 +181,14 @@ pub fn run_node<T: Transport>(
     }
 }
 
+/// `from` plus `secs` seconds of a drawn wait, clamped to `[0, 1 day]` so
+/// that no rate (or a NaN) can make the clock arithmetic panic.
+fn after(from: Instant, secs: f64) -> Instant {
+    const DAY: Duration = Duration::from_secs(86_400);
+    let wait = Duration::try_from_secs_f64(secs).map_or(DAY, |d| d.min(DAY));
+    from.checked_add(wait).unwrap_or(from)
+}
+
 fn log_command(id: u32, c: &Command) {
     match c {
         Command::Sample { sample, meas, .. } => {
@@ -196,5 +201,20 @@ fn log_command(id: u32, c: &Command) {
             eprintln!("[node {id}] sample {sample}: plan of {} steps", steps.len())
         }
         other => eprintln!("[node {id}] {other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_drawn_wait_of_any_size_gives_a_clock_time_without_panicking() {
+        let t = Instant::now();
+        assert_eq!(after(t, 0.5), t + Duration::from_millis(500));
+        for w in [1e300, f64::INFINITY, f64::NAN, -1.0] {
+            let a = after(t, w);
+            assert!(a >= t && a <= t + Duration::from_secs(86_400), "{w}");
+        }
     }
 }

@@ -76,9 +76,16 @@ impl RunPlan {
                         "--clock realtime needs a [realtime] table in the scenario".into(),
                     ));
                 };
+                let sample_period = Duration::try_from_secs_f64(rt.sample_period_ms / 1000.0)
+                    .map_err(|_| {
+                        EngineError::Unsupported(format!(
+                            "realtime.sample_period_ms = {} is not a duration",
+                            rt.sample_period_ms
+                        ))
+                    })?;
                 let rt = RealtimePlan {
                     wake_rate_hz: rt.wake_rate_hz,
-                    sample_period: Duration::from_secs_f64(rt.sample_period_ms / 1000.0),
+                    sample_period,
                 };
                 (NodeMode::Realtime, Some(rt))
             }

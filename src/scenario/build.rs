@@ -4,6 +4,11 @@
 
 use super::*;
 
+/// The range of `realtime.sample_period_ms`: 0.1 ms to one hour.
+pub const SAMPLE_PERIOD_MS: (f64, f64) = (0.1, 3.6e6);
+/// The range of `realtime.wake_rate_hz`: one wake-up in 1000 s to a million a second.
+pub const WAKE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
+
 /// Check the baselines (parameters, unique names) and the `[bounds]` table
 /// against them: `Err((key, reason))`. The one check for the file and for
 /// `--baselines`, which replaces the list (so `bounds.tracks` must still name
@@ -448,19 +453,21 @@ impl Scenario {
             None => None,
         };
         if let Some(rt) = &file.realtime {
-            if !(rt.sample_period_ms.is_finite() && rt.sample_period_ms > 0.0) {
-                return Err(InputError::at(
-                    path,
+            for (key, v, (lo, hi)) in [
+                (
                     "realtime.sample_period_ms",
-                    "must be finite and > 0",
-                ));
-            }
-            if !(rt.wake_rate_hz.is_finite() && rt.wake_rate_hz > 0.0) {
-                return Err(InputError::at(
-                    path,
-                    "realtime.wake_rate_hz",
-                    "must be finite and > 0",
-                ));
+                    rt.sample_period_ms,
+                    SAMPLE_PERIOD_MS,
+                ),
+                ("realtime.wake_rate_hz", rt.wake_rate_hz, WAKE_RATE_HZ),
+            ] {
+                if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                    return Err(InputError::at(
+                        path,
+                        key,
+                        format!("must be in [{lo:e}, {hi:e}], got {v:e}"),
+                    ));
+                }
             }
         }
         // Baselines, bounds, Monte Carlo.

@@ -422,3 +422,27 @@ fn an_unusable_out_directory_is_refused_before_the_run_naming_out() {
         }
     }
 }
+
+#[test]
+fn realtime_rates_outside_their_documented_range_are_refused_naming_the_key() {
+    for (key, value) in [
+        ("wake_rate_hz", "1e-300"),
+        ("wake_rate_hz", "1e9"),
+        ("sample_period_ms", "1e-9"),
+        ("sample_period_ms", "1e300"),
+    ] {
+        let table = if key == "wake_rate_hz" {
+            format!("sample_period_ms = 20.0\nwake_rate_hz = {value}")
+        } else {
+            format!("sample_period_ms = {value}\nwake_rate_hz = 100.0")
+        };
+        let text = format!("{GOOD}\n[realtime]\n{table}\n");
+        let (code, stderr, p) = run_bad_with(&text, &[], &["--clock", "realtime"]);
+        assert_clear(
+            code,
+            &stderr,
+            &p,
+            &[&format!("realtime.{key}"), "must be in ["],
+        );
+    }
+}
