@@ -197,3 +197,12 @@ fn the_cycle_finder_finds_a_planted_cycle() {
         "{c:?}"
     );
 }
+
+/// `.cargo/config.toml` pins the property tests' seed, so CI checks the same
+/// cases every run and a failure found there reproduces here.
+#[test]
+fn property_tests_draw_from_a_pinned_seed() {
+    let seed = std::env::var("PROPTEST_RNG_SEED")
+        .expect("PROPTEST_RNG_SEED is set by .cargo/config.toml [env]");
+    assert!(seed.parse::<u64>().is_ok(), "not a u64: {seed:?}");
+}

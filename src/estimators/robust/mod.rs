@@ -13,9 +13,10 @@
 //!
 //! The three smooth estimators share one damped Gauss-Newton (Levenberg)
 //! loop whose normal matrix is reweighted at every iteration with the IRLS
-//! weights `w_l = (r_l^2 + eps^2)^{q/2 - 1}` (`w_l = 1` for `ls`); a step is
-//! only accepted if it lowers the objective, so every trace is strictly
-//! decreasing. All estimators are deterministic, allocate O(links) memory,
+//! weights `w_l = (r_l^2 + eps^2)^{q/2 - 1}` (`w_l = 1` for `ls`), plus, for
+//! the robust losses, an exact (saddle-free) Newton candidate that follows
+//! the narrow valleys of the smoothed objective; a step is only accepted if
+//! it lowers the objective, so every trace is strictly decreasing. All estimators are deterministic, allocate O(links) memory,
 //! and return a typed error instead of a non-finite position.
 
 mod config;
