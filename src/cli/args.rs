@@ -234,6 +234,13 @@ pub struct RunArgs {
     /// default, blocks at once (idle nodes use ~0 % CPU either way, after N us).
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
     pub poll_us: u64,
+    /// Liveness watchdog, in seconds (0.1 to 3600). Logical clocks: when no
+    /// node has reported for half of it, every node is pinged, and a node
+    /// that does not answer within the other half (stopped, wedged) ends the
+    /// run, named, with the partial results written. Realtime: a node that
+    /// has not answered a snapshot within it is left out like a dead node.
+    #[arg(long, value_name = "SECONDS", default_value_t = 5.0, value_parser = stall_timeout)]
+    pub stall_timeout: f64,
     /// Log coordinator and node events (with node ids) to stderr.
     #[arg(long, short)]
     pub verbose: bool,
@@ -251,4 +258,17 @@ fn parse_solver(s: &str) -> Result<LocalSolver, String> {
         serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
     )
     .map_err(|_| format!("unknown local solver `{s}` (expected gtrs, relaxed or gtrs_l0)"))
+}
+
+/// `--stall-timeout`: seconds in [`STALL_TIMEOUT_RANGE_S`](crate::engine::plan::STALL_TIMEOUT_RANGE_S).
+fn stall_timeout(v: &str) -> Result<f64, String> {
+    let r = crate::engine::plan::STALL_TIMEOUT_RANGE_S;
+    let t: f64 = v
+        .parse()
+        .map_err(|e| format!("not a number of seconds: {e}"))?;
+    if r.contains(&t) {
+        Ok(t)
+    } else {
+        Err(format!("must be in [{}, {}] seconds", r.start(), r.end()))
+    }
 }

@@ -313,6 +313,7 @@ fn run_monte_carlo_command(
         check_expect: false,
         poll_us: 0,
         verbose: false,
+        stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
     };
     check_out(&opts.out_dir)?;
     let bar = opts.progress.then(|| {
@@ -408,6 +409,7 @@ fn run_single(
         check_expect: true,
         poll_us: args.poll_us,
         verbose: args.verbose,
+        stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
     };
     check_out(&opts.out_dir)?;
     let bar = progress_bar(&opts, sc.samples as u64);

@@ -21,8 +21,16 @@
 //!   asks every live node for a [`Command::Snapshot`]. A dead node is left out
 //!   from then on ([`Command::NodeDown`] to the others) while the remaining
 //!   graph stays connected.
+//!
+//! Liveness ([`RunPlan::stall_timeout`]): on logical clocks a
+//! [`Timer::Watchdog`] pings every live node ([`Control::Ping`]) when no
+//! report has come for half the stall timeout, and a node that has not
+//! answered ([`Event::Pong`]) by [`Timer::PingDeadline`] ends the run
+//! ([`EngineError::NotResponding`]); on the realtime clock a node that has
+//! not answered its snapshot within the stall timeout is left out as dead.
+//! Either way the engine is told to make sure it is gone ([`Action::Abandon`]).
 
-use super::plan::{RunPlan, SNAPSHOT_TIMEOUT, Scheduler};
+use super::plan::{RunPlan, Scheduler};
 use super::{EngineError, LOOKAHEAD, RunRecord};
 use crate::estimators::gossip::Mode;
 use crate::model::geometry::Vec3;
@@ -48,13 +56,25 @@ pub enum Event {
     },
     /// The user asked the run to stop (SIGINT/SIGTERM).
     Interrupted,
+    /// A node answered liveness check `seq` ([`Control::Ping`]).
+    Pong {
+        /// The node.
+        node: u32,
+        /// The check number.
+        seq: u64,
+    },
     /// A timer the coordinator set ([`Action::SetTimer`]) is due.
     Timer(Timer),
 }
 
-/// The coordinator's timers (realtime clocks only).
+/// The coordinator's timers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Timer {
+    /// Logical clocks: time to see whether any report came in the last half
+    /// of the stall timeout, and to ping every live node if none did.
+    Watchdog,
+    /// Logical clocks: the answers to liveness check `seq` are due.
+    PingDeadline(u64),
     /// The end of sample `k`'s period: time to snapshot.
     SampleBoundary(u32),
     /// The snapshot answers of sample `k` are overdue.
@@ -89,6 +109,12 @@ pub enum Action {
     },
     /// A line for the verbose log.
     Log(String),
+    /// The coordinator has given up on `node` (it does not answer): the
+    /// engine makes sure it is gone (a node process is killed and reaped).
+    Abandon {
+        /// The node.
+        node: u32,
+    },
     /// The run is over: complete, or stopped early and why.
     Done(Result<(), EngineError>),
 }
@@ -111,6 +137,14 @@ enum Phase {
     },
 }
 
+/// A liveness check in progress (logical clocks).
+struct Check {
+    seq: u64,
+    /// When the pings went out.
+    sent: Duration,
+    answered: Vec<bool>,
+}
+
 /// The coordinator of one run of a [`RunPlan`] on a [`Realization`].
 pub struct Coordinator<'a> {
     plan: &'a RunPlan,
@@ -120,6 +154,10 @@ pub struct Coordinator<'a> {
     dead: Vec<bool>,
     done: bool,
     phase: Phase,
+    /// When the last report arrived (logical clocks).
+    last_report: Duration,
+    check: Option<Check>,
+    checks: u64,
 }
 
 impl<'a> Coordinator<'a> {
@@ -148,6 +186,9 @@ impl<'a> Coordinator<'a> {
             dead: vec![false; n],
             done: false,
             phase,
+            last_report: Duration::ZERO,
+            check: None,
+            checks: 0,
         }
     }
 
@@ -177,7 +218,7 @@ impl<'a> Coordinator<'a> {
             return;
         }
         let result = match self.plan.realtime {
-            None => self.handle_logical(events, out),
+            None => self.handle_logical(now, events, out),
             Some(_) => self.handle_realtime(now, events, out),
         };
         match result {
@@ -279,6 +320,7 @@ impl<'a> Coordinator<'a> {
     /// Logical clocks; `Ok(true)` when every sample is complete.
     fn handle_logical(
         &mut self,
+        now: Duration,
         events: impl IntoIterator<Item = Event>,
         out: &mut Vec<Action>,
     ) -> Result<bool, EngineError> {
@@ -287,6 +329,31 @@ impl<'a> Coordinator<'a> {
         let ips = self.plan.iterations_per_sample;
         let mut advanced = false;
         for e in events {
+            match e {
+                Event::Report(_) => {
+                    // Progress: a liveness check in progress is moot.
+                    self.last_report = now;
+                    self.check = None;
+                }
+                Event::Timer(Timer::Watchdog) => {
+                    self.watchdog(now, out);
+                    continue;
+                }
+                Event::Timer(Timer::PingDeadline(seq)) => {
+                    self.ping_deadline(now, seq, out)?;
+                    continue;
+                }
+                Event::Pong { node, seq } => {
+                    if let Some(c) = &mut self.check
+                        && c.seq == seq
+                        && let Some(a) = c.answered.get_mut(node as usize)
+                    {
+                        *a = true;
+                    }
+                    continue;
+                }
+                _ => {}
+            }
             let Phase::Logical {
                 in_flight,
                 sent,
@@ -309,7 +376,12 @@ impl<'a> Coordinator<'a> {
                     if samples == 0 {
                         return Ok(true);
                     }
+                    out.push(Action::SetTimer {
+                        at: now + self.plan.stall_timeout / 2,
+                        timer: Timer::Watchdog,
+                    });
                 }
+
                 Event::Report(Report::SampleDone {
                     node,
                     sample,
@@ -360,7 +432,7 @@ impl<'a> Coordinator<'a> {
                         sample: *completed as u32,
                     });
                 }
-                Event::Report(_) | Event::Timer(_) => {}
+                Event::Report(_) | Event::Timer(_) | Event::Pong { .. } => {}
             }
         }
         while let Some(thetas) = self.pop_complete() {
@@ -388,6 +460,82 @@ impl<'a> Coordinator<'a> {
             out.push(Action::Flush);
         }
         Ok(self.sample() as usize >= samples)
+    }
+
+    /// Logical clocks, [`Timer::Watchdog`]: if no report came in the last
+    /// half stall timeout, ping every live node and expect the answers within
+    /// the other half; else look again half a stall timeout after the last
+    /// report.
+    fn watchdog(&mut self, now: Duration, out: &mut Vec<Action>) {
+        let half = self.plan.stall_timeout / 2;
+        if self.check.is_some() {
+            return;
+        }
+        if now < self.last_report + half {
+            out.push(Action::SetTimer {
+                at: self.last_report + half,
+                timer: Timer::Watchdog,
+            });
+            return;
+        }
+        self.checks += 1;
+        let seq = self.checks;
+        for i in (0..self.plan.n()).filter(|&i| !self.dead[i]) {
+            out.push(Action::Send {
+                node: i as u32,
+                msg: Control::Ping(seq),
+            });
+        }
+        out.push(Action::Flush);
+        out.push(Action::SetTimer {
+            at: now + half,
+            timer: Timer::PingDeadline(seq),
+        });
+        self.check = Some(Check {
+            seq,
+            sent: now,
+            answered: self.dead.clone(),
+        });
+    }
+
+    /// Logical clocks, [`Timer::PingDeadline`]: a node that has not answered
+    /// is not responding (stopped, or wedged), and the run ends naming it.
+    /// If every node answered, the nodes are alive and merely slow (a long
+    /// sample): the watchdog goes on.
+    fn ping_deadline(
+        &mut self,
+        now: Duration,
+        seq: u64,
+        out: &mut Vec<Action>,
+    ) -> Result<(), EngineError> {
+        let Some(c) = self.check.take_if(|c| c.seq == seq) else {
+            return Ok(());
+        };
+        let silent: Vec<u32> = (0..self.plan.n())
+            .filter(|&i| !c.answered[i])
+            .map(|i| i as u32)
+            .collect();
+        let half = self.plan.stall_timeout / 2;
+        if silent.is_empty() {
+            out.push(Action::Log(format!(
+                "no report for {:.1} s, but every node answers (sample {})",
+                (now - self.last_report).as_secs_f64(),
+                self.sample()
+            )));
+            out.push(Action::SetTimer {
+                at: now + half,
+                timer: Timer::Watchdog,
+            });
+            return Ok(());
+        }
+        for &node in &silent {
+            out.push(Action::Abandon { node });
+        }
+        Err(EngineError::NotResponding {
+            nodes: silent,
+            sample: self.sample(),
+            silent_for: now.saturating_sub(self.last_report.min(c.sent)),
+        })
     }
 
     /// Logical clocks: the oldest sample in flight, taken out if every node
@@ -436,7 +584,7 @@ impl<'a> Coordinator<'a> {
                     }
                     out.push(Action::Flush);
                     out.push(Action::SetTimer {
-                        at: now + SNAPSHOT_TIMEOUT,
+                        at: now + self.plan.stall_timeout,
                         timer: Timer::SnapshotDeadline(k),
                     });
                     if let Phase::Realtime { snapshot, got, .. } = &mut self.phase {
@@ -445,17 +593,27 @@ impl<'a> Coordinator<'a> {
                     }
                 }
                 Event::Timer(Timer::SnapshotDeadline(s)) if s == k => {
-                    if matches!(
-                        &self.phase,
+                    // A node that has not answered its snapshot within the
+                    // stall timeout is not responding (stopped?): it is
+                    // abandoned and left out like a dead node.
+                    let silent: Vec<u32> = match &self.phase {
                         Phase::Realtime {
-                            snapshot: Some(_),
+                            snapshot: Some(asked),
+                            got,
                             ..
-                        }
-                    ) {
-                        return Err(EngineError::Stalled(format!(
-                            "snapshot of sample {k} not answered within {} s",
-                            SNAPSHOT_TIMEOUT.as_secs()
-                        )));
+                        } => (0..n)
+                            .filter(|&i| asked[i] && !got[i] && !self.dead[i])
+                            .map(|i| i as u32)
+                            .collect(),
+                        _ => Vec::new(),
+                    };
+                    let how = format!(
+                        "not responding (stopped?) for {} s",
+                        self.plan.stall_timeout.as_secs_f64()
+                    );
+                    for node in silent {
+                        out.push(Action::Abandon { node });
+                        self.node_died(node, how.clone(), out)?;
                     }
                 }
                 Event::Report(Report::Snapshot {
@@ -492,7 +650,7 @@ impl<'a> Coordinator<'a> {
                 }
                 Event::NodeDied { node, how } => self.node_died(node, how, out)?,
                 Event::Interrupted => return Err(EngineError::Interrupted { sample: k }),
-                Event::Report(_) | Event::Timer(_) => {}
+                Event::Report(_) | Event::Timer(_) | Event::Pong { .. } => {}
             }
         }
         let Phase::Realtime {
@@ -758,7 +916,7 @@ mod tests {
     }
 
     #[test]
-    fn realtime_declares_a_stall_when_a_snapshot_is_not_answered_in_time() {
+    fn realtime_abandons_a_node_that_does_not_answer_its_snapshot_and_goes_on_without_it() {
         let sc = spiral(2);
         let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
         let real = sc.realize();
@@ -767,25 +925,133 @@ mod tests {
         let t = Duration::from_millis(20);
         c.handle(Duration::ZERO, [Event::Start], &mut out);
         c.handle(t, [Event::Timer(Timer::SampleBoundary(0))], &mut out);
-        let deadline = t + SNAPSHOT_TIMEOUT;
+        let deadline = t + plan.stall_timeout;
         assert!(out.contains(&Action::SetTimer {
             at: deadline,
             timer: Timer::SnapshotDeadline(0)
         }));
         out.clear();
+        // Node 5 (a leaf) never answers.
+        c.handle(t, (0..5).map(|i| snapshot(i, 0, 1.0, 0)), &mut out);
+        assert!(!out.iter().any(|a| matches!(a, Action::Progress { .. })));
         c.handle(
             deadline,
             [Event::Timer(Timer::SnapshotDeadline(0))],
             &mut out,
         );
-        assert!(matches!(
-            out.last(),
-            Some(Action::Done(Err(EngineError::Stalled(_))))
-        ));
-        // Nothing after the end.
+        assert!(out.contains(&Action::Abandon { node: 5 }), "{out:?}");
+        assert!(out.contains(&Action::Progress {
+            samples: 1,
+            iterations: 0
+        }));
+        let downs = sends(&out)
+            .into_iter()
+            .filter(|(_, m)| **m == Control::Command(Command::NodeDown { node: 5 }))
+            .count();
+        assert_eq!(downs, 5);
+        let rec = c.into_record(false);
+        assert_eq!(rec.deaths.len(), 1);
+        assert_eq!((rec.deaths[0].0, rec.deaths[0].1), (5, 0));
+        assert!(
+            rec.deaths[0].2.contains("not responding (stopped?)"),
+            "{:?}",
+            rec.deaths
+        );
+        assert_eq!(rec.alive[0], vec![true, true, true, true, true, false]);
+    }
+
+    /// The logical coordinator's watchdog after `Start` at 0: the pings of
+    /// the first check, at half the stall timeout.
+    fn first_check(c: &mut Coordinator<'_>, plan: &RunPlan) -> (Duration, Vec<Action>) {
+        let mut out = vec![];
+        c.handle(Duration::ZERO, [Event::Start], &mut out);
+        let half = plan.stall_timeout / 2;
+        assert!(out.contains(&Action::SetTimer {
+            at: half,
+            timer: Timer::Watchdog
+        }));
         out.clear();
-        c.handle(deadline, [Event::Start], &mut out);
-        assert!(out.is_empty());
+        c.handle(half, [Event::Timer(Timer::Watchdog)], &mut out);
+        (half, out)
+    }
+
+    #[test]
+    fn a_logical_run_without_reports_pings_every_node_and_names_the_one_that_does_not_answer() {
+        let sc = spiral(5);
+        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let real = sc.realize();
+        let mut c = Coordinator::new(&plan, &real);
+        let (half, out) = first_check(&mut c, &plan);
+        let pings: Vec<u32> = sends(&out)
+            .into_iter()
+            .filter(|(_, m)| matches!(m, Control::Ping(1)))
+            .map(|(i, _)| i)
+            .collect();
+        assert_eq!(pings, (0..6).collect::<Vec<u32>>());
+        assert!(out.contains(&Action::SetTimer {
+            at: 2 * half,
+            timer: Timer::PingDeadline(1)
+        }));
+        let mut out = vec![];
+        let pongs = [0, 1, 2, 4, 5].map(|node| Event::Pong { node, seq: 1 });
+        c.handle(half, pongs, &mut out);
+        c.handle(2 * half, [Event::Timer(Timer::PingDeadline(1))], &mut out);
+        assert_eq!(out[0], Action::Abandon { node: 3 });
+        let Some(Action::Done(Err(e))) = out.last() else {
+            panic!("{out:?}");
+        };
+        assert_eq!(
+            e,
+            &EngineError::NotResponding {
+                nodes: vec![3],
+                sample: 0,
+                silent_for: plan.stall_timeout,
+            }
+        );
+        assert!(
+            e.to_string()
+                .starts_with("node 3 is not responding (stopped?) at sample 0"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_slow_logical_run_whose_nodes_all_answer_is_not_a_stall() {
+        let sc = spiral(5);
+        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let real = sc.realize();
+        let mut c = Coordinator::new(&plan, &real);
+        let (half, _) = first_check(&mut c, &plan);
+        let mut out = vec![];
+        c.handle(
+            half,
+            (0..6).map(|node| Event::Pong { node, seq: 1 }),
+            &mut out,
+        );
+        c.handle(2 * half, [Event::Timer(Timer::PingDeadline(1))], &mut out);
+        assert!(!c.is_done(), "{out:?}");
+        assert!(out.contains(&Action::SetTimer {
+            at: 3 * half,
+            timer: Timer::Watchdog
+        }));
+        // A report before the next deadline makes the next check moot.
+        out.clear();
+        c.handle(3 * half, [Event::Timer(Timer::Watchdog)], &mut out);
+        assert!(
+            sends(&out)
+                .iter()
+                .any(|(_, m)| matches!(m, Control::Ping(2)))
+        );
+        let report = Event::Report(Report::SampleDone {
+            node: 0,
+            sample: 0,
+            theta: Vec3::zeros(),
+            counters: Counters::default(),
+        });
+        c.handle(3 * half + Duration::from_millis(1), [report], &mut out);
+        out.clear();
+        c.handle(4 * half, [Event::Timer(Timer::PingDeadline(2))], &mut out);
+        assert!(!c.is_done() && out.is_empty(), "{out:?}");
     }
 
     #[test]
@@ -812,7 +1078,7 @@ mod tests {
             c.handle(Duration::ZERO, [Event::Start], &mut out);
             // LOOKAHEAD samples of measurements and plans, then one flush.
             assert_eq!(sends(&out).len(), LOOKAHEAD * 2 * plan.n());
-            assert_eq!(out.last(), Some(&Action::Flush));
+            assert_eq!(out[out.len() - 2], Action::Flush);
             out.clear();
             c.handle(Duration::ZERO, [event], &mut out);
             assert_eq!(out, vec![Action::Done(Err(want))]);

@@ -13,6 +13,8 @@ pub struct InProcess {
     nodes: Vec<NodeCore>,
     queue: VecDeque<(u32, Input)>,
     outputs: Vec<Output>,
+    /// Liveness checks to answer: every node here is alive by construction.
+    pongs: Vec<(u32, u64)>,
 }
 
 impl InProcess {
@@ -22,6 +24,7 @@ impl InProcess {
             nodes: configs.into_iter().map(NodeCore::new).collect(),
             queue: VecDeque::new(),
             outputs: Vec::new(),
+            pongs: Vec::new(),
         }
     }
 
@@ -41,6 +44,7 @@ impl Network for InProcess {
                 ));
             }
             Control::Stop => {}
+            Control::Ping(seq) => self.pongs.push((node, *seq)),
         }
         Ok(())
     }
@@ -56,6 +60,11 @@ impl Network for InProcess {
     ) -> Result<(), EngineError> {
         let n = self.nodes.len() as u32;
         let before = out.len();
+        out.extend(
+            self.pongs
+                .drain(..)
+                .map(|(node, seq)| Event::Pong { node, seq }),
+        );
         while let Some((to, input)) = self.queue.pop_front() {
             let Some(node) = self.nodes.get_mut(to as usize) else {
                 return Err(EngineError::Stalled(format!(

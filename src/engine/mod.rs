@@ -50,6 +50,21 @@ pub enum EngineError {
         /// Exit status or signal.
         how: String,
     },
+    /// Nodes did not answer a liveness check (logical clocks): stopped
+    /// (`kill -STOP`), or wedged.
+    #[error(
+        "{} not responding (stopped?) at sample {sample}: no report for {:.1} s and no answer to a liveness check",
+        names(nodes),
+        silent_for.as_secs_f64()
+    )]
+    NotResponding {
+        /// The silent nodes.
+        nodes: Vec<u32>,
+        /// The oldest sample not complete.
+        sample: u32,
+        /// How long nothing had come from any node.
+        silent_for: Duration,
+    },
     /// The run was interrupted (SIGINT/SIGTERM).
     #[error("interrupted at sample {sample}")]
     Interrupted {
@@ -109,6 +124,15 @@ pub enum EngineError {
     Stalled(String),
 }
 
+/// `node 3 is` / `nodes 3, 4 are`.
+fn names(nodes: &[u32]) -> String {
+    let list: Vec<String> = nodes.iter().map(u32::to_string).collect();
+    match nodes.len() {
+        1 => format!("node {} is", list[0]),
+        _ => format!("nodes {} are", list.join(", ")),
+    }
+}
+
 /// Where the coordinator's messages go and the nodes' events come from.
 pub trait Network {
     /// Queue a message for node `node`.
@@ -120,6 +144,9 @@ pub trait Network {
     fn recv(&mut self, timeout: Option<Duration>, out: &mut Vec<Event>) -> Result<(), EngineError>;
     /// A line of the coordinator's verbose log.
     fn log(&mut self, _line: &str) {}
+    /// The coordinator gave up on `node` ([`Action::Abandon`]): make sure it
+    /// is gone (a node process is killed and reaped). Nothing by default.
+    fn abandon(&mut self, _node: u32) {}
 }
 
 /// What a run produced, complete or not.
@@ -220,6 +247,10 @@ pub fn drive(
                 }
                 Action::Log(line) => {
                     net.log(&line);
+                    Ok(())
+                }
+                Action::Abandon { node } => {
+                    net.abandon(node);
                     Ok(())
                 }
                 Action::Done(r) => r,

@@ -70,6 +70,8 @@ pub fn run_node<T: Transport>(
     let mut timing = Timing::default();
     // Realtime clock: rate and next wake-up.
     let mut clock: Option<(f64, Instant)> = None;
+    // A PONG is queued and waits for a flush.
+    let mut pong = false;
 
     loop {
         if opts.term.load(Ordering::Relaxed) {
@@ -113,6 +115,12 @@ pub fn run_node<T: Transport>(
                     let wait = core.draw_wait(rate);
                     clock = Some((rate, after(Instant::now(), wait)));
                 }
+                Some(NodeInput::Control(Control::Ping(seq))) => {
+                    // Answered by the loop, not the protocol core: a node that
+                    // waits for a neighbour is alive, and says so.
+                    tx.send(Endpoint::Coordinator, &codec::encode_pong(id, seq))?;
+                    pong = true;
+                }
                 Some(NodeInput::Control(Control::Stop)) => {
                     if opts.verbose {
                         eprintln!("[node {id}] stop: {:?}", core.counters());
@@ -129,9 +137,13 @@ pub fn run_node<T: Transport>(
             clock = Some((rate, after(next.max(Instant::now()), wait)));
         }
         if outputs.is_empty() {
+            if std::mem::take(&mut pong) {
+                tx.flush()?;
+            }
             timing.busy_seconds += busy.elapsed().as_secs_f64();
             continue;
         }
+        pong = false;
         let mut gone: Vec<u32> = Vec::new();
         for o in outputs.drain(..) {
             match o {

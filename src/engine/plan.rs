@@ -24,9 +24,11 @@ pub struct RealtimePlan {
     pub sample_period: Duration,
 }
 
-/// How long the coordinator waits for the snapshot answers of one sample in a
-/// realtime run before it declares the protocol stalled.
-pub const SNAPSHOT_TIMEOUT: Duration = Duration::from_secs(10);
+/// The default of [`RunPlan::stall_timeout`] (`--stall-timeout`).
+pub const DEFAULT_STALL_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// The range of `--stall-timeout`, in seconds.
+pub const STALL_TIMEOUT_RANGE_S: std::ops::RangeInclusive<f64> = 0.1..=3600.0;
 
 /// One run of one scenario, as the engines see it.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +56,13 @@ pub struct RunPlan {
     pub transmitters: usize,
     /// Realtime clock parameters (`Some` exactly when `clock` is realtime).
     pub realtime: Option<RealtimePlan>,
+    /// The liveness watchdog (`--stall-timeout`, default
+    /// [`DEFAULT_STALL_TIMEOUT`]). Logical clocks: when no report has come
+    /// for half of it, every live node is pinged, and a node that does not
+    /// answer within the other half ends the run
+    /// ([`EngineError::NotResponding`]). Realtime: a node that has not
+    /// answered a snapshot within it is left out like a dead node.
+    pub stall_timeout: Duration,
 }
 
 impl RunPlan {
@@ -111,7 +120,24 @@ impl RunPlan {
             replay: sc.algorithm.schedule.as_ref().map(|(_, s)| s.clone()),
             transmitters: sc.geometry.transmitters.len(),
             realtime,
+            stall_timeout: DEFAULT_STALL_TIMEOUT,
         })
+    }
+
+    /// The same plan with the liveness watchdog at `t`
+    /// ([`RunPlan::stall_timeout`]); `t` must lie in
+    /// [`STALL_TIMEOUT_RANGE_S`] (the CLI checks it where it enters).
+    pub fn with_stall_timeout(mut self, t: Duration) -> Result<RunPlan, EngineError> {
+        if !STALL_TIMEOUT_RANGE_S.contains(&t.as_secs_f64()) {
+            return Err(EngineError::Unsupported(format!(
+                "stall timeout {} s is outside [{}, {}] s",
+                t.as_secs_f64(),
+                STALL_TIMEOUT_RANGE_S.start(),
+                STALL_TIMEOUT_RANGE_S.end()
+            )));
+        }
+        self.stall_timeout = t;
+        Ok(self)
     }
 
     /// Number of nodes.

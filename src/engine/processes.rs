@@ -511,8 +511,10 @@ impl Network for Processes {
                     .min(Duration::from_millis(50))
             });
             for x in self.receive(slice)? {
-                if let CoordinatorInput::Report(r) = x {
-                    out.push(Event::Report(r));
+                match x {
+                    CoordinatorInput::Report(r) => out.push(Event::Report(r)),
+                    CoordinatorInput::Pong { node, seq } => out.push(Event::Pong { node, seq }),
+                    CoordinatorInput::Ready { .. } | CoordinatorInput::Timing { .. } => {}
                 }
             }
             while let Some((node, how)) = self.check_children() {
@@ -526,6 +528,26 @@ impl Network for Processes {
 
     fn log(&mut self, line: &str) {
         Processes::log(self, format_args!("{line}"));
+    }
+
+    /// SIGKILL and reap the node's process (it is stopped or wedged); it is
+    /// dead from now on, and its death is not reported again.
+    fn abandon(&mut self, node: u32) {
+        let i = node as usize;
+        if let Some(Some(child)) = self.children.get_mut(i) {
+            let _ = child.kill();
+            let _ = child.wait();
+            Processes::log(
+                self,
+                format_args!("node {node} abandoned: killed and reaped"),
+            );
+        }
+        if let Some(c) = self.children.get_mut(i) {
+            *c = None;
+        }
+        if let Some(d) = self.dead.get_mut(i) {
+            *d = true;
+        }
     }
 }
 

@@ -139,6 +139,9 @@ impl Network for Threads {
             for f in &self.frames {
                 match self.decoder.feed(f) {
                     Ok(Some(CoordinatorInput::Report(r))) => out.push(Event::Report(r)),
+                    Ok(Some(CoordinatorInput::Pong { node, seq })) => {
+                        out.push(Event::Pong { node, seq })
+                    }
                     Ok(_) => {}
                     Err(e) => return Err(EngineError::BadFrame(e)),
                 }

@@ -60,6 +60,9 @@ pub struct RunOptions {
     /// Multi-process engine: log protocol events of the coordinator and the
     /// nodes to stderr.
     pub verbose: bool,
+    /// The liveness watchdog ([`RunPlan::stall_timeout`](crate::engine::RunPlan::stall_timeout),
+    /// `--stall-timeout`). Recorded in `run.json`.
+    pub stall_timeout: std::time::Duration,
 }
 
 impl RunOptions {
@@ -76,6 +79,7 @@ impl RunOptions {
             check_expect: true,
             poll_us: 0,
             verbose: false,
+            stall_timeout: crate::engine::plan::DEFAULT_STALL_TIMEOUT,
         }
     }
 
@@ -214,7 +218,9 @@ pub fn execute(
         verbose: opts.verbose,
         ..Default::default()
     };
-    let (record, res) = match crate::engine::RunPlan::new(sc, opts.clock) {
+    let plan = crate::engine::RunPlan::new(sc, opts.clock)
+        .and_then(|p| p.with_stall_timeout(opts.stall_timeout));
+    let (record, res) = match plan {
         Ok(plan) => crate::engine::run(&plan, &real, opts.engine, &popts, progress),
         Err(e) => (RunRecord::empty(sc.graph.len()), Err(e)),
     };

@@ -220,6 +220,9 @@ pub struct RunJson {
     /// Multi-process: the run's IPC namespace.
     #[serde(default)]
     pub run_id: Option<String>,
+    /// The liveness watchdog (`--stall-timeout`, seconds).
+    #[serde(default)]
+    pub stall_timeout_s: Option<f64>,
     /// The resolved scenario (after command-line overrides), as a JSON object
     /// of the scenario file's keys.
     #[serde(default)]

@@ -334,6 +334,7 @@ fn write_run_json(
         status: Some(status.into()),
         error: error.map(|e| e.to_string()),
         run_id: run_id.map(str::to_owned),
+        stall_timeout_s: Some(opts.stall_timeout.as_secs_f64()),
     };
     write_json(&dir.join("run.json"), &v)
 }

@@ -35,6 +35,8 @@ pub mod kind {
     pub const STOP: u32 = 10;
     /// Start free-running (realtime): `data[0]` = wake rate (Hz).
     pub const START_CLOCK: u32 = 11;
+    /// Liveness check: `seq` = check number; answered at once with [`PONG`].
+    pub const PING: u32 = 12;
     /// Peer: reflected point, `seq`, `data[0..3]`.
     pub const REFLECT: u32 = 20;
     /// Peer: exchange request.
@@ -59,6 +61,8 @@ pub mod kind {
     pub const TIMING: u32 = 35;
     /// Report: the node process is up and its transport is open.
     pub const READY: u32 = 36;
+    /// Report: the answer to a [`PING`], `seq` = its check number.
+    pub const PONG: u32 = 37;
 }
 
 fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Frame {
@@ -87,6 +91,9 @@ pub enum Control {
     StartClock(f64),
     /// Exit cleanly.
     Stop,
+    /// The coordinator's liveness check number `seq`: the node's event loop
+    /// answers at once ([`encode_pong`]), whatever its protocol state.
+    Ping(u64),
 }
 
 /// Encode a coordinator command into frames.
@@ -156,6 +163,7 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
         Control::Command(Command::Tick) => {}
         Control::StartClock(rate) => out.push(frame(kind::START_CLOCK, co, 0, 0, 0, &[*rate])),
         Control::Stop => out.push(frame(kind::STOP, co, 0, 0, 0, &[])),
+        Control::Ping(seq) => out.push(frame(kind::PING, co, 0, 0, *seq, &[])),
     }
 }
 
@@ -369,6 +377,7 @@ impl NodeDecoder {
             SNAPSHOT => c(Command::Snapshot { sample: f.sample }),
             NODE_DOWN => c(Command::NodeDown { node: f.aux }),
             STOP => Ok(Some(NodeInput::Control(Control::Stop))),
+            PING => Ok(Some(NodeInput::Control(Control::Ping(f.seq)))),
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
             REFLECT => Ok(Some(NodeInput::Peer(PeerMsg::Reflect {
                 from: f.from,
@@ -413,6 +422,11 @@ pub fn encode_ready(node: u32) -> Frame {
     frame(kind::READY, node, 0, 0, 0, &[])
 }
 
+/// Encode the answer of node `node` to liveness check `seq`.
+pub fn encode_pong(node: u32, seq: u64) -> Frame {
+    frame(kind::PONG, node, 0, 0, seq, &[])
+}
+
 /// Encode a timing report.
 pub fn encode_timing(node: u32, t: &Timing) -> Frame {
     frame(
@@ -434,6 +448,13 @@ pub enum CoordinatorInput {
     Ready {
         /// Node id.
         node: u32,
+    },
+    /// A node answered liveness check `seq` ([`Control::Ping`]).
+    Pong {
+        /// Node id.
+        node: u32,
+        /// The check number.
+        seq: u64,
     },
     /// A node's time split.
     Timing {
@@ -500,6 +521,10 @@ impl ReportDecoder {
                 },
             })),
             READY => Ok(Some(CoordinatorInput::Ready { node: f.from })),
+            PONG => Ok(Some(CoordinatorInput::Pong {
+                node: f.from,
+                seq: f.seq,
+            })),
             k => Err(DecodeError::UnknownKind(k)),
         }
     }
@@ -541,6 +566,7 @@ mod tests {
             Control::Command(Command::NodeDown { node: 2 }),
             Control::StartClock(250.0),
             Control::Stop,
+            Control::Ping(7),
         ];
         let mut frames = Vec::new();
         for c in &cmds {
@@ -620,6 +646,13 @@ mod tests {
             })
             .collect();
         assert_eq!(got, reports);
+        assert_eq!(
+            dec.feed(&encode_pong(4, u64::MAX)).unwrap(),
+            Some(CoordinatorInput::Pong {
+                node: 4,
+                seq: u64::MAX
+            })
+        );
     }
 
     #[test]

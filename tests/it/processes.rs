@@ -325,6 +325,112 @@ fn wait_for_children(pid: u32, n: usize) -> Vec<u32> {
     }
 }
 
+/// The pid, among `pids`, of the node process with id `id` (its `--launch`
+/// JSON names it).
+fn node_pid(pids: &[u32], id: u32) -> u32 {
+    let tag = format!("\"id\":{id},");
+    pids.iter()
+        .copied()
+        .find(|p| {
+            String::from_utf8_lossy(
+                &std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default(),
+            )
+            .contains(&tag)
+        })
+        .unwrap_or_else(|| panic!("no process of node {id} among {pids:?}"))
+}
+
+/// `kill -STOP` of node 3 in a logical run (sync or async) of the spiral with
+/// `--stall-timeout 1`: the watchdog names the node, the stopped process is
+/// killed and reaped, the partial results are written marked failed, and
+/// nothing is left behind. It used to hang forever.
+#[test]
+fn a_stopped_node_ends_a_logical_run_with_an_error_naming_it() {
+    let tmp = TempDir::new("stop-logical");
+    for mode in ["async", "sync"] {
+        let out = tmp.path().join(mode);
+        let sc = scenario("mourya2017-spiral.toml");
+        let child = spawn_sonarnet(&[
+            "run",
+            sc.to_str().unwrap(),
+            "--mode",
+            mode,
+            "--iterations-per-sample",
+            "3000",
+            "--stall-timeout",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let nodes = wait_for_children(child.id(), 6);
+        std::thread::sleep(Duration::from_millis(800));
+        let victim = node_pid(&nodes, 3);
+        let stopped = Instant::now();
+        // SAFETY: plain kill(2) on a grandchild we identified by its parent.
+        unsafe { libc::kill(victim as i32, libc::SIGSTOP) };
+        let o = wait_watchdog(child, "run with a stopped node", LIMIT);
+        let took = stopped.elapsed();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{mode}: {stderr}");
+        assert!(
+            stderr.contains("node 3 is not responding (stopped?) at sample"),
+            "{mode}: {stderr}"
+        );
+        let m = metrics(&out);
+        assert_eq!(m["status"], "failed", "{mode}");
+        let done = m["samples_completed"].as_u64().unwrap();
+        let err = m["error"].as_str().unwrap();
+        assert!(err.contains(&format!("at sample {done}")), "{mode}: {err}");
+        eprintln!("{mode}: run ended {took:?} after the SIGSTOP, {done} samples kept");
+        assert_nothing_left(&run_id_of(&out));
+    }
+}
+
+/// `kill -STOP` of a leaf in a realtime run: the node is not responding to
+/// its snapshot, is treated as dead (killed, left out, named), and the run
+/// goes on to the end.
+#[test]
+fn a_stopped_node_in_realtime_mode_is_left_out_as_dead_and_the_run_continues() {
+    let tmp = TempDir::new("stop-realtime");
+    let out = tmp.path().join("out");
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = spawn_sonarnet(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--clock",
+        "realtime",
+        "--samples",
+        "40",
+        "--stall-timeout",
+        "1",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let nodes = wait_for_children(child.id(), 6);
+    std::thread::sleep(Duration::from_millis(300));
+    // SAFETY: plain kill(2).
+    unsafe { libc::kill(node_pid(&nodes, 5) as i32, libc::SIGSTOP) };
+    let o = wait_watchdog(child, "realtime run with a stopped node", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "the run must continue: {stderr}");
+    let m = metrics(&out);
+    assert_eq!(m["samples_completed"], 40, "{m}");
+    let deaths = m["deaths"].as_array().unwrap();
+    assert_eq!(deaths.len(), 1, "{deaths:?}");
+    assert_eq!(deaths[0]["node"], 5);
+    let how = deaths[0]["how"].as_str().unwrap();
+    assert!(how.contains("not responding (stopped?)"), "{how}");
+    let last = read_rows(&out.join("nodes.csv"))
+        .into_iter()
+        .filter(|r| r[0] == "39" && r[1] == "5")
+        .collect::<Vec<_>>();
+    assert_eq!(last.len(), 1);
+    assert_eq!(last[0][5], "false", "node 5 is not alive at the end");
+    assert_nothing_left(&run_id_of(&out));
+}
+
 #[test]
 fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
     let tmp = TempDir::new("sigint");
@@ -439,16 +545,7 @@ fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() 
     let nodes = wait_for_children(pid, 6);
     std::thread::sleep(Duration::from_millis(400));
     // Node 5 is a leaf (only joined to node 3): the rest stays connected.
-    let victim = nodes
-        .iter()
-        .copied()
-        .find(|p| {
-            String::from_utf8_lossy(
-                &std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default(),
-            )
-            .contains("\"id\":5,")
-        })
-        .expect("node 5 process");
+    let victim = node_pid(&nodes, 5);
     // SAFETY: plain kill(2).
     unsafe { libc::kill(victim as i32, libc::SIGKILL) };
     let o = wait_watchdog(child, "realtime run with a killed node", LIMIT);
@@ -487,17 +584,7 @@ fn realtime_run_signalling(
     ]);
     let nodes = wait_for_children(child.id(), 6);
     std::thread::sleep(after);
-    let tag = format!("\"id\":{node},");
-    let victim = nodes
-        .iter()
-        .copied()
-        .find(|p| {
-            String::from_utf8_lossy(
-                &std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default(),
-            )
-            .contains(&tag)
-        })
-        .expect("the node's process");
+    let victim = node_pid(&nodes, node);
     // SAFETY: plain kill(2).
     unsafe { libc::kill(victim as i32, signal) };
     let o = wait_watchdog(child, "realtime run with a node signalled", LIMIT);

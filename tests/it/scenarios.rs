@@ -2,7 +2,7 @@
 //! Monte Carlo run when it asks for trials), and meets its `[expect]` block.
 
 use crate::util::{TempDir, root, run_inprocess};
-use sonarnet::pipeline::{Clock, EngineKind, ExpectResult, RunOptions};
+use sonarnet::pipeline::{ExpectResult, RunOptions};
 use sonarnet::scenario::Scenario;
 
 fn describe(name: &str, checks: &[ExpectResult]) -> Vec<String> {
@@ -52,14 +52,9 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
             let checks = match sc.trials {
                 Some(n) if n > 1 => {
                     let opts = RunOptions {
-                        engine: EngineKind::Inprocess,
-                        clock: Clock::Logical,
-                        out_dir: tmp.path().to_path_buf(),
                         command_line: vec!["test".into()],
-                        progress: false,
                         check_expect: false,
-                        poll_us: 0,
-                        verbose: false,
+                        ..RunOptions::inprocess().with_out_dir(tmp.path())
                     };
                     match sonarnet::pipeline::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
                         Ok(mc) if mc.failed == 0 => mc.expect,
