@@ -381,7 +381,6 @@ impl<'a> Coordinator<'a> {
                         timer: Timer::Watchdog,
                     });
                 }
-
                 Event::Report(Report::SampleDone {
                     node,
                     sample,

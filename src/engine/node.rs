@@ -70,8 +70,6 @@ pub fn run_node<T: Transport>(
     let mut timing = Timing::default();
     // Realtime clock: rate and next wake-up.
     let mut clock: Option<(f64, Instant)> = None;
-    // A PONG is queued and waits for a flush.
-    let mut pong = false;
 
     loop {
         if opts.term.load(Ordering::Relaxed) {
@@ -117,9 +115,10 @@ pub fn run_node<T: Transport>(
                 }
                 Some(NodeInput::Control(Control::Ping(seq))) => {
                     // Answered by the loop, not the protocol core: a node that
-                    // waits for a neighbour is alive, and says so.
+                    // waits for a neighbour is alive, and says so at once
+                    // (pings are rare: only after half a stall timeout).
                     tx.send(Endpoint::Coordinator, &codec::encode_pong(id, seq))?;
-                    pong = true;
+                    tx.flush()?;
                 }
                 Some(NodeInput::Control(Control::Stop)) => {
                     if opts.verbose {
@@ -137,13 +136,9 @@ pub fn run_node<T: Transport>(
             clock = Some((rate, after(next.max(Instant::now()), wait)));
         }
         if outputs.is_empty() {
-            if std::mem::take(&mut pong) {
-                tx.flush()?;
-            }
             timing.busy_seconds += busy.elapsed().as_secs_f64();
             continue;
         }
-        pong = false;
         let mut gone: Vec<u32> = Vec::new();
         for o in outputs.drain(..) {
             match o {

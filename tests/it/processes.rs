@@ -387,50 +387,6 @@ fn a_stopped_node_ends_a_logical_run_with_an_error_naming_it() {
     }
 }
 
-/// `kill -STOP` of a leaf in a realtime run: the node is not responding to
-/// its snapshot, is treated as dead (killed, left out, named), and the run
-/// goes on to the end.
-#[test]
-fn a_stopped_node_in_realtime_mode_is_left_out_as_dead_and_the_run_continues() {
-    let tmp = TempDir::new("stop-realtime");
-    let out = tmp.path().join("out");
-    let sc = scenario("mourya2017-spiral.toml");
-    let child = spawn_sonarnet(&[
-        "run",
-        sc.to_str().unwrap(),
-        "--clock",
-        "realtime",
-        "--samples",
-        "40",
-        "--stall-timeout",
-        "1",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let nodes = wait_for_children(child.id(), 6);
-    std::thread::sleep(Duration::from_millis(300));
-    // SAFETY: plain kill(2).
-    unsafe { libc::kill(node_pid(&nodes, 5) as i32, libc::SIGSTOP) };
-    let o = wait_watchdog(child, "realtime run with a stopped node", LIMIT);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "the run must continue: {stderr}");
-    let m = metrics(&out);
-    assert_eq!(m["samples_completed"], 40, "{m}");
-    let deaths = m["deaths"].as_array().unwrap();
-    assert_eq!(deaths.len(), 1, "{deaths:?}");
-    assert_eq!(deaths[0]["node"], 5);
-    let how = deaths[0]["how"].as_str().unwrap();
-    assert!(how.contains("not responding (stopped?)"), "{how}");
-    let last = read_rows(&out.join("nodes.csv"))
-        .into_iter()
-        .filter(|r| r[0] == "39" && r[1] == "5")
-        .collect::<Vec<_>>();
-    assert_eq!(last.len(), 1);
-    assert_eq!(last[0][5], "false", "node 5 is not alive at the end");
-    assert_nothing_left(&run_id_of(&out));
-}
-
 #[test]
 fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
     let tmp = TempDir::new("sigint");
@@ -559,19 +515,20 @@ fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() 
     assert_nothing_left(&run_id_of(&out));
 }
 
-/// A realtime run of the spiral (80 samples) in which `node` gets `signal`
-/// `after` the nodes are up; returns the results directory and the sample at
-/// which the death was noticed.
+/// A realtime run of the spiral (80 samples, `extra` flags) in which `node`
+/// gets `signal` `after` the nodes are up; returns the results directory and
+/// the sample at which the death was noticed.
 fn realtime_run_signalling(
     tmp: &TempDir,
     name: &str,
     node: u32,
     signal: i32,
     after: Duration,
+    extra: &[&str],
 ) -> (std::path::PathBuf, usize) {
     let out = tmp.path().join(name);
     let sc = scenario("mourya2017-spiral.toml");
-    let child = spawn_sonarnet(&[
+    let mut args = vec![
         "run",
         sc.to_str().unwrap(),
         "--clock",
@@ -581,7 +538,9 @@ fn realtime_run_signalling(
         "--quiet",
         "--out",
         out.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let child = spawn_sonarnet(&args);
     let nodes = wait_for_children(child.id(), 6);
     std::thread::sleep(after);
     let victim = node_pid(&nodes, node);
@@ -602,7 +561,35 @@ fn realtime_run_killing_node_2(
     name: &str,
     after: Duration,
 ) -> (std::path::PathBuf, usize) {
-    realtime_run_signalling(tmp, name, 2, libc::SIGKILL, after)
+    realtime_run_signalling(tmp, name, 2, libc::SIGKILL, after, &[])
+}
+
+/// `kill -STOP` of a leaf in a realtime run: the node is not responding to
+/// its snapshot, is treated as dead (killed, left out, named), and the run
+/// goes on to the end.
+#[test]
+fn a_stopped_node_in_realtime_mode_is_left_out_as_dead_and_the_run_continues() {
+    let tmp = TempDir::new("stop-realtime");
+    let (out, _) = realtime_run_signalling(
+        &tmp,
+        "out",
+        5,
+        libc::SIGSTOP,
+        Duration::from_millis(300),
+        &["--stall-timeout", "1"],
+    );
+    let m = metrics(&out);
+    assert_eq!(m["status"], "ok");
+    let deaths = m["deaths"].as_array().unwrap();
+    assert_eq!(deaths.len(), 1, "{deaths:?}");
+    let how = deaths[0]["how"].as_str().unwrap();
+    assert!(how.contains("not responding (stopped?)"), "{how}");
+    let last = read_rows(&out.join("nodes.csv"))
+        .into_iter()
+        .filter(|r| r[0] == "79" && r[1] == "5")
+        .collect::<Vec<_>>();
+    assert_eq!(last.len(), 1);
+    assert_eq!(last[0][5], "false", "node 5 is not alive at the end");
 }
 
 /// A node that exits on its own (here SIGTERM: it stops cleanly) is a death
@@ -618,6 +605,7 @@ fn a_node_that_exits_on_its_own_in_realtime_mode_is_a_named_death_and_the_run_co
             node,
             libc::SIGTERM,
             Duration::from_millis(500),
+            &[],
         );
         let m = metrics(&out);
         assert_eq!(m["status"], "ok");
