@@ -17,6 +17,20 @@ pub enum CliError {
         /// Where the partial results are.
         dir: PathBuf,
     },
+    /// Ctrl-C/SIGTERM stopped a Monte Carlo run (exit 1); the completed
+    /// trials were written and summarised in `dir`.
+    #[error(
+        "interrupted after {done} of {requested} trials\nthe completed trials were written to {}",
+        dir.display()
+    )]
+    TrialsInterrupted {
+        /// Trials completed.
+        done: usize,
+        /// Trials asked for.
+        requested: usize,
+        /// Where they are.
+        dir: PathBuf,
+    },
     /// Anything else that stops a run (exit 1).
     #[error(transparent)]
     Run(RunError),

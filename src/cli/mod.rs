@@ -219,10 +219,11 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
                 }
             }
             Err(e) => {
-                // Input errors stop at once, and so does the only run; a
+                // Input errors stop at once, and so do the only run and an
+                // interrupt (Ctrl-C/SIGTERM); a
                 // failed variant lets the other variants run: its error is
                 // printed now, once, and the failures are listed at the end.
-                if e.exit_code() == 2 || !many {
+                if e.exit_code() == 2 || !many || crate::engine::interrupt::requested() {
                     return Err(e);
                 }
                 eprint!(
@@ -340,6 +341,16 @@ fn run_monte_carlo_command(
         crate::plot::write_run_plots(&mc.out_dir).map(drop)
     };
     print_mc_summary(sc, &mc);
+    if mc.interrupted {
+        if let Err(e) = plots {
+            eprintln!("warning: plots were not written: {e}");
+        }
+        return Err(CliError::TrialsInterrupted {
+            done: mc.trials.len(),
+            requested: mc.requested,
+            dir: mc.out_dir,
+        });
+    }
     plots.map_err(CliError::from)?;
     Ok((mc.out_dir, mc.expect))
 }

@@ -93,10 +93,18 @@ fn print_expect(checks: &[pipeline::ExpectResult]) {
 
 pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::MonteCarloOutcome) {
     println!(
-        "sonarnet run: Monte Carlo, {} trials (seeds {}..{}), in-process / {}{}, {:.2} s",
-        mc.trials.len(),
+        "sonarnet run: Monte Carlo, {} (seeds {}..{}), in-process / {}{}, {:.2} s",
+        if mc.interrupted {
+            format!(
+                "{} of {} trials (interrupted)",
+                mc.trials.len(),
+                mc.requested
+            )
+        } else {
+            format!("{} trials", mc.trials.len())
+        },
         sc.seed,
-        sc.seed.wrapping_add(mc.trials.len() as u64),
+        sc.seed.wrapping_add(mc.requested as u64),
         sc.algorithm.mode.as_str(),
         sc.variant
             .as_ref()

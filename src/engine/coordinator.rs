@@ -119,10 +119,33 @@ pub enum Action {
     Done(Result<(), EngineError>),
 }
 
+/// Logical clocks: one sample sent to the nodes and not yet complete.
+struct InFlight {
+    /// Each node's `theta` after the sample, once reported.
+    thetas: Vec<Option<Vec3>>,
+    /// Each node's counters at the end of the sample: the record's counters
+    /// are those of the last complete sample, so work a node did on the
+    /// samples sent ahead ([`LOOKAHEAD`](super::LOOKAHEAD)) is not counted
+    /// when the run stops early.
+    counters: Vec<Counters>,
+    /// Reports received.
+    reports: usize,
+}
+
+impl InFlight {
+    fn new(n: usize) -> InFlight {
+        InFlight {
+            thetas: vec![None; n],
+            counters: vec![Counters::default(); n],
+            reports: 0,
+        }
+    }
+}
+
 enum Phase {
     Logical {
-        /// Thetas of the samples in flight, oldest first, with their count of reports.
-        in_flight: VecDeque<(Vec<Option<Vec3>>, usize)>,
+        /// The samples in flight, oldest first.
+        in_flight: VecDeque<InFlight>,
         sent: usize,
         completed: usize,
     },
@@ -368,7 +391,7 @@ impl<'a> Coordinator<'a> {
                 Event::Start => {
                     let first = samples.min(LOOKAHEAD);
                     *sent = first;
-                    in_flight.extend((0..first).map(|_| (vec![None; n], 0)));
+                    in_flight.extend((0..first).map(|_| InFlight::new(n)));
                     for k in 0..first {
                         self.send_sample(k, out);
                     }
@@ -394,11 +417,10 @@ impl<'a> Coordinator<'a> {
                     else {
                         continue;
                     };
-                    if i < n && slot.0[i].is_none() {
-                        slot.0[i] = Some(theta);
-                        slot.1 += 1;
-                        // Reports of one node arrive in sample order.
-                        self.rec.counters[i] = counters;
+                    if i < n && slot.thetas[i].is_none() {
+                        slot.thetas[i] = Some(theta);
+                        slot.reports += 1;
+                        slot.counters[i] = counters;
                     }
                 }
                 Event::Report(Report::IterationDone {
@@ -450,7 +472,7 @@ impl<'a> Coordinator<'a> {
             {
                 let k = *sent;
                 *sent += 1;
-                in_flight.push_back((vec![None; n], 0));
+                in_flight.push_back(InFlight::new(n));
                 self.send_sample(k, out);
             }
             advanced = true;
@@ -549,11 +571,13 @@ impl<'a> Coordinator<'a> {
         else {
             return None;
         };
-        if in_flight.front().is_none_or(|(_, done)| *done != n) {
+        if in_flight.front().is_none_or(|s| s.reports != n) {
             return None;
         }
         *completed += 1;
-        in_flight.pop_front().map(|(thetas, _)| thetas)
+        let slot = in_flight.pop_front()?;
+        self.rec.counters = slot.counters;
+        Some(slot.thetas)
     }
 
     /// Realtime clocks; `Ok(true)` when every sample is complete.

@@ -6,7 +6,12 @@ use super::{EngineError, Event, Network};
 use crate::protocol::codec::Control;
 use crate::protocol::{Input, NodeConfig, NodeCore, Output};
 use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
+
+/// How many node inputs are handled between two looks at the interrupt flag.
+const INTERRUPT_CHECK_EVERY: usize = 256;
 
 /// All nodes in one thread.
 pub struct InProcess {
@@ -15,6 +20,8 @@ pub struct InProcess {
     outputs: Vec<Output>,
     /// Liveness checks to answer: every node here is alive by construction.
     pongs: Vec<(u32, u64)>,
+    /// Set by SIGINT/SIGTERM ([`super::interrupt`]); `None`: never.
+    interrupt: Option<Arc<AtomicBool>>,
 }
 
 impl InProcess {
@@ -25,7 +32,22 @@ impl InProcess {
             queue: VecDeque::new(),
             outputs: Vec::new(),
             pongs: Vec::new(),
+            interrupt: None,
         }
+    }
+
+    /// Stop at the next batch of node work once `flag` is set (it becomes
+    /// [`Event::Interrupted`]); [`super::run_inprocess`] passes the process's
+    /// SIGINT/SIGTERM flag.
+    pub fn with_interrupt(mut self, flag: Arc<AtomicBool>) -> Self {
+        self.interrupt = Some(flag);
+        self
+    }
+
+    fn interrupted(&self) -> bool {
+        self.interrupt
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::SeqCst))
     }
 
     /// The node cores (for inspection).
@@ -60,12 +82,22 @@ impl Network for InProcess {
     ) -> Result<(), EngineError> {
         let n = self.nodes.len() as u32;
         let before = out.len();
+        if self.interrupted() {
+            out.push(Event::Interrupted);
+            return Ok(());
+        }
+        let mut handled = 0usize;
         out.extend(
             self.pongs
                 .drain(..)
                 .map(|(node, seq)| Event::Pong { node, seq }),
         );
         while let Some((to, input)) = self.queue.pop_front() {
+            handled += 1;
+            if handled.is_multiple_of(INTERRUPT_CHECK_EVERY) && self.interrupted() {
+                out.push(Event::Interrupted);
+                return Ok(());
+            }
             let Some(node) = self.nodes.get_mut(to as usize) else {
                 return Err(EngineError::Stalled(format!(
                     "message to unknown node {to}"

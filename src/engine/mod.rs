@@ -12,6 +12,7 @@
 
 pub mod coordinator;
 pub mod inprocess;
+pub mod interrupt;
 pub mod node;
 pub mod plan;
 pub mod processes;
@@ -283,13 +284,14 @@ pub fn drive(
     (rec, result)
 }
 
-/// Run `plan` in-process.
+/// Run `plan` in-process; SIGINT/SIGTERM ([`interrupt`]) end it with
+/// [`EngineError::Interrupted`] and the samples completed.
 pub fn run_inprocess(
     plan: &RunPlan,
     real: &Realization,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    let mut net = inprocess::InProcess::new(plan.nodes.clone());
+    let mut net = inprocess::InProcess::new(plan.nodes.clone()).with_interrupt(interrupt::flag());
     drive(plan, real, &mut net, progress)
 }
 

@@ -121,20 +121,6 @@ pub fn default_node_program() -> NodeProgram {
     NodeProgram::binary(here)
 }
 
-/// A flag set by SIGINT/SIGTERM (registered once per process).
-pub fn interrupt_flag() -> Arc<AtomicBool> {
-    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
-    FLAG.get_or_init(|| {
-        let f = Arc::new(AtomicBool::new(false));
-        for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-            // Registration only fails for forbidden signals; these are allowed.
-            let _ = signal_hook::flag::register(sig, Arc::clone(&f));
-        }
-        f
-    })
-    .clone()
-}
-
 /// Options of the multi-process engine.
 #[derive(Debug, Clone)]
 pub struct ProcessOptions {
@@ -192,9 +178,11 @@ fn status_text(s: &ExitStatus) -> String {
 }
 
 impl Processes {
-    /// Create the run's services and spawn one node process per receiver;
-    /// returns once every node reported READY.
+    /// Create the run's services (namespace `run_id`, from
+    /// [`unique_run_id`](crate::transport::unique_run_id)) and spawn one node
+    /// process per receiver; returns once every node reported READY.
     pub fn spawn(
+        run_id: String,
         configs: Vec<NodeConfig>,
         graph_neighbours: Vec<Vec<u32>>,
         inbox_buffer: usize,
@@ -207,9 +195,8 @@ impl Processes {
                 path: prog.program.clone(),
             });
         }
-        let interrupt = interrupt_flag();
+        let interrupt = super::interrupt::flag();
         let _ = crate::transport::cleanup_stale_resources();
-        let run_id = crate::transport::unique_run_id();
         let n = configs.len();
         // Sync nodes run in lock-step rounds: at most two rounds in flight.
         let broadcast_buffer = broadcast.then_some(4);
@@ -620,9 +607,17 @@ pub fn run_processes(
         inbox,
         broadcast,
     } = network_layout(plan);
-    let mut procs = match Processes::spawn(configs, neighbours, inbox, broadcast, opts) {
+    // The run id is chosen first, so that a run that fails to start still
+    // records the namespace it used.
+    let run_id = crate::transport::unique_run_id();
+    let spawned = Processes::spawn(run_id.clone(), configs, neighbours, inbox, broadcast, opts);
+    let mut procs = match spawned {
         Ok(p) => p,
-        Err(e) => return (RunRecord::empty(plan.n()), Err(e)),
+        Err(e) => {
+            let mut rec = RunRecord::empty(plan.n());
+            rec.run_id = Some(run_id);
+            return (rec, Err(e));
+        }
     };
     let (mut rec, res) = super::drive(plan, real, &mut procs, progress);
     rec.startup_seconds = Some(procs.startup_seconds);
@@ -643,7 +638,7 @@ mod tests {
             node_program: NodeProgram::binary("/nonexistent/sonarnet-node"),
             ..Default::default()
         };
-        let Err(e) = Processes::spawn(vec![], vec![], 8, false, &opts) else {
+        let Err(e) = Processes::spawn("r".into(), vec![], vec![], 8, false, &opts) else {
             panic!("spawned without a node program");
         };
         assert_eq!(

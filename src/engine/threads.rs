@@ -149,6 +149,9 @@ impl Network for Threads {
             if out.is_empty() {
                 self.check_nodes(out);
             }
+            if super::interrupt::requested() {
+                out.push(Event::Interrupted);
+            }
             if !out.is_empty() || deadline.is_some_and(|d| std::time::Instant::now() >= d) {
                 return Ok(());
             }

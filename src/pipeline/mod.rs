@@ -176,9 +176,20 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
     let Executed {
         real,
         record,
-        error,
+        mut error,
     } = execute(sc, opts, progress);
     let (mut metrics, scored) = evaluate(sc, &real, &record, error.as_ref(), opts);
+    // Ctrl-C/SIGTERM while scoring a complete run: scoring is pure
+    // computation and finishes (a second signal ends the process at once),
+    // then the run is written as interrupted.
+    if error.is_none() && crate::engine::interrupt::requested() {
+        let e = EngineError::Interrupted {
+            sample: record.thetas.len() as u32,
+        };
+        metrics.status = "interrupted".into();
+        metrics.error = Some(format!("{e} (while scoring: every sample had been run)"));
+        error = Some(e);
+    }
     if error.is_none() && opts.check_expect {
         metrics.expect = check_expect(sc, &metrics.flat());
     }

@@ -9,7 +9,9 @@
 //!   (`failed` is 1 for a trial whose engine stopped early);
 //!   the columns are the flat metric names of [`crate::pipeline::RunMetrics::flat`]
 //!   (`theta_bar.rmse`, `ogd.ctte`, `pocs.bounds.upp_maxdis.coverage`, ...);
-//! * `summary.json`: `trials`, `seeds`, per-sample mean and 5th/95th
+//! * `summary.json`: `status` (`ok`, or `interrupted` when Ctrl-C/SIGTERM
+//!   stopped the run: then `trials.csv` and the statistics cover the
+//!   completed trials only, `trials` of `trials_requested`), `trials`, `seeds`, per-sample mean and 5th/95th
 //!   percentile curves of every track's error, running CTTE and regret
 //!   (format in [`crate::plot::data::MonteCarlo`]; at most
 //!   [`MAX_CURVE_POINTS`] samples, evenly strided, are kept), the CRLB band,
@@ -66,6 +68,11 @@ pub struct MonteCarloOutcome {
     pub expect: Vec<ExpectResult>,
     /// Trials that failed.
     pub failed: usize,
+    /// SIGINT/SIGTERM stopped the run: `trials` holds the completed trials
+    /// only (a trial cut short is left out).
+    pub interrupted: bool,
+    /// Trials asked for.
+    pub requested: usize,
     /// Wall time of all trials.
     pub wall_seconds: f64,
     /// Where the results are.
@@ -93,14 +100,20 @@ fn trial_of(
         .tracks
         .iter()
         .map(|t| {
-            let pick = |v: &Vec<f64>| idx.iter().map(|&k| v[k]).collect::<Vec<_>>();
+            // A trial that stopped early has fewer samples: its curves end
+            // there (a missing point is left out of the bands).
+            let pick = |v: &Vec<f64>| {
+                idx.iter()
+                    .map_while(|&k| v.get(k).copied())
+                    .collect::<Vec<_>>()
+            };
             (
                 t.name.clone(),
                 Curves {
                     error: t
                         .error
                         .as_ref()
-                        .map(|e| idx.iter().map(|&k| e[k]).collect())
+                        .map(|e| idx.iter().map(|&k| e.get(k).copied().flatten()).collect())
                         .unwrap_or_default(),
                     ctte: t.ctte.as_ref().map(pick),
                     regret: t.regret.as_ref().map(pick),
@@ -115,7 +128,10 @@ fn trial_of(
         error: m.error.clone(),
         flat,
         curves,
-        crlb: idx.iter().map(|&k| scored.crlb[k]).collect(),
+        crlb: idx
+            .iter()
+            .map(|&k| scored.crlb.get(k).copied().flatten())
+            .collect(),
     }
 }
 
@@ -214,6 +230,7 @@ pub fn run_monte_carlo(
     if let Ok(mut r) = results.lock() {
         r[0] = Some(first);
     }
+    let stop = || crate::engine::interrupt::requested();
     let next = AtomicUsize::new(1);
     let done = AtomicUsize::new(1);
     let threads = std::thread::available_parallelism()
@@ -223,6 +240,9 @@ pub fn run_monte_carlo(
         for _ in 0..threads {
             s.spawn(|| {
                 loop {
+                    if stop() {
+                        break;
+                    }
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     if i >= trials {
                         break;
@@ -238,14 +258,35 @@ pub fn run_monte_carlo(
             });
         }
     });
-    let trials_out: Vec<Trial> = results
+    // A trial cut short by Ctrl-C/SIGTERM is not a completed trial: it is
+    // left out, and the run is marked interrupted.
+    let all: Vec<Trial> = results
         .into_inner()
         .unwrap_or_default()
         .into_iter()
         .flatten()
         .collect();
-    let wall_seconds = start.elapsed().as_secs_f64();
-    write_outputs(sc, &trials_out, &idx, opts, wall_seconds)
+    let interrupted = stop() || all.iter().any(|t| t.status == INTERRUPTED);
+    let trials_out: Vec<Trial> = all
+        .into_iter()
+        .filter(|t| t.status != INTERRUPTED)
+        .collect();
+    let run = McRun {
+        requested: trials,
+        interrupted,
+        wall_seconds: start.elapsed().as_secs_f64(),
+    };
+    write_outputs(sc, &trials_out, &idx, opts, &run)
+}
+
+/// The status of a trial or run stopped by SIGINT/SIGTERM.
+const INTERRUPTED: &str = "interrupted";
+
+/// How the trials went, for the summary.
+struct McRun {
+    requested: usize,
+    interrupted: bool,
+    wall_seconds: f64,
 }
 
 fn write_outputs(
@@ -253,8 +294,9 @@ fn write_outputs(
     trials: &[Trial],
     idx: &[usize],
     opts: &RunOptions,
-    wall_seconds: f64,
+    run: &McRun,
 ) -> Result<MonteCarloOutcome, RunError> {
+    let wall_seconds = run.wall_seconds;
     let dir = &opts.out_dir;
     // trials.csv
     let mut cols: Vec<String> = trials
@@ -336,6 +378,8 @@ fn write_outputs(
         .any(|c| !c.is_empty())
         .then(|| band(crlb_cols));
     let summary = McSummary {
+        status: Some(if run.interrupted { INTERRUPTED } else { "ok" }.into()),
+        trials_requested: Some(run.requested as u64),
         trials: Some(trials.len() as u64),
         failed_trials: Some(failed),
         first_failure: trials.iter().find_map(|t| t.error.clone()),
@@ -369,6 +413,8 @@ fn write_outputs(
         stats: stats_map,
         expect,
         failed,
+        interrupted: run.interrupted,
+        requested: run.requested,
         wall_seconds,
         out_dir: dir.clone(),
     })

@@ -312,9 +312,15 @@ pub struct McSummary {
     /// The first and last trial's seeds.
     #[serde(default)]
     pub seeds: Option<[u64; 2]>,
-    /// Number of trials.
+    /// Number of trials completed (and summarised).
     #[serde(default)]
     pub trials: Option<u64>,
+    /// Number of trials asked for.
+    #[serde(default)]
+    pub trials_requested: Option<u64>,
+    /// `ok`, or `interrupted` (Ctrl-C/SIGTERM: fewer trials than requested).
+    #[serde(default)]
+    pub status: Option<String>,
     /// The scenario variant.
     #[serde(default)]
     pub variant: Option<String>,

@@ -49,6 +49,20 @@ pub enum PlotError {
         /// plotters' message.
         reason: String,
     },
+    /// Ctrl-C/SIGTERM ([`crate::engine::interrupt`]) stopped the drawing
+    /// between two figures; `sonarnet report DIR` draws them later.
+    #[error(
+        "interrupted: {written} of {total} figures drawn (`sonarnet report {}` draws them all)",
+        dir.display()
+    )]
+    Interrupted {
+        /// Figures written.
+        written: usize,
+        /// Figures to write.
+        total: usize,
+        /// The results directory.
+        dir: PathBuf,
+    },
     /// A file could not be written.
     #[error("cannot write {}", path.display())]
     Write {
@@ -345,6 +359,15 @@ pub fn write_figures(
 ) -> Result<Vec<String>, PlotError> {
     let mut out = Vec::with_capacity(figures.len());
     for f in figures {
+        // A run stopped by Ctrl-C/SIGTERM, or one that comes while drawing,
+        // ends the drawing: the data files are already written.
+        if crate::engine::interrupt::requested() {
+            return Err(PlotError::Interrupted {
+                written: out.len(),
+                total: figures.len(),
+                dir: dir.to_path_buf(),
+            });
+        }
         let svg = render_svg(f)?;
         if formats.svg {
             let path = dir.join(format!("{}.svg", f.name));

@@ -6,6 +6,7 @@ mod baselines;
 mod bounds_ref;
 mod engine;
 mod golden;
+mod interrupt;
 mod layers;
 mod paper;
 mod processes;

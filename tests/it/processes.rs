@@ -752,3 +752,28 @@ fn trace_iterations_records_every_update_identically_in_both_engines() {
         assert_nothing_left(&run_id_of(&dirs[0]));
     }
 }
+
+#[test]
+fn a_node_program_that_cannot_start_records_the_run_id_and_leaves_nothing_behind() {
+    let tmp = TempDir::new("spawn-fails");
+    let out = tmp.path().join("out");
+    // A node program that exists but cannot be executed (mode 0644).
+    let prog = tmp.write("sonarnet-node", "not a program\n");
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_sonarnet"))
+        .args(["run", sc.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&out)
+        .env("SONARNET_NODE_BIN", &prog)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn sonarnet");
+    let o = wait_watchdog(child, "a run whose nodes cannot start", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("cannot start"), "{stderr}");
+    assert_eq!(metrics(&out)["status"], "failed");
+    // run.json names the namespace (it used to be null), and that namespace
+    // is empty again.
+    assert_nothing_left(&run_id_of(&out));
+}

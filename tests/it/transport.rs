@@ -733,6 +733,33 @@ fn a_64_node_ring_can_be_created_and_used_from_one_process() {
 
 #[test]
 fn iceoryx2_leaves_sigint_and_sigterm_to_the_default_handler() {
+    // Other tests of this binary run engines, which install sonarnet's own
+    // SIGINT/SIGTERM flag (`engine::interrupt`); the check runs in a fresh
+    // copy of this test binary that runs only this test.
+    const CHILD: &str = "SONARNET_SIGNAL_CHECK_CHILD";
+    if std::env::var_os(CHILD).is_none() {
+        let me = std::env::current_exe().unwrap();
+        let child = std::process::Command::new(me)
+            .args([
+                "--exact",
+                "transport::iceoryx2_leaves_sigint_and_sigterm_to_the_default_handler",
+                "--test-threads",
+                "1",
+            ])
+            .env(CHILD, "1")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let o = crate::util::wait_watchdog(child, "the signal check", WATCHDOG);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success() && stdout.contains("1 passed"),
+            "{stdout}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        return;
+    }
     let topo = TopoSpec::ring(2, 1).with_broadcast(1).topology();
     {
         let mut c = IoxTransport::coordinator(&topo).unwrap();

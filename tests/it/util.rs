@@ -438,3 +438,26 @@ pub fn metrics(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).expect("metrics.json"))
         .expect("metrics.json parses")
 }
+
+/// Wait until process `pid` catches SIGINT (its handler is installed, read
+/// from `SigCgt` in `/proc/PID/status`): from then on a signal is an orderly
+/// interrupt, not the default death. Panics after `limit`.
+pub fn wait_for_sigint_handler(pid: u32, limit: Duration) {
+    let start = Instant::now();
+    loop {
+        let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+        let caught = status
+            .lines()
+            .find_map(|l| l.strip_prefix("SigCgt:"))
+            .and_then(|m| u64::from_str_radix(m.trim(), 16).ok())
+            .unwrap_or(0);
+        if caught & (1 << (libc::SIGINT - 1)) != 0 {
+            return;
+        }
+        assert!(
+            start.elapsed() < limit,
+            "watchdog: process {pid} did not install its SIGINT handler within {limit:?}"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
