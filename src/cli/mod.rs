@@ -22,6 +22,9 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Validate { scenarios } => {
             for p in &scenarios {
                 for sc in Scenario::load_all(p)? {
+                    for w in sc.warnings() {
+                        eprintln!("warning: {w}");
+                    }
                     println!(
                         "{}{}: ok ({} receivers, {} transmitters, {} edges, {} samples, {} {}{}{})",
                         p.display(),
@@ -170,7 +173,9 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
             sc = sc.with_baselines(b.clone())?;
         }
         sc = sc.with_trials(args.trials)?;
-        out.push(sc.with_trace_iterations(args.trace_iterations));
+        let sc = sc.with_trace_iterations(args.trace_iterations);
+        sc.check_size_cli()?;
+        out.push(sc);
     }
     Ok(out)
 }
@@ -194,6 +199,11 @@ pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
 fn run_command(args: RunArgs) -> Result<(), CliError> {
     let scenarios = resolve_scenarios(&args)?;
     let many = scenarios.len() > 1;
+    if let Some(first) = scenarios.first() {
+        for w in first.warnings() {
+            eprintln!("warning: {w}");
+        }
+    }
     let mut failed_checks = Vec::new();
     let mut failed_variants = Vec::new();
     for sc in scenarios {
@@ -423,6 +433,7 @@ fn run_single(
         stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
     };
     check_out(&opts.out_dir)?;
+    pipeline::preflight(sc, &opts)?;
     let bar = progress_bar(&opts, sc.samples as u64);
     let mut tick = |k: usize, it: u64| {
         if let Some(b) = &bar {

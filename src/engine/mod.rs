@@ -15,6 +15,7 @@ pub mod inprocess;
 pub mod interrupt;
 pub mod node;
 pub mod plan;
+pub mod preflight;
 pub mod processes;
 pub mod threads;
 
@@ -116,6 +117,15 @@ pub enum EngineError {
         missing: Vec<u32>,
         /// How long the coordinator waited.
         waited: Duration,
+    },
+    /// This machine cannot hold the run ([`preflight`]): the key most to
+    /// blame and the reason with the numbers. Found before anything starts.
+    #[error("{key}: {reason}")]
+    Resources {
+        /// The scenario key.
+        key: &'static str,
+        /// What is needed and what there is.
+        reason: String,
     },
     /// The engine cannot run this combination (e.g. realtime clocks in-process).
     #[error("unsupported: {0}")]

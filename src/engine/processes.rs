@@ -601,12 +601,21 @@ pub fn run_processes(
     opts: &ProcessOptions,
     progress: super::Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
+    let layout = network_layout(plan);
+    let needs = super::preflight::needs_of(&layout);
+    if let Err((key, reason)) = super::preflight::check(&needs, &super::preflight::machine()) {
+        return (
+            RunRecord::empty(plan.n()),
+            Err(EngineError::Resources { key, reason }),
+        );
+    }
+    super::preflight::raise_fd_limit(needs.coordinator_fds.max(needs.node_fds));
     let NetworkLayout {
         configs,
         neighbours,
         inbox,
         broadcast,
-    } = network_layout(plan);
+    } = layout;
     // The run id is chosen first, so that a run that fails to start still
     // records the namespace it used.
     let run_id = crate::transport::unique_run_id();

@@ -202,6 +202,23 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
     }
 }
 
+/// Check, before any work, that this machine can hold the run on `opts`'s
+/// engine ([`crate::engine::preflight`]: node processes need shared memory,
+/// open files, process slots and memory in proportion to the receivers and
+/// the inbox size). An error names the scenario key most to blame.
+pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
+    if opts.engine != EngineKind::Processes {
+        return Ok(());
+    }
+    // A plan that cannot be built is reported by the run itself.
+    let Ok(plan) = crate::engine::RunPlan::new(sc, opts.clock) else {
+        return Ok(());
+    };
+    let needs = crate::engine::preflight::needs(&plan);
+    crate::engine::preflight::check(&needs, &crate::engine::preflight::machine())
+        .map_err(|(key, reason)| InputError::at(&sc.path, key, reason))
+}
+
 /// What the engine side of one run produced.
 #[derive(Debug)]
 pub struct Executed {

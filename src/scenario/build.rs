@@ -260,6 +260,17 @@ impl Scenario {
             }
             (None, Some(generator)) => build_generated(path, generator, &mut receivers)?,
         };
+        if receivers.len() > super::MAX_RECEIVERS {
+            return Err(InputError::at(
+                path,
+                "geometry.receivers",
+                format!(
+                    "{} receivers, at most {} are supported",
+                    receivers.len(),
+                    super::MAX_RECEIVERS
+                ),
+            ));
+        }
         if receivers.is_empty() {
             return Err(InputError::at(path, "geometry.receivers", "no receivers"));
         }
@@ -395,9 +406,8 @@ impl Scenario {
                 )
             }
         };
-        if samples == 0 {
-            return Err(InputError::at(path, "target.samples", "must be at least 1"));
-        }
+        super::limits::check_count(samples, super::MAX_SAMPLES)
+            .map_err(|r| InputError::at(path, "target.samples", r))?;
 
         // Algorithm.
         let a = &file.algorithm;
@@ -408,13 +418,8 @@ impl Scenario {
                 format!("must be finite and > 0, got {}", a.gamma),
             ));
         }
-        if a.iterations_per_sample == 0 {
-            return Err(InputError::at(
-                path,
-                "algorithm.iterations_per_sample",
-                "must be at least 1",
-            ));
-        }
+        super::limits::check_count(a.iterations_per_sample, super::MAX_ITERATIONS_PER_SAMPLE)
+            .map_err(|r| InputError::at(path, "algorithm.iterations_per_sample", r))?;
         let n_nodes = graph.len();
         let init_u: Vec<Vec3> = match &a.init_u {
             InitU::One(u) => vec![Vec3::new(u[0], u[1], u[2]); n_nodes],
@@ -475,14 +480,9 @@ impl Scenario {
             .map_err(|(key, reason)| InputError::at(path, key, reason))?;
         crate::scenario::expect::validate_syntax(&file.expect)
             .map_err(|e| InputError::at(path, "expect.holds", e))?;
-        if let Some(mc) = &file.monte_carlo
-            && mc.trials == 0
-        {
-            return Err(InputError::at(
-                path,
-                "monte_carlo.trials",
-                "must be at least 1",
-            ));
+        if let Some(mc) = &file.monte_carlo {
+            super::limits::check_count(mc.trials, super::MAX_TRIALS)
+                .map_err(|r| InputError::at(path, "monte_carlo.trials", r))?;
         }
         let algorithm = Algorithm {
             mode: a.mode,
@@ -517,6 +517,8 @@ impl Scenario {
             variant: None,
             file,
         };
+        sc.check_size()
+            .map_err(|(k, reason)| InputError::at(path, k.key(), reason))?;
         sc.check_schedule()?;
         sc.check_kappa()?;
         Ok(sc)
@@ -547,13 +549,14 @@ fn build_generated(
             Graph::new(receivers.len(), &Graph::ring_edges(receivers.len())).map_err(wrap)
         }
         GeneratorCfg::Grid { rows, cols } => {
-            if rows * cols != receivers.len() {
+            let cells = rows.checked_mul(*cols);
+            if cells != Some(receivers.len()) {
                 return Err(InputError::at(
                     path,
                     key,
                     format!(
                         "grid {rows} x {cols} = {} nodes but there are {} receivers",
-                        rows * cols,
+                        cells.map_or("too many".into(), |c| c.to_string()),
                         receivers.len()
                     ),
                 ));
@@ -596,6 +599,8 @@ fn build_generated(
                             "count/min/max draw the receivers, so geometry.receivers must be empty",
                         ));
                     }
+                    super::limits::check_count(*count, super::MAX_RECEIVERS)
+                        .map_err(|r| InputError::at(path, "network.generator.count", r))?;
                     let lo = check_point(path, "network.generator.min", lo)?;
                     let hi = check_point(path, "network.generator.max", hi)?;
                     if lo.x >= hi.x || lo.y >= hi.y {

@@ -25,11 +25,15 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 mod build;
+mod limits;
 mod readers;
 mod schema;
 
 use build::check_tracks;
 pub use build::merge_tables;
+pub use limits::{
+    MAX_ITERATIONS_PER_SAMPLE, MAX_RECEIVERS, MAX_RECORD_BYTES, MAX_SAMPLES, MAX_TRIALS, SizeKey,
+};
 pub use readers::{read_schedule, read_trace, read_truth};
 pub use schema::*;
 
@@ -215,8 +219,8 @@ impl Scenario {
 
     /// Run `n` Monte Carlo trials (`--trials`; `None` or 1 is a single run).
     pub fn with_trials(mut self, n: Option<usize>) -> Result<Self, InputError> {
-        if n == Some(0) {
-            return Err(cli_error("--trials", "must be at least 1"));
+        if let Some(n) = n {
+            limits::check_count(n, MAX_TRIALS).map_err(|r| cli_error("--trials", r))?;
         }
         if n.is_some() {
             self.trials = n;
@@ -264,19 +268,17 @@ impl Scenario {
 
     /// Override the iterations per sample (must be >= 1).
     pub fn with_iterations_per_sample(mut self, n: usize) -> Result<Self, InputError> {
-        if n == 0 {
-            return Err(cli_error("--iterations-per-sample", "must be at least 1"));
-        }
+        limits::check_count(n, MAX_ITERATIONS_PER_SAMPLE)
+            .map_err(|r| cli_error("--iterations-per-sample", r))?;
         self.algorithm.iterations_per_sample = n;
+        self.check_size_cli()?;
         self.check_schedule()?;
         Ok(self)
     }
 
     /// Override the number of samples (at most the trace length for traces).
     pub fn with_samples(mut self, n: usize) -> Result<Self, InputError> {
-        if n == 0 {
-            return Err(cli_error("--samples", "must be at least 1"));
-        }
+        limits::check_count(n, MAX_SAMPLES).map_err(|r| cli_error("--samples", r))?;
         if let DataSource::Trace { measurements, .. } = &self.source
             && n > measurements.len()
         {
@@ -295,6 +297,7 @@ impl Scenario {
             ));
         }
         self.samples = n;
+        self.check_size_cli()?;
         self.check_schedule()?;
         Ok(self)
     }

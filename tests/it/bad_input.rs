@@ -446,3 +446,134 @@ fn realtime_rates_outside_their_documented_range_are_refused_naming_the_key() {
         );
     }
 }
+
+#[test]
+fn counts_outside_their_documented_range_are_refused_before_any_allocation() {
+    let many: String = (0..5000)
+        .map(|i| format!("[{}.0, 1.0]", i))
+        .collect::<Vec<_>>()
+        .join(", ");
+    for (from, to, key) in [
+        (
+            "iterations_per_sample = 5",
+            "iterations_per_sample = 9223372036854775807",
+            "algorithm.iterations_per_sample: must be at most 1000000",
+        ),
+        (
+            "iterations_per_sample = 5",
+            "iterations_per_sample = 100000000",
+            "algorithm.iterations_per_sample: must be at most 1000000",
+        ),
+        (
+            "samples = 3",
+            "samples = 1000000000",
+            "target.samples: must be at most 1000000",
+        ),
+        (
+            "receivers = [[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0]]\n[network]\nedges = [[0, 1], [1, 2]]",
+            &format!("receivers = [{many}]\n[network]\ngenerator = {{ kind = \"ring\" }}"),
+            "geometry.receivers: 5000 receivers, at most 4096",
+        ),
+        // 1e6 samples x 1e6 iterations: each is in range, their record is not.
+        ("samples = 3\n", "samples = 1000000\n", ""),
+    ] {
+        let mut text = GOOD.replace(from, to);
+        let mut needle = key.to_string();
+        if key.is_empty() {
+            text = text.replace(
+                "iterations_per_sample = 5",
+                "iterations_per_sample = 1000000",
+            );
+            needle = "algorithm.iterations_per_sample: 1000000 samples x 1000000 iterations on 3 nodes need about".into();
+        }
+        assert_ne!(text, GOOD, "{from}");
+        let (code, stderr, p) = run_bad(&text, &[]);
+        assert_clear(code, &stderr, &p, &[&needle]);
+    }
+    for (flag, value, needle) in [
+        ("--samples", "1000001", "--samples: must be at most 1000000"),
+        (
+            "--iterations-per-sample",
+            "1000001",
+            "--iterations-per-sample: must be at most",
+        ),
+        ("--trials", "10000000", "--trials: must be at most 1000000"),
+    ] {
+        let (code, stderr, _) = run_bad_with(GOOD, &[], &[flag, value]);
+        assert_eq!(code, 2, "{stderr}");
+        assert!(stderr.contains(needle), "{stderr}");
+    }
+}
+
+#[test]
+fn a_machine_without_enough_open_files_for_the_nodes_is_refused_before_spawning() {
+    let tmp = TempDir::new("nofile");
+    let out = tmp.path().join("out");
+    let sc = crate::util::scenario("rgg16-waypoints.toml");
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_sonarnet"));
+    cmd.args(["run", sc.to_str().unwrap(), "--out"]).arg(&out);
+    // 16 nodes need about 12 x 16 + 64 = 256 open files in the coordinator.
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: setrlimit is async-signal-safe; nothing else runs between
+        // fork and exec.
+        unsafe {
+            cmd.pre_exec(|| {
+                let lim = libc::rlimit {
+                    rlim_cur: 200,
+                    rlim_max: 200,
+                };
+                if libc::setrlimit(libc::RLIMIT_NOFILE, &lim) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+    }
+    let child = cmd
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn sonarnet");
+    let o = crate::util::wait_watchdog(child, "a run with too few files", Duration::from_secs(60));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains(
+            "rgg16-waypoints.toml: geometry.receivers: 16 node processes need about 256 open files"
+        ),
+        "{stderr}"
+    );
+    assert!(o.stdout.is_empty(), "refused before any work");
+}
+
+#[test]
+fn receivers_at_the_same_position_are_run_with_one_warning_naming_both() {
+    let text = GOOD.replace(
+        "receivers = [[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0]]",
+        "receivers = [[100.0, 0.0], [0.0, 100.0], [100.0, 0.0]]",
+    );
+    let tmp = TempDir::new("dup-rx");
+    let p = tmp.write("scenario.toml", &text);
+    let out = tmp.path().join("out");
+    for args in [
+        vec!["validate", p.to_str().unwrap()],
+        vec![
+            "run",
+            p.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    ] {
+        let o = sonarnet(&args, Duration::from_secs(60));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{stderr}");
+        assert_eq!(stderr.matches("warning:").count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("scenario.toml: geometry.receivers: receivers 0 and 2 are at the same position (100, 0)"),
+            "{stderr}"
+        );
+    }
+}

@@ -4,8 +4,8 @@
 //! exits with code 2 and one clear message.
 
 use crate::util::{
-    TempDir, check_selftest, chromium_or_skip, page_selftest, png_is_blank, scenario, screenshot,
-    sonarnet,
+    TempDir, check_selftest, chromium_or_skip, page_selftest, png_is_blank, run_file, scenario,
+    screenshot, sonarnet,
 };
 use std::path::Path;
 use std::time::Duration;
@@ -339,5 +339,56 @@ fn report_renders_in_headless_chromium_without_errors() {
     assert!(
         png_is_blank(&blank_shot),
         "a blank page must be detected as blank"
+    );
+}
+
+#[test]
+fn a_4096_node_network_is_drawn_with_its_markers_and_without_a_label_per_node() {
+    let tmp = TempDir::new("plot-4096");
+    let n = 4096;
+    let rx: Vec<String> = (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            format!("[{:.3}, {:.3}]", 1000.0 * a.cos(), 1000.0 * a.sin())
+        })
+        .collect();
+    let file = tmp.write(
+        "ring.toml",
+        &format!(
+            r#"name = "ring4096"
+[geometry]
+transmitters = [[0.0, 0.0]]
+receivers = [{}]
+[network]
+generator = {{ kind = "ring" }}
+[target]
+samples = 2
+motion = {{ model = "static", position = [10.0, 20.0] }}
+[measurements]
+doa = true
+range_noise = {{ model = "gaussian", sigma = 1.0 }}
+doa_noise = {{ model = "gaussian", sigma = 0.1 }}
+[algorithm]
+mode = "async"
+gamma = 1e-6
+iterations_per_sample = 2
+"#,
+            rx.join(", ")
+        ),
+    );
+    let out = tmp.path().join("out");
+    let o = run_file(
+        &file,
+        &out,
+        &["--engine", "inprocess"],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = read(&out.join("network.svg"));
+    // A marker per node (every node is drawn), no "R<i>" label past 256 nodes.
+    assert!(svg.matches("<circle").count() >= n, "markers missing");
+    assert!(
+        !svg.contains(">R4095"),
+        "per-node labels drawn for 4096 nodes"
     );
 }

@@ -9,8 +9,13 @@ pub(super) fn heat(t: f64) -> Rgb {
     Rgb(lerp(222.0, 8.0), lerp(235.0, 69.0), lerp(247.0, 148.0))
 }
 
+/// Most nodes drawn with a label each.
+pub const MAX_LABELLED_NODES: usize = 256;
+
 /// `network.svg`: the graph to scale, each node coloured by its prox solves
-/// and labelled with its counters (prox solves, messages out/in, declines).
+/// and labelled with its counters (prox solves, messages out/in, declines;
+/// one line past ten nodes, none past [`MAX_LABELLED_NODES`]). Linear in the
+/// nodes and edges.
 pub fn network_figure(data: &RunData) -> Figure {
     let mut panel = Panel::new(700, "x (m)", "y (m)");
     let mut legend = Vec::new();
@@ -23,14 +28,14 @@ pub fn network_figure(data: &RunData) -> Figure {
     panel.labels.retain(|l| !l.lines[0].starts_with('R'));
     geo.retain(|g| !g.label.starts_with("receiver"));
     legend.extend(geo);
-    let prox: Vec<Option<u64>> = (0..rx.len())
-        .map(|i| {
-            counters
-                .iter()
-                .find(|c| c.node == i)
-                .map(|c| c.counters.prox_solves)
-        })
-        .collect();
+    // Every node's counters by id, in one pass (linear in the nodes).
+    let mut by_node = vec![None; rx.len()];
+    for c in counters {
+        if let Some(slot) = by_node.get_mut(c.node) {
+            *slot = Some(c.counters);
+        }
+    }
+    let prox: Vec<Option<u64>> = by_node.iter().map(|c| c.map(|c| c.prox_solves)).collect();
     let lo = prox.iter().flatten().copied().min().unwrap_or(0) as f64;
     let hi = prox.iter().flatten().copied().max().unwrap_or(0) as f64;
     // Four-line counter labels need room: with many or crowded nodes, one
@@ -41,18 +46,23 @@ pub fn network_figure(data: &RunData) -> Figure {
         let y = linear_range(pts.iter().map(|p| p.1), 0.0);
         (x.1 - x.0).max(y.1 - y.0)
     };
-    let closest = rx
-        .iter()
-        .enumerate()
-        .flat_map(|(i, a)| {
-            rx[i + 1..]
-                .iter()
-                .map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
-        })
-        .fold(f64::INFINITY, f64::min);
-    let compact = rx.len() > 10 || closest < 0.15 * span;
+    // The closest pair decides only for ten nodes or fewer.
+    let closest = || {
+        rx.iter()
+            .enumerate()
+            .flat_map(|(i, a)| {
+                rx[i + 1..]
+                    .iter()
+                    .map(move |b| (a[0] - b[0]).hypot(a[1] - b[1]))
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let compact = rx.len() > 10 || closest() < 0.15 * span;
+    // Past this many nodes a label per node is unreadable: the markers
+    // (coloured by prox solves) stand alone.
+    let labelled = rx.len() <= MAX_LABELLED_NODES;
     for (i, p) in rx.iter().enumerate() {
-        let c = counters.iter().find(|c| c.node == i).map(|c| c.counters);
+        let c = by_node[i];
         let color = match prox[i] {
             Some(v) if hi > lo => heat(0.15 + 0.85 * (v as f64 - lo) / (hi - lo)),
             Some(_) => heat(0.6),
@@ -73,12 +83,14 @@ pub fn network_figure(data: &RunData) -> Figure {
                 lines.push(format!("declines {}", c.declines));
             }
         }
-        panel.labels.push(Label {
-            at: (p[0], p[1]),
-            offset: (15, -8),
-            lines,
-            size: 15,
-        });
+        if labelled {
+            panel.labels.push(Label {
+                at: (p[0], p[1]),
+                offset: (15, -8),
+                lines,
+                size: 15,
+            });
+        }
     }
     legend.push(LegendItem {
         label: if hi > lo {
@@ -88,7 +100,7 @@ pub fn network_figure(data: &RunData) -> Figure {
         },
         swatch: Swatch::Line(Style::markers(heat(0.6), Marker::Circle, 6)),
     });
-    if compact && !counters.is_empty() {
+    if compact && labelled && !counters.is_empty() {
         legend.push(LegendItem {
             label: "label: R<node> · prox solves (all counters in the report's table)".into(),
             swatch: Swatch::Line(Style::line(Rgb(255, 255, 255), 0)),
