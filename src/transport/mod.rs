@@ -159,6 +159,15 @@ pub enum TransportError {
     /// A peer endpoint was closed (in-memory transport only).
     #[error("{0} has been closed")]
     Closed(Endpoint),
+    /// The per-user iceoryx2 directory is not safe to use (another user's,
+    /// or open to others).
+    #[error("{}: {reason}", path.display())]
+    UnsafeRoot {
+        /// The directory.
+        path: std::path::PathBuf,
+        /// Why it is refused.
+        reason: String,
+    },
     /// An iceoryx2 (or OS) operation failed.
     #[error("IPC failure while {op}: {detail}")]
     Ipc {

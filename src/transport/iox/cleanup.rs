@@ -44,14 +44,62 @@ pub(super) fn parse_prefix(name: &str) -> Option<&str> {
 /// ~40 small files per endpoint on a disk file system (the default `/tmp/iceoryx2`)
 /// made a 256-node run take tens of seconds to set up instead of about one. Falls
 /// back to the iceoryx2 default where `/dev/shm` does not exist.
-pub(super) const ROOT_DIR: &str = "/dev/shm/sonarnet-iceoryx2/";
+///
+/// One per user, `/dev/shm/sonarnet-iceoryx2-<uid>/`, mode 0700 (issue 15 item
+/// 8: a shared directory belonged to whoever created it first, so another
+/// user's runs failed, and its owner could reach every other user's runs).
+pub(super) fn root_dir() -> String {
+    // SAFETY: getuid has no failure mode.
+    let uid = unsafe { libc::getuid() };
+    format!("{SHM_DIR}/sonarnet-iceoryx2-{uid}/")
+}
+
+/// Whether a directory with this owner and mode may be this user's root.
+pub(super) fn check_root_owner(owner: u32, mode: u32, me: u32) -> Result<(), String> {
+    if owner != me {
+        return Err(format!(
+            "belongs to uid {owner}, not to this user (uid {me}); sonarnet refuses to share iceoryx2 state with another user (remove the directory)"
+        ));
+    }
+    if mode & 0o077 != 0 {
+        return Err(format!(
+            "has mode {:o}, open to other users; sonarnet needs 0700 (chmod 700 it, or remove it)",
+            mode & 0o7777
+        ));
+    }
+    Ok(())
+}
+
+/// Create this user's root directory (0700) or check the one that exists.
+fn ensure_root(dir: &str) -> Result<(), TransportError> {
+    use std::os::unix::fs::{DirBuilderExt, MetadataExt};
+    let path = Path::new(dir);
+    let unsafe_root = |reason: String| TransportError::UnsafeRoot {
+        path: path.to_path_buf(),
+        reason,
+    };
+    match std::fs::DirBuilder::new().mode(0o700).create(path) {
+        Ok(()) => return Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+        Err(e) => return Err(unsafe_root(format!("cannot be created: {e}"))),
+    }
+    let meta = std::fs::symlink_metadata(path).map_err(|e| unsafe_root(e.to_string()))?;
+    if !meta.file_type().is_dir() {
+        return Err(unsafe_root("is not a directory".into()));
+    }
+    // SAFETY: getuid has no failure mode.
+    let me = unsafe { libc::getuid() };
+    check_root_owner(meta.uid(), meta.mode(), me).map_err(unsafe_root)
+}
 
 /// The iceoryx2 configuration shared by all sonarnet processes (prefix not set).
 pub(super) fn base_config() -> Result<Config, TransportError> {
     let mut cfg = Config::default();
     if Path::new(SHM_DIR).is_dir() {
-        let root = iceoryx2::prelude::Path::new(ROOT_DIR.as_bytes())
-            .map_err(|e| TransportError::ipc(format!("using root {ROOT_DIR}"), e))?;
+        let dir = root_dir();
+        ensure_root(&dir)?;
+        let root = iceoryx2::prelude::Path::new(dir.as_bytes())
+            .map_err(|e| TransportError::ipc(format!("using root {dir}"), e))?;
         cfg.global.set_root_path(&root);
     }
     Ok(cfg)
@@ -210,4 +258,24 @@ pub fn cleanup_stale_resources() -> Result<CleanupReport, TransportError> {
         }
     }
     Ok(report)
+}
+
+#[cfg(test)]
+mod root_tests {
+    use super::*;
+
+    #[test]
+    fn the_root_is_per_user_and_refused_when_foreign_or_open() {
+        // SAFETY: getuid has no failure mode.
+        let me = unsafe { libc::getuid() };
+        assert!(root_dir().ends_with(&format!("sonarnet-iceoryx2-{me}/")));
+        assert!(check_root_owner(me, 0o40700, me).is_ok());
+        let foreign = check_root_owner(me + 1, 0o40700, me).unwrap_err();
+        assert!(
+            foreign.contains(&format!("belongs to uid {}", me + 1)),
+            "{foreign}"
+        );
+        let open = check_root_owner(me, 0o40750, me).unwrap_err();
+        assert!(open.contains("mode 750"), "{open}");
+    }
 }

@@ -8,7 +8,7 @@
 //! iceoryx2 creates for the run start with that prefix: shared memory in `/dev/shm`,
 //! and static service configs, node details, monitor locks and event sockets under
 //! the iceoryx2 root directory, which sonarnet moves from the default `/tmp/iceoryx2`
-//! to the tmpfs directory `/dev/shm/sonarnet-iceoryx2/` (creating the ~40 small files
+//! to the tmpfs directory `/dev/shm/sonarnet-iceoryx2-<uid>/` (one per user, mode 0700; creating the ~40 small files
 //! per endpoint on the disk file system made a 256-node run take ~30 s to set up
 //! instead of ~1.4 s). Concurrent runs are therefore fully separated, and a run's
 //! files can be listed ([`run_resources`]) and cleaned ([`cleanup_stale_resources`]).
@@ -74,7 +74,7 @@
 //! management segment (`<prefix><hash>_node.<version>.global_mgmt` in `/dev/shm`, a
 //! persistent node counter only needed while an iceoryx2 node is created) right after
 //! creating its node. After a clean run nothing of the run is left (only the empty
-//! shared directories `/dev/shm/sonarnet-iceoryx2/{nodes,services}` remain).
+//! per-user directories `/dev/shm/sonarnet-iceoryx2-<uid>/{nodes,services}` remain).
 //!
 //! iceoryx2's automatic dead-node scans (on node creation, node drop and service
 //! open) are switched off: each costs O(N), O(N²) per run. Processes that die
