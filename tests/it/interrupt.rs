@@ -17,6 +17,7 @@ fn rows(path: &std::path::Path) -> usize {
 
 #[test]
 fn ctrl_c_stops_an_inprocess_run_and_writes_exactly_the_samples_completed() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("int-inprocess");
     let out = tmp.path().join("out");
     let sc = scenario("mourya2017-spiral.toml");
@@ -57,6 +58,7 @@ fn ctrl_c_stops_an_inprocess_run_and_writes_exactly_the_samples_completed() {
 
 #[test]
 fn sigterm_stops_a_monte_carlo_run_keeping_and_summarising_the_completed_trials() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("int-mc");
     let out = tmp.path().join("out");
     let sc = scenario("mourya2017-spiral.toml");

@@ -3,8 +3,8 @@
 //! and no IPC resource behind.
 
 use crate::util::{
-    TempDir, assert_nothing_left, children_of, metrics, read_rows, run_id_of, scenario,
-    spawn_sonarnet, wait_watchdog,
+    TempDir, assert_nothing_left, children_of, cpu_exclusive, metrics, read_rows, run_id_of,
+    scenario, spawn_sonarnet, wait_watchdog,
 };
 use std::time::{Duration, Instant};
 
@@ -483,6 +483,7 @@ fn a_killed_node_ends_a_logical_run_with_a_clear_error_naming_it() {
 
 #[test]
 fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("kill-realtime");
     let out = tmp.path().join("out");
     let sc = scenario("mourya2017-spiral.toml");
@@ -569,6 +570,7 @@ fn realtime_run_killing_node_2(
 /// goes on to the end.
 #[test]
 fn a_stopped_node_in_realtime_mode_is_left_out_as_dead_and_the_run_continues() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("stop-realtime");
     let (out, _) = realtime_run_signalling(
         &tmp,
@@ -597,6 +599,7 @@ fn a_stopped_node_in_realtime_mode_is_left_out_as_dead_and_the_run_continues() {
 /// it (they used to block 10 s sending to it, then fail the run).
 #[test]
 fn a_node_that_exits_on_its_own_in_realtime_mode_is_a_named_death_and_the_run_continues() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("term-realtime");
     for (i, node) in [5u32, 2].into_iter().enumerate() {
         let (out, at) = realtime_run_signalling(
@@ -627,6 +630,7 @@ fn errors_from(out: &std::path::Path, from: usize) -> Vec<f64> {
 
 #[test]
 fn after_a_death_theta_bar_is_the_mean_of_the_live_nodes_and_tracks_as_without_that_node() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("death-theta-bar");
     // Node 2 dies about half way in, and, for the reference, a few samples
     // after the start (a death during start-up fails the run): the same seed,
@@ -675,6 +679,7 @@ fn after_a_death_theta_bar_is_the_mean_of_the_live_nodes_and_tracks_as_without_t
 
 #[test]
 fn realtime_gossip_with_enough_iterations_meets_the_async_accuracy_bound() {
+    let _cpu = cpu_exclusive();
     let tmp = TempDir::new("realtime");
     let out = tmp.path().join("out");
     let sc = scenario("mourya2017-spiral.toml");

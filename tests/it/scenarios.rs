@@ -31,6 +31,7 @@ fn scenario_files() -> Vec<std::path::PathBuf> {
 
 #[test]
 fn every_scenario_validates_runs_and_meets_its_expect_block() {
+    let _cpu = crate::util::cpu_exclusive();
     let mut failures = Vec::new();
     let mut count = 0;
     for path in scenario_files() {

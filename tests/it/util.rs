@@ -461,3 +461,12 @@ pub fn wait_for_sigint_handler(pid: u32, limit: Duration) {
         std::thread::sleep(Duration::from_millis(10));
     }
 }
+
+/// Held by tests whose results depend on the wall clock (realtime runs) and
+/// by tests that keep every core busy (parallel Monte Carlo), so that the
+/// first never run starved by the second on a 2-core machine.
+pub fn cpu_exclusive() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
