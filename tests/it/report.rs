@@ -346,36 +346,7 @@ fn report_renders_in_headless_chromium_without_errors() {
 fn a_4096_node_network_is_drawn_with_its_markers_and_without_a_label_per_node() {
     let tmp = TempDir::new("plot-4096");
     let n = 4096;
-    let rx: Vec<String> = (0..n)
-        .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / n as f64;
-            format!("[{:.3}, {:.3}]", 1000.0 * a.cos(), 1000.0 * a.sin())
-        })
-        .collect();
-    let file = tmp.write(
-        "ring.toml",
-        &format!(
-            r#"name = "ring4096"
-[geometry]
-transmitters = [[0.0, 0.0]]
-receivers = [{}]
-[network]
-generator = {{ kind = "ring" }}
-[target]
-samples = 2
-motion = {{ model = "static", position = [10.0, 20.0] }}
-[measurements]
-doa = true
-range_noise = {{ model = "gaussian", sigma = 1.0 }}
-doa_noise = {{ model = "gaussian", sigma = 0.1 }}
-[algorithm]
-mode = "async"
-gamma = 1e-6
-iterations_per_sample = 2
-"#,
-            rx.join(", ")
-        ),
-    );
+    let file = tmp.write("ring.toml", &sonarnet::pipeline::bench::ring_toml(n, 2, 2));
     let out = tmp.path().join("out");
     let o = run_file(
         &file,
