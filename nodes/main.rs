@@ -14,7 +14,7 @@
 use clap::Parser;
 use sonarnet::engine::node::{NodeLoop, run_node};
 use sonarnet::engine::processes::NodeLaunch;
-use sonarnet::transport::IoxTransport;
+use sonarnet::transport::{IoxTransport, cleanup_run};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -100,7 +100,14 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
         term: &term,
         coordinator_alive: &alive,
     };
-    run_node(&mut tx, launch.node, &opts).map_err(|e| e.to_string())?;
+    let result = run_node(&mut tx, launch.node, &opts);
+    drop(tx);
+    if !alive() {
+        // The coordinator died without cleaning up (SIGKILL): the nodes
+        // remove what it left, the last one to leave the rest of the run.
+        let _ = cleanup_run(topo.run_id());
+    }
+    result.map_err(|e| e.to_string())?;
     Ok(if term.load(Ordering::Relaxed) {
         Ended::Signalled
     } else {

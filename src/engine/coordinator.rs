@@ -529,14 +529,24 @@ impl<'a> Coordinator<'a> {
         seq: u64,
         out: &mut Vec<Action>,
     ) -> Result<(), EngineError> {
+        let half = self.plan.stall_timeout / 2;
         let Some(c) = self.check.take_if(|c| c.seq == seq) else {
+            // A report made this check moot (it cleared `check`). The chain
+            // of watchdog timers went through this deadline, so it goes on
+            // from the last report; a stale deadline of an older check does
+            // not start a second chain.
+            if seq == self.checks && self.check.is_none() {
+                out.push(Action::SetTimer {
+                    at: (self.last_report + half).max(now),
+                    timer: Timer::Watchdog,
+                });
+            }
             return Ok(());
         };
         let silent: Vec<u32> = (0..self.plan.n())
             .filter(|&i| !c.answered[i])
             .map(|i| i as u32)
             .collect();
-        let half = self.plan.stall_timeout / 2;
         if silent.is_empty() {
             out.push(Action::Log(format!(
                 "no report for {:.1} s, but every node answers (sample {})",
@@ -1039,7 +1049,8 @@ mod tests {
     }
 
     #[test]
-    fn a_slow_logical_run_whose_nodes_all_answer_is_not_a_stall() {
+    fn a_slow_logical_run_whose_nodes_all_answer_is_not_a_stall_and_a_moot_check_keeps_the_watchdog_going()
+     {
         let sc = spiral(5);
         let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
         let real = sc.realize();
@@ -1071,10 +1082,44 @@ mod tests {
             theta: Vec3::zeros(),
             counters: Counters::default(),
         });
-        c.handle(3 * half + Duration::from_millis(1), [report], &mut out);
+        let reported = 3 * half + Duration::from_millis(1);
+        c.handle(reported, [report], &mut out);
         out.clear();
+        // The moot check's deadline keeps the watchdog going from the report
+        // (it used to end the chain of timers, so a node stopped after that
+        // report hung the run forever).
         c.handle(4 * half, [Event::Timer(Timer::PingDeadline(2))], &mut out);
-        assert!(!c.is_done() && out.is_empty(), "{out:?}");
+        assert!(!c.is_done());
+        assert_eq!(
+            out,
+            vec![Action::SetTimer {
+                at: reported + half,
+                timer: Timer::Watchdog
+            }]
+        );
+        // And a node that then stops is still named.
+        out.clear();
+        c.handle(reported + half, [Event::Timer(Timer::Watchdog)], &mut out);
+        assert!(
+            sends(&out)
+                .iter()
+                .any(|(_, m)| matches!(m, Control::Ping(3)))
+        );
+        let pongs = [0, 1, 2, 4, 5].map(|node| Event::Pong { node, seq: 3 });
+        c.handle(reported + half, pongs, &mut out);
+        out.clear();
+        c.handle(
+            reported + 2 * half,
+            [Event::Timer(Timer::PingDeadline(3))],
+            &mut out,
+        );
+        assert!(
+            matches!(
+                out.last(),
+                Some(Action::Done(Err(EngineError::NotResponding { nodes, .. }))) if nodes == &vec![3]
+            ),
+            "{out:?}"
+        );
     }
 
     #[test]

@@ -124,6 +124,10 @@ pub fn run_node<T: Transport>(
                     if opts.verbose {
                         eprintln!("[node {id}] stop: {:?}", core.counters());
                     }
+                    // The run is over: what a neighbour (killed, say) did not
+                    // read no longer matters; the last reports to the
+                    // coordinator still do.
+                    tx.forget_unread(Some(Endpoint::Coordinator));
                     return Ok(());
                 }
             }

@@ -466,6 +466,11 @@ impl Processes {
 impl Drop for Processes {
     fn drop(&mut self) {
         self.shutdown();
+        // Every node is reaped: nothing unread matters (a killed node's
+        // frames used to hold the coordinator for a whole linger).
+        if let Some(tx) = self.tx.as_mut() {
+            tx.forget_unread(None);
+        }
         // Close our own ports first: with no live process left in the run,
         // the cleanup also removes what killed children left behind.
         self.tx = None;

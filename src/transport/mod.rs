@@ -50,7 +50,7 @@ pub mod iox;
 mod mem;
 pub mod wire;
 
-pub use iox::{CleanupReport, IoxTransport, cleanup_stale_resources, run_resources};
+pub use iox::{CleanupReport, IoxTransport, cleanup_run, cleanup_stale_resources, run_resources};
 pub use mem::{MemNetwork, MemTransport};
 
 /// One addressable party of a run.
@@ -223,6 +223,17 @@ pub trait Transport {
     /// its last frames are not lost; fails with [`TransportError::ShutdownTimeout`]
     /// naming the receivers that did not read. The endpoint stays usable.
     fn shutdown(&mut self, timeout: Duration) -> Result<(), TransportError>;
+
+    /// Stops waiting for receivers to take the frames already sent, except
+    /// those sent to `keep`: [`Transport::shutdown`] and dropping then wait
+    /// for `keep` alone. For the end of a run, when unread frames no longer
+    /// matter: a node on STOP keeps the coordinator (which reads its last
+    /// reports), and the coordinator, once every node is reaped, keeps none.
+    /// Without it a frame left unread by a killed node held the sender for a
+    /// whole [`DROP_LINGER`](crate::transport::iox::DROP_LINGER), so a run
+    /// ended a second after the kill was noticed. Nothing by default (frames
+    /// delivered at once need no wait).
+    fn forget_unread(&mut self, _keep: Option<Endpoint>) {}
 }
 
 /// Default send timeout, see [`RunTopology::with_send_timeout`].

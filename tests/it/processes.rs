@@ -387,6 +387,49 @@ fn a_stopped_node_ends_a_logical_run_with_an_error_naming_it() {
     }
 }
 
+/// The run id a node process was launched with (its `--launch` JSON).
+fn launch_run_id(pid: u32) -> String {
+    let cmd = String::from_utf8_lossy(&std::fs::read(format!("/proc/{pid}/cmdline")).unwrap())
+        .to_string();
+    cmd.split("\"run_id\":\"")
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .unwrap_or_else(|| panic!("no run_id in {cmd}"))
+        .to_string()
+}
+
+/// `kill -9` of the coordinator: its nodes notice (SIGTERM from the kernel,
+/// `PR_SET_PDEATHSIG`) and leave, and the last one to leave removes what
+/// the coordinator could not (issue 15 item 9: 33-35 files in `/dev/shm`
+/// and 47-51 under the iceoryx2 root were left until the next run).
+#[test]
+fn a_killed_coordinator_leaves_no_process_and_no_file_behind() {
+    let tmp = TempDir::new("kill-coordinator");
+    let out = tmp.path().join("out");
+    let sc = scenario("mourya2017-spiral.toml");
+    let child = spawn_sonarnet(&[
+        "run",
+        sc.to_str().unwrap(),
+        "--iterations-per-sample",
+        "3000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let nodes = wait_for_children(child.id(), 6);
+    let run_id = launch_run_id(nodes[0]);
+    std::thread::sleep(Duration::from_millis(800));
+    assert!(
+        !sonarnet::transport::run_resources(&run_id).is_empty(),
+        "a live run has resources"
+    );
+    // SAFETY: plain kill(2) on our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGKILL) };
+    let o = wait_watchdog(child, "killed coordinator", LIMIT);
+    assert!(!o.status.success());
+    assert_nothing_left(&run_id);
+}
+
 #[test]
 fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
     let tmp = TempDir::new("sigint");

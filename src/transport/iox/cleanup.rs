@@ -231,33 +231,51 @@ pub fn cleanup_stale_resources() -> Result<CleanupReport, TransportError> {
         }
     }
 
-    let mut report = CleanupReport {
-        runs_scanned: prefixes.len(),
-        ..CleanupReport::default()
-    };
+    let mut report = CleanupReport::default();
     for prefix in &prefixes {
-        let cfg = config_for_prefix(prefix)?;
-        let mut alive = 0usize;
-        Node::<Svc>::list(&cfg, |state| {
-            match state {
-                NodeState::Alive(_) => alive += 1,
-                NodeState::Dead(view) => match view.try_remove_stale_resources() {
-                    Ok(()) => report.dead_nodes_removed += 1,
-                    Err(_) => report.cleanup_failures += 1,
-                },
-                NodeState::Inaccessible(_) => alive += 1,
-                NodeState::Undefined(_) => report.cleanup_failures += 1,
-            }
-            CallbackProgression::Continue
-        })
-        .map_err(|e| TransportError::ipc(format!("listing iceoryx2 nodes of {prefix}"), e))?;
-        if alive == 0 {
-            report.segments_removed += remove_global_mgmt_segments_by_scan(prefix);
-        } else {
-            report.runs_alive += 1;
-        }
+        cleanup_prefix(prefix, &mut report)?;
     }
     Ok(report)
+}
+
+/// Removes what the dead processes of run `run_id` left (its coordinator
+/// SIGKILLed, say), and the run's global management segment once no process
+/// of it is alive. A node program calls it as it leaves a run whose
+/// coordinator is gone, after dropping its own transport, so the last node to
+/// leave removes the rest of the run (issue 15 item 9: a SIGKILLed
+/// coordinator used to leave 80 files until the next run's
+/// [`cleanup_stale_resources`]). Other runs are not looked at.
+pub fn cleanup_run(run_id: &str) -> Result<CleanupReport, TransportError> {
+    init_logging();
+    let mut report = CleanupReport::default();
+    cleanup_prefix(&resource_prefix(run_id), &mut report)?;
+    Ok(report)
+}
+
+/// One run namespace of [`cleanup_stale_resources`] and [`cleanup_run`].
+fn cleanup_prefix(prefix: &str, report: &mut CleanupReport) -> Result<(), TransportError> {
+    let cfg = config_for_prefix(prefix)?;
+    report.runs_scanned += 1;
+    let mut alive = 0usize;
+    Node::<Svc>::list(&cfg, |state| {
+        match state {
+            NodeState::Alive(_) => alive += 1,
+            NodeState::Dead(view) => match view.try_remove_stale_resources() {
+                Ok(()) => report.dead_nodes_removed += 1,
+                Err(_) => report.cleanup_failures += 1,
+            },
+            NodeState::Inaccessible(_) => alive += 1,
+            NodeState::Undefined(_) => report.cleanup_failures += 1,
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(|e| TransportError::ipc(format!("listing iceoryx2 nodes of {prefix}"), e))?;
+    if alive == 0 {
+        report.segments_removed += remove_global_mgmt_segments_by_scan(prefix);
+    } else {
+        report.runs_alive += 1;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -82,7 +82,10 @@
 //! until [`cleanup_stale_resources`] runs; the coordinator should call it when it
 //! starts, and again after reaping the nodes of a run that ended abnormally. It
 //! removes the resources of dead iceoryx2 nodes of every sonarnet run (iceoryx2's
-//! file-lock monitors tell dead from alive) and leaves live runs alone.
+//! file-lock monitors tell dead from alive) and leaves live runs alone. A node
+//! program whose coordinator died calls [`cleanup_run`] for its own run after
+//! dropping its transport, so the last node to leave removes what the
+//! coordinator left and nothing waits for the next run.
 //!
 //! # Process behaviour
 //!
@@ -634,6 +637,15 @@ impl Transport for IoxTransport {
             }
             self.stash_incoming()?;
             backoff.wait();
+        }
+    }
+
+    fn forget_unread(&mut self, keep: Option<Endpoint>) {
+        for p in self.peers.iter_mut().filter(|p| Some(p.endpoint) != keep) {
+            p.unconfirmed = false;
+        }
+        if let Some(b) = self.bcast.as_mut() {
+            b.unconfirmed = false;
         }
     }
 
