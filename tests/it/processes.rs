@@ -6,6 +6,7 @@ use crate::util::{
     TempDir, assert_nothing_left, children_of, cpu_exclusive, metrics, read_rows, run_id_of,
     scenario, spawn_sonarnet, wait_watchdog,
 };
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 const LIMIT: Duration = Duration::from_secs(300);
@@ -430,6 +431,74 @@ fn a_killed_coordinator_leaves_no_process_and_no_file_behind() {
     assert_nothing_left(&run_id);
 }
 
+/// Every file (not directory) below `dir`.
+fn files_below(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        if e.path().is_dir() {
+            out.extend(files_below(&e.path()));
+        } else {
+            out.push(e.path());
+        }
+    }
+    out
+}
+
+/// Issue 15 item 8: each user has an iceoryx2 root of their own, and one
+/// that belongs to another user is refused. Runs the processes engine as
+/// `nobody` (uid 65534) through `setpriv`, so it needs root; elsewhere it
+/// says SKIPPED. The second user's root is put back as it was found (absent).
+#[test]
+fn a_second_user_runs_in_a_root_of_their_own_and_refuses_a_foreign_one() {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    // SAFETY: getuid has no failure mode.
+    if unsafe { libc::getuid() } != 0 || Command::new("setpriv").arg("--version").output().is_err()
+    {
+        eprintln!("SKIPPED: needs root and setpriv to act as a second user");
+        return;
+    }
+    let tmp = TempDir::new("second-user");
+    std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
+    let root = std::path::Path::new("/dev/shm/sonarnet-iceoryx2-65534");
+    let _ = std::fs::remove_dir_all(root);
+    let sc = scenario("mourya2017-spiral.toml");
+    let run_as_nobody = |out: &str| {
+        let out = tmp.path().join(out);
+        let child = Command::new("setpriv")
+            .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+            .arg(env!("CARGO_BIN_EXE_sonarnet"))
+            .args(["run", sc.to_str().unwrap(), "--samples", "12", "--quiet"])
+            .arg("--out")
+            .arg(&out)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("spawn setpriv");
+        (wait_watchdog(child, "a run as a second user", LIMIT), out)
+    };
+    // A root made by another user (here root) is refused, naming it.
+    std::fs::create_dir(root).unwrap();
+    std::fs::set_permissions(root, std::fs::Permissions::from_mode(0o700)).unwrap();
+    let (o, _) = run_as_nobody("foreign");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    std::fs::remove_dir(root).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("sonarnet-iceoryx2-65534/: belongs to uid 0"),
+        "{stderr}"
+    );
+    // Without it, the second user's run makes its own root, 0700, and succeeds.
+    let (o, out) = run_as_nobody("own");
+    let meta = std::fs::metadata(root);
+    let left = files_below(root);
+    let _ = std::fs::remove_dir_all(root);
+    assert!(left.is_empty(), "the run left {left:?}");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let meta = meta.unwrap();
+    assert_eq!((meta.uid(), meta.mode() & 0o777), (65534, 0o700));
+    assert_nothing_left(&run_id_of(&out));
+}
+
 #[test]
 fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
     let tmp = TempDir::new("sigint");
@@ -559,10 +628,11 @@ fn a_killed_node_in_realtime_mode_leaves_a_recorded_gap_and_the_run_continues() 
     assert_nothing_left(&run_id_of(&out));
 }
 
-/// A realtime run of the spiral (80 samples, `extra` flags) in which `node`
+/// A realtime run of `sc` (80 samples, `extra` flags) in which `node`
 /// gets `signal` `after` the nodes are up; returns the results directory and
 /// the sample at which the death was noticed.
 fn realtime_run_signalling(
+    sc: &std::path::Path,
     tmp: &TempDir,
     name: &str,
     node: u32,
@@ -571,7 +641,6 @@ fn realtime_run_signalling(
     extra: &[&str],
 ) -> (std::path::PathBuf, usize) {
     let out = tmp.path().join(name);
-    let sc = scenario("mourya2017-spiral.toml");
     let mut args = vec![
         "run",
         sc.to_str().unwrap(),
@@ -600,12 +669,22 @@ fn realtime_run_signalling(
     (out, at)
 }
 
+/// A realtime run of the spiral in which node 2 is killed `after` the nodes
+/// are up. Samples of 50 ms and the prox of eq. (5) (about 100 exchanges per
+/// sample) put the track at its floor, so that its error does not depend on
+/// how many exchanges a loaded machine manages per sample (at the spiral's own
+/// 20 ms and eq. (11), two runs differed by 1.4x with no death at all).
 fn realtime_run_killing_node_2(
     tmp: &TempDir,
     name: &str,
     after: Duration,
 ) -> (std::path::PathBuf, usize) {
-    realtime_run_signalling(tmp, name, 2, libc::SIGKILL, after, &[])
+    let text = std::fs::read_to_string(scenario("mourya2017-spiral.toml")).unwrap();
+    let text = text.replace("sample_period_ms = 20.0", "sample_period_ms = 50.0");
+    assert!(text.contains("sample_period_ms = 50.0"));
+    let sc = tmp.write(&format!("{name}.toml"), &text);
+    let extra = ["--prox-scaling", "inverse-probability"];
+    realtime_run_signalling(&sc, tmp, name, 2, libc::SIGKILL, after, &extra)
 }
 
 /// `kill -STOP` of a leaf in a realtime run: the node is not responding to
@@ -616,6 +695,7 @@ fn a_stopped_node_in_realtime_mode_is_left_out_as_dead_and_the_run_continues() {
     let _cpu = cpu_exclusive();
     let tmp = TempDir::new("stop-realtime");
     let (out, _) = realtime_run_signalling(
+        &scenario("mourya2017-spiral.toml"),
         &tmp,
         "out",
         5,
@@ -646,6 +726,7 @@ fn a_node_that_exits_on_its_own_in_realtime_mode_is_a_named_death_and_the_run_co
     let tmp = TempDir::new("term-realtime");
     for (i, node) in [5u32, 2].into_iter().enumerate() {
         let (out, at) = realtime_run_signalling(
+            &scenario("mourya2017-spiral.toml"),
             &tmp,
             &format!("run{i}"),
             node,
@@ -678,8 +759,8 @@ fn after_a_death_theta_bar_is_the_mean_of_the_live_nodes_and_tracks_as_without_t
     // Node 2 dies about half way in, and, for the reference, a few samples
     // after the start (a death during start-up fails the run): the same seed,
     // so the five other nodes see the same data.
-    let (late, at) = realtime_run_killing_node_2(&tmp, "late", Duration::from_millis(900));
-    let (early, early_at) = realtime_run_killing_node_2(&tmp, "early", Duration::from_millis(300));
+    let (late, at) = realtime_run_killing_node_2(&tmp, "late", Duration::from_millis(2000));
+    let (early, early_at) = realtime_run_killing_node_2(&tmp, "early", Duration::from_millis(500));
     assert!(early_at + 5 < at, "deaths at {early_at} and {at}");
     assert!(at > 10 && at < 70, "death noticed at sample {at}");
     // nodes.csv: node 2 is alive before the death and not from then on, and
