@@ -1,10 +1,11 @@
 //! Time per instance of each position-error bound (seed 003) on an N = 8 disc
-//! instance and an 8-ellipse instance. Criterion prints absolute times; the
+//! instance and an 8-ellipse instance (`upp_exact`, beyond the paper, also on
+//! an intersection already checked). Criterion prints absolute times; the
 //! ratios to `upp_rbbox` are printed once at the end (median of 200 runs).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarnet::estimators::bounds::{
-    Intersection, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox,
+    Intersection, Region, pocs, upp_bbox, upp_exact, upp_maxdis, upp_minball, upp_rbbox,
 };
 use sonarnet::model::geometry::Vec2;
 use std::hint::black_box;
@@ -57,11 +58,12 @@ type BoundFn = fn(
 >;
 
 fn bench(c: &mut Criterion) {
-    let fns: [(&str, BoundFn); 4] = [
+    let fns: [(&str, BoundFn); 5] = [
         ("upp_rbbox", upp_rbbox),
         ("upp_bbox", upp_bbox),
         ("upp_minball", upp_minball),
         ("upp_maxdis", upp_maxdis),
+        ("upp_exact", upp_exact),
     ];
     let mut summary = vec![];
     for (label, regions, x_hat) in instances() {
@@ -79,6 +81,10 @@ fn bench(c: &mut Criterion) {
             .expect("nonempty");
         g.bench_function("rbbox_on_checked_intersection", |b| {
             b.iter(|| inter.upp_rbbox(black_box(&x_hat)))
+        });
+        // The exact bound alone (the emptiness check done once, as in scoring).
+        g.bench_function("exact_on_checked_intersection", |b| {
+            b.iter(|| inter.upp_exact(black_box(&x_hat)))
         });
         g.finish();
         // Median wall time per call, for the ratio table.

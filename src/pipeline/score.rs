@@ -349,6 +349,7 @@ pub fn score(
                                 BoundKind::UppBbox => set.upp_bbox(&x),
                                 BoundKind::UppMinball => set.upp_minball(&x),
                                 BoundKind::UppMaxdis => set.upp_maxdis(&x),
+                                BoundKind::UppExact => set.upp_exact(&x),
                             };
                             match out {
                                 Ok(BoundOutcome::Bound(v)) if v.is_finite() => Some(v),

@@ -74,6 +74,9 @@ pub enum BoundKind {
     UppMinball,
     /// Upp-MaxDis, eq. (26).
     UppMaxdis,
+    /// The exact worst-case error in 2-D (beyond the paper,
+    /// [`crate::estimators::bounds::exact`]).
+    UppExact,
 }
 
 impl BoundKind {
@@ -84,6 +87,7 @@ impl BoundKind {
             BoundKind::UppBbox => "upp_bbox",
             BoundKind::UppMinball => "upp_minball",
             BoundKind::UppMaxdis => "upp_maxdis",
+            BoundKind::UppExact => "upp_exact",
         }
     }
 }

@@ -14,6 +14,7 @@
 //! | [`upp_bbox`] | eq. (48)-(49) | exact bounding box of `B` from 4 SOCPs, farthest corner |
 //! | [`upp_minball`] | eq. (34)-(44) | S-lemma enclosing ball `(c, R)`: QP over the simplex (discs) or a 5x5 LMI SDP (with ellipses); `R + ||x_hat - c||` |
 //! | [`upp_maxdis`] | eq. (2), (25)-(26) | SDP relaxation of `max_{x in B} ||x - x_hat||^2` with a 3x3 PSD block; `sqrt(v_sdp)` |
+//! | [`upp_exact`] | beyond the paper | the exact `max_{x in B} ||x - x_hat||` in 2-D: vertices and stationary points of the boundary curves (quartics), plus a round-off allowance ([`exact`]) |
 //!
 //! The paper's diameter forms for feasible estimates (eq. (44) `2R`, eq. (49)
 //! and (54) box diagonals) are available from [`Ball::diameter`] and
@@ -40,9 +41,12 @@
 //! range (see `tests::report_empirical_orderings`).
 
 mod estimators;
+pub mod exact;
 mod region;
 mod solve;
 
+#[cfg(test)]
+mod exact_tests;
 #[cfg(test)]
 mod tests;
 
@@ -377,6 +381,14 @@ pub fn upp_bbox(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundE
 /// never smaller).
 pub fn upp_minball(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_minball(x))
+}
+
+/// `upp_exact` (beyond seed 003, [`exact`]): the exact worst-case error
+/// `max_{x in B} ||x - x_hat||` in 2-D, from the vertices of the set and the
+/// stationary points of the distance on its boundary curves, plus a
+/// documented round-off allowance. Includes the emptiness check (one SOCP).
+pub fn upp_exact(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+    with_intersection(regions, x_hat, |i, x| i.upp_exact(x))
 }
 
 /// Upp-MaxDis, seed 003 eq. (26): `sqrt(v_sdp)` of the SDP relaxation of

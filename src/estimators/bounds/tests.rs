@@ -266,16 +266,16 @@ fn degenerate_ellipses_segment_and_coincident_foci_are_bounded_correctly() {
 }
 
 /// A random instance whose true position is feasible by construction.
-struct Instance {
-    regions: Vec<Region>,
-    x_true: Vec2,
+pub(super) struct Instance {
+    pub(super) regions: Vec<Region>,
+    pub(super) x_true: Vec2,
     anchors: Vec<Vec2>,
     ranges: Vec<f64>,
 }
 
 /// Positive range errors: exponential (mean 1) plus, with prob. 0.2, a uniform
 /// NLOS bias in (0, 10), as in seed 003 Sec. 6.
-fn positive_error(rng: &mut SonarRng) -> f64 {
+pub(super) fn positive_error(rng: &mut SonarRng) -> f64 {
     let u: f64 = rng.random_range(1e-12..1.0);
     let mut e = -u.ln();
     if rng.random_range(0.0..1.0) < 0.2 {
@@ -284,7 +284,7 @@ fn positive_error(rng: &mut SonarRng) -> f64 {
     e
 }
 
-fn random_instance(rng: &mut SonarRng, n_discs: usize, n_ell: usize) -> Instance {
+pub(super) fn random_instance(rng: &mut SonarRng, n_discs: usize, n_ell: usize) -> Instance {
     let x_true = Vec2::new(rng.random_range(-40.0..40.0), rng.random_range(-40.0..40.0));
     let pt = |rng: &mut SonarRng| {
         Vec2::new(
@@ -316,7 +316,7 @@ fn random_instance(rng: &mut SonarRng, n_discs: usize, n_ell: usize) -> Instance
 }
 
 /// Estimates to bound: POCS (feasible), LLS (often infeasible), a perturbed truth.
-fn estimates(inst: &Instance, rng: &mut SonarRng) -> Vec<Vec2> {
+pub(super) fn estimates(inst: &Instance, rng: &mut SonarRng) -> Vec<Vec2> {
     let mut v = vec![];
     let p = pocs(
         &inst.regions,

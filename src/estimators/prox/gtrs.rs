@@ -478,16 +478,16 @@ fn newton_polish_from(e: &[f64; 5], t0: f64, v0: f64, d0: f64) -> f64 {
 /// A seed for a real root of the quartic: a real root (`im == 0`) or the real part of a
 /// complex pair with imaginary part `im > 0`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct Seed {
-    re: f64,
-    im: f64,
+pub(crate) struct Seed {
+    pub(crate) re: f64,
+    pub(crate) im: f64,
 }
 
 /// Seeds for the real roots of the quartic `sum e[i] t^i` (`e[4] != 0`) by Ferrari's
 /// method: the real roots, and the real part of each complex pair (so that a near-double
 /// real root perturbed into a complex pair still yields a seed). Returns the seeds and
 /// their number (2 to 4).
-fn quartic_seeds(e: &[f64; 5]) -> ([Seed; 4], usize) {
+pub(crate) fn quartic_seeds(e: &[f64; 5]) -> ([Seed; 4], usize) {
     let inv = 1.0 / e[4];
     let a = e[3] * inv;
     let b = e[2] * inv;
