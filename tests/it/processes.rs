@@ -309,6 +309,23 @@ fn two_concurrent_runs_on_one_host_both_succeed() {
     }
 }
 
+/// Start a long processes run of the spiral (3000 iterations per sample,
+/// quiet, into `out`, with the `extra` flags), to be signalled while it runs.
+fn spawn_long_spiral(out: &std::path::Path, extra: &[&str]) -> std::process::Child {
+    let sc = scenario("mourya2017-spiral.toml");
+    let mut args = vec![
+        "run",
+        sc.to_str().unwrap(),
+        "--iterations-per-sample",
+        "3000",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    spawn_sonarnet(&args)
+}
+
 /// Wait until `pid` has `n` children (the node processes), or panic.
 fn wait_for_children(pid: u32, n: usize) -> Vec<u32> {
     let deadline = Instant::now() + Duration::from_secs(60);
@@ -350,20 +367,7 @@ fn a_stopped_node_ends_a_logical_run_with_an_error_naming_it() {
     let tmp = TempDir::new("stop-logical");
     for mode in ["async", "sync"] {
         let out = tmp.path().join(mode);
-        let sc = scenario("mourya2017-spiral.toml");
-        let child = spawn_sonarnet(&[
-            "run",
-            sc.to_str().unwrap(),
-            "--mode",
-            mode,
-            "--iterations-per-sample",
-            "3000",
-            "--stall-timeout",
-            "1",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let child = spawn_long_spiral(&out, &["--mode", mode, "--stall-timeout", "1"]);
         let nodes = wait_for_children(child.id(), 6);
         std::thread::sleep(Duration::from_millis(800));
         let victim = node_pid(&nodes, 3);
@@ -407,16 +411,7 @@ fn launch_run_id(pid: u32) -> String {
 fn a_killed_coordinator_leaves_no_process_and_no_file_behind() {
     let tmp = TempDir::new("kill-coordinator");
     let out = tmp.path().join("out");
-    let sc = scenario("mourya2017-spiral.toml");
-    let child = spawn_sonarnet(&[
-        "run",
-        sc.to_str().unwrap(),
-        "--iterations-per-sample",
-        "3000",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let child = spawn_long_spiral(&out, &[]);
     let nodes = wait_for_children(child.id(), 6);
     let run_id = launch_run_id(nodes[0]);
     std::thread::sleep(Duration::from_millis(800));
@@ -503,16 +498,7 @@ fn a_second_user_runs_in_a_root_of_their_own_and_refuses_a_foreign_one() {
 fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
     let tmp = TempDir::new("sigint");
     let out = tmp.path().join("out");
-    let sc = scenario("mourya2017-spiral.toml");
-    let child = spawn_sonarnet(&[
-        "run",
-        sc.to_str().unwrap(),
-        "--iterations-per-sample",
-        "3000",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let child = spawn_long_spiral(&out, &[]);
     let pid = child.id();
     wait_for_children(pid, 6);
     std::thread::sleep(Duration::from_millis(1500));
@@ -536,16 +522,7 @@ fn sigint_stops_every_node_writes_partial_results_and_exits_nonzero() {
 fn a_killed_node_ends_a_logical_run_with_a_clear_error_naming_it() {
     let tmp = TempDir::new("kill-logical");
     let out = tmp.path().join("out");
-    let sc = scenario("mourya2017-spiral.toml");
-    let child = spawn_sonarnet(&[
-        "run",
-        sc.to_str().unwrap(),
-        "--iterations-per-sample",
-        "3000",
-        "--quiet",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let child = spawn_long_spiral(&out, &[]);
     let pid = child.id();
     let nodes = wait_for_children(pid, 6);
     std::thread::sleep(Duration::from_millis(1000));
