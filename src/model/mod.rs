@@ -1,9 +1,11 @@
 //! The world being observed, as plain data and pure functions: positions and
 //! the gossip graph, what a receiver measures and how noisy it is, how the
-//! target moves, the seeded random streams, measurement synthesis (the
+//! target moves, the acoustic channel between the nodes, the seeded random
+//! streams, measurement synthesis (the
 //! [`synth::Realization`] of a run) and the track metrics. The lowest layer:
 //! it imports nothing else of the crate.
 
+pub mod channel;
 pub mod error;
 pub mod geometry;
 pub mod graph;

@@ -31,9 +31,13 @@ pub enum Stream {
     Links = 6,
     /// Anything else a module needs; give it a distinct index.
     Aux = 7,
+    /// The fate of one frame on the acoustic channel (index from the link
+    /// and the frame's number on it, [`crate::model::channel`]).
+    Channel = 8,
 }
 
-fn splitmix64(mut z: u64) -> u64 {
+/// SplitMix64's output function: a bijective mix of 64 bits.
+pub fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

@@ -1,0 +1,478 @@
+//! The underwater acoustic channel between the nodes (issue 16), I/O-free:
+//! how long a frame takes from one node to another, and whether it arrives.
+//!
+//! This module is the one implementation of the channel model; the
+//! discrete-event engine and the processes engine are to call it (neither does
+//! yet: the `[channel]` table and the engines come next, see issue 16's notes).
+//!
+//! # The model
+//! For a frame of `bits` bits sent by node `i` to node `j` at emulated time `t`:
+//! * **transmission time** `bits / bit_rate`; `bits = header_bits + fields x
+//!   value_bits` ([`AcousticCfg::frame_bits`]). A node's modem sends one frame
+//!   at a time: a frame queued while the modem is busy starts when it is free;
+//! * **propagation delay** `||r_i - r_j|| / sound_speed + extra_delay_s`;
+//! * the frame **arrives** at `j` over `[t0 + delay, t0 + delay + bits / bit_rate)`,
+//!   `t0` the start of its transmission;
+//! * its **fate** is judged when its arrival ends, in this order:
+//!   1. `blocked`: the link is blocked ([`LinkOverride::blocked`]);
+//!   2. `half_duplex` (if on): `j` was transmitting during the arrival;
+//!   3. `collision` (if on): another frame arrived at `j` during the arrival.
+//!      Every frame a node transmits reaches every node it has a link to
+//!      (acoustic modems broadcast physically), addressed or not, so a frame
+//!      overheard by `j` collides with one addressed to `j`. Both are lost;
+//!   4. `loss`: an independent draw against the link's loss probability;
+//!   5. else `delivered`.
+//!
+//! # Loss
+//! * `none`; `bernoulli { p }`; a link's `loss_p` overrides either;
+//! * `range`: Thorp's absorption (Thorp 1967, in the form of Stojanovic 2007,
+//!   "On the relationship between capacity and distance in an underwater
+//!   acoustic communication channel", eq. 3)
+//!   `a(f) = 0.11 f^2 / (1 + f^2) + 44 f^2 / (4100 + f^2) + 2.75e-4 f^2 + 0.003`
+//!   dB/km (f in kHz); transmission loss `TL = k 10 log10(d) + (d / 1000) a(f)`
+//!   dB (d in m, k the spreading factor, Stojanovic eq. 1-2); the SNR
+//!   `SL - TL - (NL + 10 log10 B)` (B in Hz); the BPSK bit error rate
+//!   `1/2 erfc(sqrt(SNR B / R))` (SNR linear, R the bit rate); and the frame
+//!   success `(1 - BER)^bits`.
+//!
+//! # Seeding
+//! The fate draw of a frame comes from the run seed, through the stream
+//! [`Stream::Channel`] keyed by the link and the frame's number on that link
+//! ([`fate_draw`]), so the same frame has the same fate wherever it is decided,
+//! whatever else happens meanwhile.
+
+use crate::model::geometry::Vec2;
+use crate::model::rng::{Stream, derive_seed, splitmix64};
+use serde::{Deserialize, Serialize};
+
+/// Thorp's absorption coefficient `a(f)` in dB/km, `f` in kHz.
+pub fn thorp_db_per_km(f_khz: f64) -> f64 {
+    let f2 = f_khz * f_khz;
+    0.11 * f2 / (1.0 + f2) + 44.0 * f2 / (4100.0 + f2) + 2.75e-4 * f2 + 0.003
+}
+
+/// Transmission loss `k 10 log10(d) + (d / 1000) a(f)` in dB over `d` metres.
+pub fn transmission_loss_db(d_m: f64, f_khz: f64, spreading: f64) -> f64 {
+    spreading * 10.0 * d_m.max(1.0).log10() + d_m / 1000.0 * thorp_db_per_km(f_khz)
+}
+
+/// The BPSK bit error rate `1/2 erfc(sqrt(snr B / R))` at a linear SNR.
+pub fn bpsk_ber(snr_linear: f64, bandwidth_hz: f64, bit_rate: f64) -> f64 {
+    0.5 * libm::erfc((snr_linear.max(0.0) * bandwidth_hz / bit_rate).sqrt())
+}
+
+/// What decides a frame's random loss.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LossCfg {
+    /// No random loss.
+    None,
+    /// Every frame is lost with probability `p` in [0, 1].
+    Bernoulli {
+        /// Loss probability.
+        p: f64,
+    },
+    /// Loss from the link's length (module docs).
+    Range {
+        /// Carrier frequency, kHz, in (0, 1000].
+        #[serde(default = "default_carrier")]
+        carrier_khz: f64,
+        /// Bandwidth, kHz, in (0, 1000].
+        #[serde(default = "default_bandwidth")]
+        bandwidth_khz: f64,
+        /// Source level, dB re 1 uPa at 1 m, in [0, 300].
+        #[serde(default = "default_source_level")]
+        source_level_db: f64,
+        /// Noise spectral level, dB re 1 uPa^2/Hz, in [-100, 200].
+        #[serde(default = "default_noise_level")]
+        noise_level_db: f64,
+        /// Spreading factor `k`, in [1, 2] (1 cylindrical, 2 spherical).
+        #[serde(default = "default_spreading")]
+        spreading: f64,
+    },
+}
+
+fn default_carrier() -> f64 {
+    12.0
+}
+fn default_bandwidth() -> f64 {
+    4.0
+}
+fn default_source_level() -> f64 {
+    170.0
+}
+fn default_noise_level() -> f64 {
+    50.0
+}
+fn default_spreading() -> f64 {
+    1.5
+}
+
+/// Changes to one link, in both directions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkOverride {
+    /// One end (node id).
+    pub a: u32,
+    /// The other end.
+    pub b: u32,
+    /// Loss probability of the link, in [0, 1], instead of the loss model.
+    #[serde(default)]
+    pub loss_p: Option<f64>,
+    /// Extra one-way delay, seconds, in [0, 3600].
+    #[serde(default)]
+    pub extra_delay_s: f64,
+    /// Nothing gets through.
+    #[serde(default)]
+    pub blocked: bool,
+}
+
+/// The acoustic channel's parameters; the ranges are checked by
+/// [`AcousticCfg::validate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AcousticCfg {
+    /// Speed of sound, m/s, in [1, 1e5].
+    #[serde(default = "default_sound_speed")]
+    pub sound_speed: f64,
+    /// Modem bit rate, bit/s, in [1, 1e9].
+    #[serde(default = "default_bit_rate")]
+    pub bit_rate: f64,
+    /// Bits of every frame's header, in [0, 1e6].
+    #[serde(default = "default_header_bits")]
+    pub header_bits: u32,
+    /// Bits per value carried, in [1, 64] (32 models a modem that sends float32).
+    #[serde(default = "default_value_bits")]
+    pub value_bits: u32,
+    /// A frame arriving while its receiver transmits is lost.
+    #[serde(default = "default_true")]
+    pub half_duplex: bool,
+    /// Frames overlapping at a receiver are all lost.
+    #[serde(default = "default_true")]
+    pub collisions: bool,
+    /// Random loss.
+    #[serde(default = "default_loss")]
+    pub loss: LossCfg,
+    /// Per-link overrides.
+    #[serde(default)]
+    pub links: Vec<LinkOverride>,
+}
+
+fn default_sound_speed() -> f64 {
+    1500.0
+}
+fn default_bit_rate() -> f64 {
+    1000.0
+}
+fn default_header_bits() -> u32 {
+    48
+}
+fn default_value_bits() -> u32 {
+    64
+}
+fn default_true() -> bool {
+    true
+}
+fn default_loss() -> LossCfg {
+    LossCfg::None
+}
+
+impl Default for AcousticCfg {
+    fn default() -> Self {
+        AcousticCfg {
+            sound_speed: default_sound_speed(),
+            bit_rate: default_bit_rate(),
+            header_bits: default_header_bits(),
+            value_bits: default_value_bits(),
+            half_duplex: true,
+            collisions: true,
+            loss: LossCfg::None,
+            links: Vec::new(),
+        }
+    }
+}
+
+/// `Err((key, reason))` unless `lo <= v <= hi` (and finite).
+fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err((key.into(), format!("{v} is outside [{lo}, {hi}]")))
+    }
+}
+
+impl AcousticCfg {
+    /// Checks every number against its documented range, and the links
+    /// against the node count `n`: `Err((key, reason))` names the key.
+    pub fn validate(&self, n: usize) -> Result<(), (String, String)> {
+        in_range("channel.sound_speed", self.sound_speed, 1.0, 1e5)?;
+        in_range("channel.bit_rate", self.bit_rate, 1.0, 1e9)?;
+        in_range("channel.header_bits", self.header_bits as f64, 0.0, 1e6)?;
+        in_range("channel.value_bits", self.value_bits as f64, 1.0, 64.0)?;
+        match self.loss {
+            LossCfg::None => {}
+            LossCfg::Bernoulli { p } => in_range("channel.loss.p", p, 0.0, 1.0)?,
+            LossCfg::Range {
+                carrier_khz,
+                bandwidth_khz,
+                source_level_db,
+                noise_level_db,
+                spreading,
+            } => {
+                in_range("channel.loss.carrier_khz", carrier_khz, 1e-3, 1000.0)?;
+                in_range("channel.loss.bandwidth_khz", bandwidth_khz, 1e-3, 1000.0)?;
+                in_range("channel.loss.source_level_db", source_level_db, 0.0, 300.0)?;
+                in_range("channel.loss.noise_level_db", noise_level_db, -100.0, 200.0)?;
+                in_range("channel.loss.spreading", spreading, 1.0, 2.0)?;
+            }
+        }
+        for (k, l) in self.links.iter().enumerate() {
+            let key = |f: &str| format!("channel.links[{k}].{f}");
+            for (f, v) in [("a", l.a), ("b", l.b)] {
+                if v as usize >= n {
+                    return Err((key(f), format!("node {v} does not exist ({n} nodes)")));
+                }
+            }
+            if l.a == l.b {
+                return Err((key("b"), "a link joins two different nodes".into()));
+            }
+            if let Some(p) = l.loss_p {
+                in_range(&key("loss_p"), p, 0.0, 1.0)?;
+            }
+            in_range(&key("extra_delay_s"), l.extra_delay_s, 0.0, 3600.0)?;
+        }
+        Ok(())
+    }
+
+    /// Bits of a frame carrying `fields` values.
+    pub fn frame_bits(&self, fields: u32) -> u64 {
+        u64::from(self.header_bits) + u64::from(fields) * u64::from(self.value_bits)
+    }
+
+    /// Seconds to send `bits` bits.
+    pub fn transmission_s(&self, bits: u64) -> f64 {
+        bits as f64 / self.bit_rate
+    }
+
+    /// The override of the link `i - j`, if any (the last one given wins).
+    fn link(&self, i: u32, j: u32) -> Option<&LinkOverride> {
+        self.links
+            .iter()
+            .rev()
+            .find(|l| (l.a, l.b) == (i, j) || (l.a, l.b) == (j, i))
+    }
+
+    /// Probability that a frame of `bits` bits over `d_m` metres is lost at
+    /// random (before half-duplex and collisions), on the link `i - j`.
+    pub fn loss_probability(&self, i: u32, j: u32, d_m: f64, bits: u64) -> f64 {
+        if let Some(p) = self.link(i, j).and_then(|l| l.loss_p) {
+            return p;
+        }
+        match self.loss {
+            LossCfg::None => 0.0,
+            LossCfg::Bernoulli { p } => p,
+            LossCfg::Range {
+                carrier_khz,
+                bandwidth_khz,
+                source_level_db,
+                noise_level_db,
+                spreading,
+            } => {
+                let b_hz = bandwidth_khz * 1e3;
+                let tl = transmission_loss_db(d_m, carrier_khz, spreading);
+                let snr_db = source_level_db - tl - (noise_level_db + 10.0 * b_hz.log10());
+                let ber = bpsk_ber(10f64.powf(snr_db / 10.0), b_hz, self.bit_rate);
+                1.0 - (1.0 - ber).powf(bits as f64)
+            }
+        }
+    }
+}
+
+/// The uniform draw in `[0, 1)` that decides the random loss of frame number
+/// `k` on the directed link `from -> to` of a run with seed `seed`.
+pub fn fate_draw(seed: u64, from: u32, to: u32, k: u64) -> f64 {
+    let key = splitmix64((u64::from(from) << 32) | u64::from(to)) ^ k;
+    (derive_seed(seed, Stream::Channel, key) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// Why a frame was lost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reason {
+    /// The random loss of the link.
+    Loss,
+    /// Another frame arrived at the receiver at the same time.
+    Collision,
+    /// The receiver was transmitting.
+    HalfDuplex,
+    /// The link is blocked.
+    Blocked,
+}
+
+/// What became of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fate {
+    /// It arrived whole.
+    Delivered,
+    /// It was lost, and why.
+    Lost(Reason),
+}
+
+/// A frame on the medium.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// Its id on the medium (0, 1, ... in the order sent).
+    pub id: u64,
+    /// Sender.
+    pub from: u32,
+    /// Addressee.
+    pub to: u32,
+    /// Its number on the link `from -> to` (0, 1, ...).
+    pub number: u64,
+    /// Bits.
+    pub bits: u64,
+    /// When the sender asked to send it.
+    pub t_send: f64,
+    /// When its transmission started (the modem was free).
+    pub t_start: f64,
+    /// When its arrival at the addressee starts.
+    pub arrive_start: f64,
+    /// When its arrival ends: the time its fate is judged ([`Medium::judge`]).
+    pub arrive_end: f64,
+}
+
+/// The shared medium of one run: the nodes' positions and links, every
+/// transmission and every arrival so far. I/O-free: times are passed in.
+#[derive(Debug, Clone)]
+pub struct Medium {
+    cfg: AcousticCfg,
+    seed: u64,
+    pos: Vec<Vec2>,
+    /// `hears[j]`: the nodes whose transmissions reach `j`.
+    hears: Vec<Vec<u32>>,
+    /// Per node: when its modem is free again.
+    free_at: Vec<f64>,
+    /// Per node: its transmissions `[start, end)`.
+    sending: Vec<Vec<(f64, f64)>>,
+    /// Per node: the arrivals at it `[start, end)` and the frame's id.
+    arriving: Vec<Vec<(f64, f64, u64)>>,
+    /// Frames sent so far (the next frame's id).
+    sent: u64,
+    /// Frames sent per directed link.
+    numbers: std::collections::HashMap<(u32, u32), u64>,
+}
+
+impl Medium {
+    /// A medium for nodes at `pos`, where node `i` reaches the nodes
+    /// `links[i]` (the gossip graph), with a validated `cfg` and the run seed.
+    pub fn new(cfg: AcousticCfg, seed: u64, pos: Vec<Vec2>, links: &[Vec<u32>]) -> Medium {
+        let n = pos.len();
+        let mut hears = vec![Vec::new(); n];
+        for (i, out) in links.iter().enumerate() {
+            for &j in out {
+                if (j as usize) < n && !hears[j as usize].contains(&(i as u32)) {
+                    hears[j as usize].push(i as u32);
+                }
+            }
+        }
+        Medium {
+            cfg,
+            seed,
+            hears,
+            free_at: vec![f64::NEG_INFINITY; n],
+            sending: vec![Vec::new(); n],
+            arriving: vec![Vec::new(); n],
+            sent: 0,
+            pos,
+            numbers: std::collections::HashMap::new(),
+        }
+    }
+
+    /// One-way delay of the link `i -> j`, seconds.
+    pub fn delay(&self, i: u32, j: u32) -> f64 {
+        let d = (self.pos[i as usize] - self.pos[j as usize]).norm();
+        d / self.cfg.sound_speed + self.cfg.link(i, j).map_or(0.0, |l| l.extra_delay_s)
+    }
+
+    /// Node `from` sends a frame of `bits` bits to `to` at time `t`: its
+    /// modem transmits it when free, every node that hears `from` receives
+    /// it, and its fate is judged at [`Frame::arrive_end`] by [`Medium::judge`].
+    pub fn send(&mut self, t: f64, from: u32, to: u32, bits: u64) -> Frame {
+        let fi = from as usize;
+        let id = self.sent;
+        self.sent += 1;
+        let start = t.max(self.free_at[fi]);
+        let air = self.cfg.transmission_s(bits);
+        let end = start + air;
+        self.free_at[fi] = end;
+        self.sending[fi].push((start, end));
+        let listeners: Vec<u32> = (0..self.pos.len() as u32)
+            .filter(|&j| j == to || self.hears[j as usize].contains(&from))
+            .filter(|&j| j != from)
+            .collect();
+        for j in listeners {
+            let d = self.delay(from, j);
+            self.arriving[j as usize].push((start + d, end + d, id));
+        }
+        let number = self.numbers.entry((from, to)).or_insert(0);
+        let k = *number;
+        *number += 1;
+        let d = self.delay(from, to);
+        Frame {
+            id,
+            from,
+            to,
+            number: k,
+            bits,
+            t_send: t,
+            t_start: start,
+            arrive_start: start + d,
+            arrive_end: end + d,
+        }
+    }
+
+    /// The fate of `f`, judged at `f.arrive_end` (every transmission that
+    /// can overlap its arrival has been sent by then, when sends are made in
+    /// time order).
+    pub fn judge(&self, f: &Frame) -> Fate {
+        if self.cfg.link(f.from, f.to).is_some_and(|l| l.blocked) {
+            return Fate::Lost(Reason::Blocked);
+        }
+        let (a, b) = (f.arrive_start, f.arrive_end);
+        let overlaps = |s: f64, e: f64| s < b && a < e;
+        let to = f.to as usize;
+        if self.cfg.half_duplex && self.sending[to].iter().any(|&(s, e)| overlaps(s, e)) {
+            return Fate::Lost(Reason::HalfDuplex);
+        }
+        if self.cfg.collisions {
+            let others = self.arriving[to]
+                .iter()
+                .any(|&(s, e, id)| id != f.id && overlaps(s, e));
+            if others {
+                return Fate::Lost(Reason::Collision);
+            }
+        }
+        let d = (self.pos[f.from as usize] - self.pos[to]).norm();
+        let p = self.cfg.loss_probability(f.from, f.to, d, f.bits);
+        if fate_draw(self.seed, f.from, f.to, f.number) < p {
+            return Fate::Lost(Reason::Loss);
+        }
+        Fate::Delivered
+    }
+
+    /// Forgets transmissions and arrivals that ended before `t` (nothing
+    /// judged at `t` or later can overlap them), so that a long run keeps
+    /// bounded memory.
+    pub fn forget_before(&mut self, t: f64) {
+        for v in &mut self.sending {
+            v.retain(|&(_, e)| e >= t);
+        }
+        for v in &mut self.arriving {
+            v.retain(|&(_, e, _)| e >= t);
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "channel_tests.rs"]
+mod tests;

@@ -1,0 +1,292 @@
+//! Unit tests of the acoustic channel on hand-built timelines and against
+//! closed forms.
+
+use super::*;
+use approx::assert_relative_eq;
+
+/// Nodes on the x axis at `xs` metres, each linked to the others.
+fn line(cfg: AcousticCfg, xs: &[f64]) -> Medium {
+    let n = xs.len() as u32;
+    let links: Vec<Vec<u32>> = (0..n)
+        .map(|i| (0..n).filter(|&j| j != i).collect())
+        .collect();
+    Medium::new(
+        cfg,
+        7,
+        xs.iter().map(|&x| Vec2::new(x, 0.0)).collect(),
+        &links,
+    )
+}
+
+/// Ideal but for the rule under test.
+fn quiet() -> AcousticCfg {
+    AcousticCfg {
+        half_duplex: false,
+        collisions: false,
+        ..AcousticCfg::default()
+    }
+}
+
+#[test]
+fn thorp_absorption_matches_the_formula_at_12_khz_and_grows_with_frequency() {
+    // 0.11 * 144/145 + 44 * 144/4244 + 2.75e-4 * 144 + 0.003.
+    let want = 0.11 * 144.0 / 145.0 + 44.0 * 144.0 / 4244.0 + 0.0396 + 0.003;
+    assert_relative_eq!(thorp_db_per_km(12.0), want, max_relative = 1e-14);
+    assert_relative_eq!(thorp_db_per_km(12.0), 1.644775, max_relative = 1e-5);
+    assert!(thorp_db_per_km(1.0) < thorp_db_per_km(10.0));
+    // 1 km, spherical spreading: 60 dB plus one km of absorption.
+    assert_relative_eq!(
+        transmission_loss_db(1000.0, 12.0, 2.0),
+        60.0 + thorp_db_per_km(12.0),
+        max_relative = 1e-14
+    );
+}
+
+#[test]
+fn the_bpsk_bit_error_rate_is_half_at_no_snr_and_falls_with_it() {
+    assert_relative_eq!(bpsk_ber(0.0, 4000.0, 1000.0), 0.5, max_relative = 1e-15);
+    // Eb/N0 = SNR B / R = 4: 1/2 erfc(2) = 2.339e-3.
+    assert_relative_eq!(
+        bpsk_ber(1.0, 4000.0, 1000.0),
+        0.5 * 4.677_734_981_047_266e-3,
+        max_relative = 1e-12
+    );
+}
+
+#[test]
+fn a_frame_arrives_after_the_distance_over_the_sound_speed_plus_its_own_length() {
+    let cfg = quiet();
+    let bits = cfg.frame_bits(4);
+    assert_eq!(bits, 48 + 4 * 64);
+    let mut m = line(cfg, &[0.0, 1500.0, 3300.0]);
+    let f = m.send(2.0, 0, 2, bits);
+    assert_relative_eq!(f.arrive_start, 2.0 + 3300.0 / 1500.0, max_relative = 1e-15);
+    assert_relative_eq!(
+        f.arrive_end,
+        2.0 + 3300.0 / 1500.0 + bits as f64 / 1000.0,
+        max_relative = 1e-15
+    );
+    assert_eq!(m.judge(&f), Fate::Delivered);
+    // The modem sends one frame at a time: the next one waits for it.
+    let g = m.send(2.0, 0, 1, bits);
+    assert_relative_eq!(g.t_start, 2.0 + bits as f64 / 1000.0, max_relative = 1e-15);
+    assert_relative_eq!(g.arrive_start, g.t_start + 1.0, max_relative = 1e-15);
+}
+
+#[test]
+fn a_frame_that_arrives_while_its_receiver_transmits_is_lost_to_half_duplex() {
+    let cfg = AcousticCfg {
+        half_duplex: true,
+        ..quiet()
+    };
+    let mut m = line(cfg.clone(), &[0.0, 1500.0]);
+    // 1 -> 0 arrives over [1, 1.1); node 0 transmits over [1.05, 1.15).
+    let a = m.send(0.0, 1, 0, 100);
+    let b = m.send(1.05, 0, 1, 100);
+    assert_eq!(m.judge(&a), Fate::Lost(Reason::HalfDuplex));
+    // 0 -> 1 arrives over [2.05, 2.15), after node 1 finished at 0.1.
+    assert_eq!(m.judge(&b), Fate::Delivered);
+    // Just after the arrival ends there is no overlap.
+    let mut m = line(cfg, &[0.0, 1500.0]);
+    let a = m.send(0.0, 1, 0, 100);
+    m.send(1.1, 0, 1, 100);
+    assert_eq!(m.judge(&a), Fate::Delivered);
+}
+
+#[test]
+fn frames_that_overlap_at_a_receiver_are_both_lost_to_collision() {
+    let cfg = AcousticCfg {
+        collisions: true,
+        ..quiet()
+    };
+    // Nodes at 0, 1500 and 3000 m: 0 and 2 are 1 s from node 1.
+    let mut m = line(cfg.clone(), &[0.0, 1500.0, 3000.0]);
+    let a = m.send(0.0, 0, 1, 100);
+    let b = m.send(0.05, 2, 1, 100);
+    assert_eq!(m.judge(&a), Fate::Lost(Reason::Collision));
+    assert_eq!(m.judge(&b), Fate::Lost(Reason::Collision));
+    // 0.1 s apart they do not overlap.
+    let mut m = line(cfg.clone(), &[0.0, 1500.0, 3000.0]);
+    let a = m.send(0.0, 0, 1, 100);
+    let b = m.send(0.1, 2, 1, 100);
+    assert_eq!(
+        (m.judge(&a), m.judge(&b)),
+        (Fate::Delivered, Fate::Delivered)
+    );
+    // A frame overheard by node 1 (2 -> 0 passes node 1) collides too.
+    let mut m = line(cfg, &[0.0, 1500.0, 3000.0]);
+    let a = m.send(0.0, 0, 1, 100);
+    m.send(0.05, 2, 0, 100);
+    assert_eq!(m.judge(&a), Fate::Lost(Reason::Collision));
+}
+
+#[test]
+fn a_blocked_link_loses_everything_and_a_link_delay_adds_up() {
+    let cfg = AcousticCfg {
+        links: vec![
+            LinkOverride {
+                a: 1,
+                b: 0,
+                loss_p: None,
+                extra_delay_s: 0.0,
+                blocked: true,
+            },
+            LinkOverride {
+                a: 1,
+                b: 2,
+                loss_p: None,
+                extra_delay_s: 0.25,
+                blocked: false,
+            },
+        ],
+        ..quiet()
+    };
+    let mut m = line(cfg, &[0.0, 1500.0, 3000.0]);
+    let f = m.send(0.0, 0, 1, 100);
+    assert_eq!(m.judge(&f), Fate::Lost(Reason::Blocked));
+    let g = m.send(0.0, 2, 1, 100);
+    assert_relative_eq!(g.arrive_start, 1.25, max_relative = 1e-15);
+    assert_eq!(m.judge(&g), Fate::Delivered);
+}
+
+#[test]
+fn bernoulli_loss_lies_within_the_999_per_mille_binomial_interval() {
+    let p = 0.2;
+    let cfg = AcousticCfg {
+        loss: LossCfg::Bernoulli { p },
+        ..quiet()
+    };
+    let mut m = line(cfg, &[0.0, 1500.0]);
+    let n = 20_000;
+    let lost = (0..n)
+        .filter(|k| {
+            let f = m.send(*k as f64, 0, 1, 100);
+            m.judge(&f) == Fate::Lost(Reason::Loss)
+        })
+        .count();
+    // Normal approximation: z = 3.29 for 99.9 %.
+    let sd = (p * (1.0 - p) / n as f64).sqrt();
+    let rate = lost as f64 / n as f64;
+    assert!(
+        (rate - p).abs() < 3.29 * sd,
+        "{rate} vs {p} +- {}",
+        3.29 * sd
+    );
+}
+
+#[test]
+fn a_frame_fate_depends_only_on_the_seed_the_link_and_its_number() {
+    let a = fate_draw(5, 0, 1, 17);
+    assert_eq!(a.to_bits(), fate_draw(5, 0, 1, 17).to_bits());
+    assert!((0.0..1.0).contains(&a));
+    for other in [
+        fate_draw(6, 0, 1, 17),
+        fate_draw(5, 1, 0, 17),
+        fate_draw(5, 0, 1, 18),
+    ] {
+        assert_ne!(a.to_bits(), other.to_bits());
+    }
+    // Other traffic does not change a frame's fate.
+    let cfg = AcousticCfg {
+        loss: LossCfg::Bernoulli { p: 0.5 },
+        ..quiet()
+    };
+    let mut m1 = line(cfg.clone(), &[0.0, 1500.0, 3000.0]);
+    let mut m2 = line(cfg, &[0.0, 1500.0, 3000.0]);
+    let fates1: Vec<Fate> = (0..50)
+        .map(|k| {
+            let f = m1.send(k as f64, 0, 1, 100);
+            m1.judge(&f)
+        })
+        .collect();
+    let fates2: Vec<Fate> = (0..50)
+        .map(|k| {
+            m2.send(k as f64, 2, 1, 100);
+            let f = m2.send(k as f64, 0, 1, 100);
+            m2.judge(&f)
+        })
+        .collect();
+    assert_eq!(fates1, fates2);
+}
+
+#[test]
+fn range_loss_grows_with_the_link_length() {
+    let cfg = AcousticCfg {
+        loss: LossCfg::Range {
+            carrier_khz: 12.0,
+            bandwidth_khz: 4.0,
+            source_level_db: 170.0,
+            noise_level_db: 50.0,
+            spreading: 1.5,
+        },
+        ..quiet()
+    };
+    let bits = cfg.frame_bits(4);
+    let p = |d: f64| cfg.loss_probability(0, 1, d, bits);
+    assert!(p(100.0) < 1e-12, "{}", p(100.0));
+    assert!(p(50_000.0) > 0.999, "{}", p(50_000.0));
+    let mut last = 0.0;
+    for d in [1000.0, 2000.0, 4000.0, 8000.0, 12000.0, 16000.0] {
+        assert!(p(d) >= last, "not monotone at {d}");
+        last = p(d);
+    }
+}
+
+#[test]
+fn every_number_is_checked_against_its_range_naming_the_key() {
+    let bad = |cfg: AcousticCfg| cfg.validate(3).unwrap_err();
+    assert!(AcousticCfg::default().validate(3).is_ok());
+    let e = bad(AcousticCfg {
+        sound_speed: 0.0,
+        ..AcousticCfg::default()
+    });
+    assert_eq!(e.0, "channel.sound_speed");
+    let e = bad(AcousticCfg {
+        loss: LossCfg::Bernoulli { p: 1.5 },
+        ..AcousticCfg::default()
+    });
+    assert_eq!(e.0, "channel.loss.p");
+    let link = LinkOverride {
+        a: 0,
+        b: 3,
+        loss_p: None,
+        extra_delay_s: 0.0,
+        blocked: false,
+    };
+    let e = bad(AcousticCfg {
+        links: vec![link],
+        ..AcousticCfg::default()
+    });
+    assert_eq!(e.0, "channel.links[0].b");
+    assert!(e.1.contains("node 3 does not exist"), "{}", e.1);
+    let e = bad(AcousticCfg {
+        bit_rate: f64::NAN,
+        ..AcousticCfg::default()
+    });
+    assert_eq!(e.0, "channel.bit_rate");
+    // The TOML form, with its defaults and deny_unknown_fields.
+    let cfg: AcousticCfg =
+        toml::from_str("bit_rate = 500.0\nloss = { model = \"bernoulli\", p = 0.2 }\n").unwrap();
+    assert_eq!(cfg.loss, LossCfg::Bernoulli { p: 0.2 });
+    assert_relative_eq!(cfg.sound_speed, 1500.0);
+    assert!(toml::from_str::<AcousticCfg>("bitrate = 500.0\n").is_err());
+}
+
+#[test]
+fn forgetting_the_past_does_not_change_a_later_judgement() {
+    let cfg = AcousticCfg::default();
+    let mut a = line(cfg.clone(), &[0.0, 1500.0, 3000.0]);
+    let mut b = line(cfg, &[0.0, 1500.0, 3000.0]);
+    let mut fates = (Vec::new(), Vec::new());
+    for k in 0..40 {
+        let t = k as f64 * 0.13;
+        let (from, to) = ((k % 3) as u32, ((k + 1) % 3) as u32);
+        let fa = a.send(t, from, to, 200);
+        let fb = b.send(t, from, to, 200);
+        b.forget_before(t - 5.0);
+        fates.0.push(a.judge(&fa));
+        fates.1.push(b.judge(&fb));
+    }
+    assert_eq!(fates.0, fates.1);
+    assert!(fates.0.iter().any(|f| *f != Fate::Delivered));
+}
