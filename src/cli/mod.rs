@@ -381,11 +381,11 @@ fn run_single(
     }
     if args.clock() == Clock::Realtime {
         let cli = std::path::Path::new("<command line>");
-        if engine != EngineKind::Processes || sc.algorithm.mode != Mode::Async {
+        if engine == EngineKind::Threads || sc.algorithm.mode != Mode::Async {
             return Err(crate::model::error::InputError::at(
                 cli,
                 "--clock",
-                "realtime clocks need --engine processes and async mode",
+                "realtime clocks need async mode and --engine processes (wall time) or inprocess (virtual time)",
             )
             .into());
         }

@@ -6,8 +6,9 @@
 //! nodes, flushes, timers to set, progress, and finally the run's result. It
 //! never touches a transport, a process or a clock: the time of every event is
 //! passed in, so the same coordinator runs under a wall clock (node
-//! processes) and could run under a virtual one. [`drive`](super::drive) is its
-//! driver over any [`Network`](super::Network).
+//! processes; [`drive`](super::drive) is its driver over any
+//! [`Network`](super::Network)) and under a virtual one (the discrete-event
+//! engine, [`des`](super::des)).
 //!
 //! It covers every clock:
 //! * **logical, sync**: per sample, the node's measurements and its rounds

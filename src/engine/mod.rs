@@ -6,11 +6,13 @@
 //! ([`inprocess::InProcess`]) implements [`Network`] with the
 //! [`NodeCore`](crate::protocol::NodeCore)s in one thread, the threads engine
 //! ([`threads`]) with node threads over the in-memory transport, and the
-//! multi-process engine ([`processes`]) with node processes over iceoryx2. All
-//! of them run the same coordinator and the same node core, with logical or
-//! realtime clocks; [`run`] is the one entry point.
+//! multi-process engine ([`processes`]) with node processes over iceoryx2;
+//! the discrete-event engine ([`des`]) runs realtime clocks in virtual time.
+//! All of them run the same coordinator and the same node core; [`run`] is
+//! the one entry point.
 
 pub mod coordinator;
+pub mod des;
 pub mod inprocess;
 pub mod interrupt;
 pub mod node;
@@ -335,7 +337,8 @@ impl EngineKind {
 pub enum Clock {
     /// The coordinator sequences rounds/iterations; results are exact.
     Logical,
-    /// Free-running nodes on Poisson clocks (multi-process async only).
+    /// Free-running nodes on Poisson clocks (async only): in wall time on
+    /// node processes, in virtual time in-process ([`des`]).
     Realtime,
 }
 
@@ -350,9 +353,9 @@ impl Clock {
 }
 
 /// The one entry point of the engines: run `plan` on `real` with the engine
-/// `kind` (`popts` applies to node processes only). Realtime clocks need node
-/// processes; asking for them on another engine is an error before anything
-/// starts.
+/// `kind` (`popts` applies to node processes only). Realtime clocks run on
+/// node processes (wall time) or in-process in virtual time ([`des`]); asking
+/// for them on the threads engine is an error before anything starts.
 pub fn run(
     plan: &RunPlan,
     real: &Realization,
@@ -362,12 +365,13 @@ pub fn run(
 ) -> (RunRecord, Result<(), EngineError>) {
     match (kind, plan.clock) {
         (EngineKind::Inprocess, Clock::Logical) => run_inprocess(plan, real, progress),
+        (EngineKind::Inprocess, Clock::Realtime) => des::run_des(plan, real, progress),
         (EngineKind::Threads, Clock::Logical) => threads::run_threads(plan, real, progress),
         (EngineKind::Processes, _) => processes::run_processes(plan, real, popts, progress),
         (other, Clock::Realtime) => (
             RunRecord::empty(plan.n()),
             Err(EngineError::Unsupported(format!(
-                "realtime clocks need the processes engine, not {}",
+                "realtime clocks need the processes or the in-process engine, not {}",
                 other.as_str()
             ))),
         ),
