@@ -131,7 +131,7 @@ impl From<EngineArg> for EngineKind {
 pub enum ClockArg {
     /// The coordinator sequences rounds/iterations; results are exact.
     Logical,
-    /// Free-running nodes on Poisson clocks (multi-process async only).
+    /// Free-running nodes on Poisson clocks (async; processes or in-process).
     Realtime,
 }
 
@@ -144,9 +144,17 @@ impl RunArgs {
     pub fn engine(&self) -> Option<EngineKind> {
         self.engine.map(EngineKind::from)
     }
-    /// `--clock` as the library's type.
+    /// `--clock` as the library's type (logical when not given).
     pub fn clock(&self) -> Clock {
-        self.clock.into()
+        self.clock.map_or(Clock::Logical, Clock::from)
+    }
+    /// The clock of a run of `sc`: `--clock`, else the scenario's own
+    /// ([`crate::pipeline::default_clock`]).
+    pub fn clock_for(&self, sc: &crate::scenario::Scenario) -> Clock {
+        match self.clock {
+            Some(c) => c.into(),
+            None => crate::pipeline::default_clock(sc),
+        }
     }
 }
 
@@ -199,7 +207,7 @@ pub struct RunArgs {
     /// Which engine runs the nodes: one OS process per receiver over iceoryx2
     /// shared memory, all nodes in this process, or one thread per node over
     /// the in-memory transport (exact same numbers) [default: processes;
-    /// inprocess for Monte Carlo runs].
+    /// inprocess for Monte Carlo runs and on the acoustic channel].
     #[arg(long, value_enum)]
     pub engine: Option<EngineArg>,
     /// Run only this variant of a scenario with [[variants]] (repeatable;
@@ -221,9 +229,12 @@ pub struct RunArgs {
     pub check: bool,
     /// Clock of async runs: `logical` (the coordinator draws every pair;
     /// exact, reproducible) or `realtime` (free-running nodes on Poisson
-    /// clocks, [realtime] table of the scenario; needs --engine processes).
-    #[arg(long, value_enum, default_value = "logical")]
-    pub clock: ClockArg,
+    /// clocks, [realtime] table of the scenario: wall time with --engine
+    /// processes, virtual time with --engine inprocess) [default: the
+    /// scenario's algorithm.clock, else realtime on the acoustic channel, else
+    /// logical].
+    #[arg(long, value_enum)]
+    pub clock: Option<ClockArg>,
     /// Record every node's theta after every iteration into iterations.csv
     /// (used by consensus.svg).
     #[arg(long)]

@@ -291,13 +291,21 @@ fn run_monte_carlo_command(
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let cli = std::path::Path::new("<command line>");
+    if sc.channel.acoustic().is_some() {
+        return Err(crate::model::error::InputError::at(
+            &sc.path,
+            "channel.model",
+            "Monte Carlo trials run logical clocks, and the acoustic channel runs with --clock realtime --engine inprocess, one run at a time, so far",
+        )
+        .into());
+    }
     if args.engine().is_some_and(|e| e != EngineKind::Inprocess)
-        || args.clock() == Clock::Realtime
+        || args.clock_for(sc) == Clock::Realtime
         || args.poll_us > 0
     {
         return Err(crate::model::error::InputError::at(
             cli,
-            if args.clock() == Clock::Realtime {
+            if args.clock_for(sc) == Clock::Realtime {
                 "--clock"
             } else if args.poll_us > 0 {
                 "--poll-us"
@@ -370,7 +378,14 @@ fn run_single(
     sc: &Scenario,
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
-    let engine = args.engine().unwrap_or(EngineKind::Processes);
+    let acoustic = sc.channel.acoustic().is_some();
+    // The acoustic channel runs on the discrete-event engine so far.
+    let engine = args.engine().unwrap_or(if acoustic {
+        EngineKind::Inprocess
+    } else {
+        EngineKind::Processes
+    });
+    let clock = args.clock_for(sc);
     if args.poll_us > 0 && engine != EngineKind::Processes {
         return Err(crate::model::error::InputError::at(
             std::path::Path::new("<command line>"),
@@ -379,7 +394,15 @@ fn run_single(
         )
         .into());
     }
-    if args.clock() == Clock::Realtime {
+    if acoustic && (engine != EngineKind::Inprocess || clock != Clock::Realtime) {
+        return Err(crate::model::error::InputError::at(
+            &sc.path,
+            "channel.model",
+            "the acoustic channel runs with --clock realtime --engine inprocess (the discrete-event engine) so far",
+        )
+        .into());
+    }
+    if clock == Clock::Realtime {
         let cli = std::path::Path::new("<command line>");
         if engine == EngineKind::Threads || sc.algorithm.mode != Mode::Async {
             return Err(crate::model::error::InputError::at(
@@ -413,7 +436,7 @@ fn run_single(
         &format!(
             "{}{}-{}",
             sc.algorithm.mode.as_str(),
-            if args.clock() == Clock::Realtime {
+            if clock == Clock::Realtime {
                 "-realtime"
             } else {
                 ""
@@ -423,7 +446,7 @@ fn run_single(
     );
     let opts = RunOptions {
         engine,
-        clock: args.clock(),
+        clock,
         out_dir,
         command_line: std::env::args().collect(),
         progress: !args.quiet && std::io::stdout().is_terminal(),

@@ -8,14 +8,24 @@
 //! boundaries, snapshot deadlines). Nothing reads a wall clock, so a run is
 //! exact and deterministic from the seed, and as fast as the node cores.
 //!
-//! The channel is ideal so far: a message is delivered at the virtual time it
-//! is sent, after every event already scheduled for that time. The acoustic
-//! channel ([`crate::model::channel`]) is to add its delays and fates here.
+//! On the ideal channel a message is delivered at the virtual time it is
+//! sent, after every event already scheduled for that time. On the acoustic
+//! channel ([`crate::model::channel`], `[channel] model = "acoustic"`) every
+//! frame between two nodes goes through the run's [`Medium`]: it is judged
+//! when its arrival ends (delay, half-duplex, collisions, loss) and delivered
+//! then or lost, and it is recorded ([`MessageRecord`]). An initiator whose
+//! Request or answer is lost gives the exchange up at its timeout
+//! ([`crate::protocol::Command::ExchangeTimeout`]) and keeps its state; a
+//! responder that updated and whose Accept is lost stays updated, so the
+//! consensus mean is no longer conserved. The coordinator's commands and the
+//! nodes' reports are the emulator's own wiring, not acoustic: they arrive at
+//! once.
 
-use super::{Action, Coordinator, EngineError, Event, Progress, RunPlan, RunRecord};
+use super::{Action, Coordinator, EngineError, Event, MessageRecord, Progress, RunPlan, RunRecord};
+use crate::model::channel::{Fate, Frame, Medium};
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
-use crate::protocol::{Command, Input, NodeCore, Output};
+use crate::protocol::{Command, Input, NodeCore, Output, PeerMsg};
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
@@ -32,6 +42,8 @@ enum Ev {
     ToNode(u32, Input),
     /// An event reaches the coordinator.
     ToCoordinator(Event),
+    /// The arrival of a frame on the acoustic channel ends: judge it.
+    Arrive(Frame, PeerMsg),
 }
 
 /// The event queue: `(time, sequence) -> event`, so events at one time keep
@@ -59,6 +71,11 @@ fn wait(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs).map_or(DAY, |d| d.min(DAY))
 }
 
+/// An absolute emulated time in seconds as a virtual time.
+fn at(secs: f64) -> Duration {
+    Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX)
+}
+
 /// Run `plan` (realtime clock) in virtual time. Returns the record of every
 /// completed sample and, if the run stopped early, why. SIGINT/SIGTERM
 /// ([`super::interrupt`]) end it as [`EngineError::Interrupted`].
@@ -78,6 +95,15 @@ pub fn run_des(
     let mut outputs = Vec::new();
     let mut now = Duration::ZERO;
     let mut handled = 0u64;
+    let mut medium = plan
+        .channel
+        .as_ref()
+        .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links));
+    // Nothing judged from now on can overlap what ended this long ago.
+    let horizon = plan.channel.as_ref().map_or(0.0, |c| {
+        2.0 * c.cfg.transmission_s(c.cfg.frame_bits(3)) + 1e-6
+    });
+    let mut messages: Vec<MessageRecord> = Vec::new();
     coord.handle(now, [Event::Start], &mut actions);
     let result = loop {
         // The coordinator's actions, at `now`.
@@ -118,9 +144,14 @@ pub fn run_des(
             break Ok(());
         }
         handled += 1;
-        if handled.is_multiple_of(INTERRUPT_CHECK_EVERY) && interrupt.load(Ordering::SeqCst) {
-            coord.handle(now, [Event::Interrupted], &mut actions);
-            continue;
+        if handled.is_multiple_of(INTERRUPT_CHECK_EVERY) {
+            if let Some(m) = &mut medium {
+                m.forget_before(now.as_secs_f64() - horizon);
+            }
+            if interrupt.load(Ordering::SeqCst) {
+                coord.handle(now, [Event::Interrupted], &mut actions);
+                continue;
+            }
         }
         let Some((t, ev)) = queue.pop() else {
             break Err(EngineError::Stalled(
@@ -145,6 +176,26 @@ pub fn run_des(
                 (node, Input::Command(Command::Tick))
             }
             Ev::ToNode(node, input) => (node, input),
+            Ev::Arrive(f, msg) => {
+                let Some(m) = &medium else { continue };
+                let fate = m.judge(&f);
+                messages.push(MessageRecord {
+                    t_send: f.t_start,
+                    t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
+                    from: f.from,
+                    to: f.to,
+                    kind: msg.kind(),
+                    bits: f.bits,
+                    lost: match fate {
+                        Fate::Delivered => None,
+                        Fate::Lost(r) => Some(r),
+                    },
+                });
+                if fate != Fate::Delivered {
+                    continue;
+                }
+                (f.to, Input::Peer(msg))
+            }
         };
         let (node, input) = node_input;
         if dead[node as usize] {
@@ -154,13 +205,24 @@ pub fn run_des(
         let mut reports = Vec::new();
         for o in outputs.drain(..) {
             match o {
-                Output::Peer { to, msg } => queue.push(now, Ev::ToNode(to, Input::Peer(msg))),
+                Output::Peer { to, msg } => match (&mut medium, &plan.channel) {
+                    (Some(m), Some(c)) => {
+                        let bits = c.cfg.frame_bits(msg.values());
+                        let f = m.send(now.as_secs_f64(), node, to, bits);
+                        queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
+                    }
+                    _ => queue.push(now, Ev::ToNode(to, Input::Peer(msg))),
+                },
                 Output::Broadcast(msg) => {
                     for j in 0..nodes.len() as u32 {
                         queue.push(now, Ev::ToNode(j, Input::Peer(msg)));
                     }
                 }
                 Output::Report(r) => reports.push(Event::Report(r)),
+                Output::Timer { seq, after_s } => queue.push(
+                    now + wait(after_s),
+                    Ev::ToNode(node, Input::Command(Command::ExchangeTimeout { seq })),
+                ),
             }
         }
         if !reports.is_empty() {
@@ -169,5 +231,9 @@ pub fn run_des(
     };
     let mut rec = coord.into_record(result.is_err());
     rec.wall_seconds = start.elapsed().as_secs_f64();
+    if medium.is_some() {
+        rec.messages = messages;
+        rec.emulated_seconds = Some(now.as_secs_f64());
+    }
     (rec, result)
 }

@@ -113,6 +113,9 @@ impl Network for InProcess {
                         }
                     }
                     Output::Report(r) => out.push(Event::Report(r)),
+                    // Exchange timers belong to realtime clocks, which this
+                    // engine does not run (the discrete-event engine does).
+                    Output::Timer { .. } => {}
                 }
             }
         }

@@ -22,7 +22,7 @@ pub mod processes;
 pub mod threads;
 
 pub use coordinator::{Action, Coordinator, Event, Timer};
-pub use plan::{RealtimePlan, RunPlan, Scheduler};
+pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
 
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
@@ -193,6 +193,32 @@ pub struct RunRecord {
     /// `--trace-iterations`: `(iteration, sample, node, theta)` for every node
     /// updated by every iteration (sync: every node every round), in order.
     pub iteration_trace: Vec<(u64, u32, u32, Vec3)>,
+    /// Acoustic channel: every frame between two nodes, in the order sent
+    /// (`messages.csv`; empty on the ideal channel).
+    pub messages: Vec<MessageRecord>,
+    /// Acoustic channel: the emulated time the run covered, seconds.
+    pub emulated_seconds: Option<f64>,
+}
+
+/// One frame between two nodes on the acoustic channel (a row of
+/// `messages.csv`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MessageRecord {
+    /// When its transmission started (emulated seconds; later than the
+    /// node's send when its modem was still busy with an earlier frame).
+    pub t_send: f64,
+    /// When its arrival ended (delivered frames only).
+    pub t_recv: Option<f64>,
+    /// Sender.
+    pub from: u32,
+    /// Addressee.
+    pub to: u32,
+    /// Message kind ([`crate::protocol::PeerMsg::kind`]).
+    pub kind: &'static str,
+    /// Bits on the channel.
+    pub bits: u64,
+    /// `None`: delivered; else why it was lost.
+    pub lost: Option<crate::model::channel::Reason>,
 }
 
 impl RunRecord {
@@ -363,6 +389,15 @@ pub fn run(
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
+    if plan.channel.is_some() && kind != EngineKind::Inprocess {
+        return (
+            RunRecord::empty(plan.n()),
+            Err(EngineError::Unsupported(format!(
+                "the acoustic channel runs on the discrete-event engine (--engine inprocess) so far, not {}",
+                kind.as_str()
+            ))),
+        );
+    }
     match (kind, plan.clock) {
         (EngineKind::Inprocess, Clock::Logical) => run_inprocess(plan, real, progress),
         (EngineKind::Inprocess, Clock::Realtime) => des::run_des(plan, real, progress),

@@ -70,6 +70,8 @@ pub fn run_node<T: Transport>(
     let mut timing = Timing::default();
     // Realtime clock: rate and next wake-up.
     let mut clock: Option<(f64, Instant)> = None;
+    // Realtime over a lossy channel: open exchanges' timers (when, seq).
+    let mut timers: Vec<(Instant, u64)> = Vec::new();
 
     loop {
         if opts.term.load(Ordering::Relaxed) {
@@ -78,12 +80,12 @@ pub fn run_node<T: Transport>(
             }
             return Ok(());
         }
-        let timeout = match clock {
-            Some((_, next)) => next
-                .saturating_duration_since(Instant::now())
-                .min(IDLE_CHECK),
-            None => IDLE_CHECK,
-        };
+        let timeout = clock
+            .map(|(_, next)| next)
+            .into_iter()
+            .chain(timers.iter().map(|t| t.0))
+            .map(|at| at.saturating_duration_since(Instant::now()))
+            .fold(IDLE_CHECK, Duration::min);
         frames.clear();
         let waited = Instant::now();
         tx.recv(&mut frames, Some(timeout))?;
@@ -132,6 +134,17 @@ pub fn run_node<T: Transport>(
                 }
             }
         }
+        let now = Instant::now();
+        timers.retain(|&(at, seq)| {
+            let due = at <= now;
+            if due {
+                core.handle(
+                    Input::Command(Command::ExchangeTimeout { seq }),
+                    &mut outputs,
+                );
+            }
+            !due
+        });
         if let Some((rate, next)) = clock
             && Instant::now() >= next
         {
@@ -156,6 +169,9 @@ pub fn run_node<T: Transport>(
                     }
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
+                Output::Timer { seq, after_s } => {
+                    timers.push((after(Instant::now(), after_s), seq))
+                }
                 Output::Report(r @ Report::IterationDone { .. }) => {
                     // Batched: sent with the sample's final report, so the
                     // coordinator is woken once per sample, not per iteration.

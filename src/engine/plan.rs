@@ -63,6 +63,22 @@ pub struct RunPlan {
     /// ([`EngineError::NotResponding`]). Realtime: a node that has not
     /// answered a snapshot within it is left out like a dead node.
     pub stall_timeout: Duration,
+    /// The acoustic channel between the nodes (`None`: ideal).
+    pub channel: Option<ChannelPlan>,
+}
+
+/// The acoustic channel of a run ([`crate::model::channel`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelPlan {
+    /// Its parameters (validated).
+    pub cfg: crate::model::channel::AcousticCfg,
+    /// Node positions (the receivers).
+    pub positions: Vec<crate::model::geometry::Vec2>,
+    /// `links[i]`: the nodes that node `i`'s transmissions reach (its
+    /// gossip neighbours).
+    pub links: Vec<Vec<u32>>,
+    /// The realtime exchange timeout in force, emulated seconds.
+    pub exchange_timeout_s: f64,
 }
 
 impl RunPlan {
@@ -105,9 +121,32 @@ impl RunPlan {
             ));
         }
         let gammas = prox_steps_of(sc);
-        let nodes = (0..sc.graph.len())
+        let mut nodes: Vec<NodeConfig> = (0..sc.graph.len())
             .map(|i| node_config(sc, i, node_mode, gammas[i]))
             .collect();
+        let channel = match sc.channel.acoustic() {
+            None => None,
+            Some(_) if clock != Clock::Realtime => {
+                return Err(EngineError::Unsupported(
+                    "channel.model = \"acoustic\" runs with --clock realtime (on --engine inprocess) so far: sync rounds and logical async steps over a lossy channel are not built yet".into(),
+                ));
+            }
+            Some(cfg) => {
+                let positions = sc.geometry.receivers.clone();
+                let links: Vec<Vec<u32>> = nodes.iter().map(|c| c.neighbours.clone()).collect();
+                // A Request and its Accept carry a reflected point each.
+                let timeout = cfg.exchange_timeout(&positions, &links, 3);
+                for c in &mut nodes {
+                    c.exchange_timeout_s = Some(timeout);
+                }
+                Some(ChannelPlan {
+                    cfg: cfg.clone(),
+                    positions,
+                    links,
+                    exchange_timeout_s: timeout,
+                })
+            }
+        };
         Ok(RunPlan {
             seed: sc.seed,
             mode,
@@ -121,6 +160,7 @@ impl RunPlan {
             transmitters: sc.geometry.transmitters.len(),
             realtime,
             stall_timeout: DEFAULT_STALL_TIMEOUT,
+            channel,
         })
     }
 
@@ -187,6 +227,7 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConf
         seed: sc.seed,
         mode,
         trace_iterations: sc.trace_iterations,
+        exchange_timeout_s: None,
     }
 }
 

@@ -156,6 +156,41 @@ pub struct AcousticCfg {
     /// Per-link overrides.
     #[serde(default)]
     pub links: Vec<LinkOverride>,
+    /// Emulated seconds per wall-clock second (processes engine), in [1e-3, 1e6].
+    #[serde(default = "default_time_scale")]
+    pub time_scale: f64,
+    /// How long a realtime initiator waits for the answer to its Request
+    /// (emulated seconds, in (0, 86400]); default
+    /// [`AcousticCfg::default_exchange_timeout`].
+    #[serde(default)]
+    pub exchange_timeout_s: Option<f64>,
+}
+
+/// `[channel]`: the network between the nodes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ChannelCfg {
+    /// Every message arrives at once and whole (the default). It takes no
+    /// other key.
+    Ideal {},
+    /// The underwater acoustic channel of this module.
+    Acoustic(AcousticCfg),
+}
+
+impl Default for ChannelCfg {
+    fn default() -> Self {
+        ChannelCfg::Ideal {}
+    }
+}
+
+impl ChannelCfg {
+    /// The acoustic parameters, if any.
+    pub fn acoustic(&self) -> Option<&AcousticCfg> {
+        match self {
+            ChannelCfg::Ideal {} => None,
+            ChannelCfg::Acoustic(a) => Some(a),
+        }
+    }
 }
 
 fn default_sound_speed() -> f64 {
@@ -173,6 +208,9 @@ fn default_value_bits() -> u32 {
 fn default_true() -> bool {
     true
 }
+fn default_time_scale() -> f64 {
+    1.0
+}
 fn default_loss() -> LossCfg {
     LossCfg::None
 }
@@ -188,6 +226,8 @@ impl Default for AcousticCfg {
             collisions: true,
             loss: LossCfg::None,
             links: Vec::new(),
+            time_scale: 1.0,
+            exchange_timeout_s: None,
         }
     }
 }
@@ -209,6 +249,10 @@ impl AcousticCfg {
         in_range("channel.bit_rate", self.bit_rate, 1.0, 1e9)?;
         in_range("channel.header_bits", self.header_bits as f64, 0.0, 1e6)?;
         in_range("channel.value_bits", self.value_bits as f64, 1.0, 64.0)?;
+        in_range("channel.time_scale", self.time_scale, 1e-3, 1e6)?;
+        if let Some(t) = self.exchange_timeout_s {
+            in_range("channel.exchange_timeout_s", t, 1e-9, 86_400.0)?;
+        }
         match self.loss {
             LossCfg::None => {}
             LossCfg::Bernoulli { p } => in_range("channel.loss.p", p, 0.0, 1.0)?,
@@ -242,6 +286,29 @@ impl AcousticCfg {
             in_range(&key("extra_delay_s"), l.extra_delay_s, 0.0, 3600.0)?;
         }
         Ok(())
+    }
+
+    /// The default realtime exchange timeout: twice the longest one-way delay
+    /// between linked nodes plus twice the time to send a frame of `fields`
+    /// values (a Request and its answer), seconds.
+    pub fn default_exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+        let mut max_delay = 0.0f64;
+        for (i, out) in links.iter().enumerate() {
+            for &j in out {
+                let (Some(a), Some(b)) = (pos.get(i), pos.get(j as usize)) else {
+                    continue;
+                };
+                let extra = self.link(i as u32, j).map_or(0.0, |l| l.extra_delay_s);
+                max_delay = max_delay.max((a - b).norm() / self.sound_speed + extra);
+            }
+        }
+        2.0 * max_delay + 2.0 * self.transmission_s(self.frame_bits(fields))
+    }
+
+    /// The exchange timeout in force (the key, or the default).
+    pub fn exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+        self.exchange_timeout_s
+            .unwrap_or_else(|| self.default_exchange_timeout(pos, links, fields))
     }
 
     /// Bits of a frame carrying `fields` values.
@@ -307,6 +374,18 @@ pub enum Reason {
     HalfDuplex,
     /// The link is blocked.
     Blocked,
+}
+
+impl Reason {
+    /// The name written to `messages.csv`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Reason::Loss => "loss",
+            Reason::Collision => "collision",
+            Reason::HalfDuplex => "half_duplex",
+            Reason::Blocked => "blocked",
+        }
+    }
 }
 
 /// What became of a frame.

@@ -270,6 +270,13 @@ fn every_number_is_checked_against_its_range_naming_the_key() {
     assert_eq!(cfg.loss, LossCfg::Bernoulli { p: 0.2 });
     assert_relative_eq!(cfg.sound_speed, 1500.0);
     assert!(toml::from_str::<AcousticCfg>("bitrate = 500.0\n").is_err());
+    // [channel]: ideal takes no other key; acoustic takes the keys above.
+    let ideal: ChannelCfg = toml::from_str("model = \"ideal\"\n").unwrap();
+    assert_eq!(ideal, ChannelCfg::Ideal {});
+    assert!(toml::from_str::<ChannelCfg>("model = \"ideal\"\nbit_rate = 5.0\n").is_err());
+    let ac: ChannelCfg = toml::from_str("model = \"acoustic\"\nbit_rate = 500.0\n").unwrap();
+    assert_relative_eq!(ac.acoustic().map_or(0.0, |a| a.bit_rate), 500.0);
+    assert!(toml::from_str::<ChannelCfg>("model = \"acoustic\"\nbitrate = 5.0\n").is_err());
 }
 
 #[test]

@@ -124,6 +124,7 @@ pub fn evaluate(
         note,
         startup_seconds: record.startup_seconds,
         realtime: realtime_stats(record, opts),
+        channel: channel_stats(record),
         deaths: record
             .deaths
             .iter()
@@ -209,6 +210,58 @@ pub fn unknown_metric<'a>(name: &str, keys: impl Iterator<Item = &'a String>) ->
                 .join(", ")
         )
     }
+}
+
+/// The acoustic channel's statistics from the run's messages.
+pub fn channel_stats(rec: &RunRecord) -> Option<ChannelStats> {
+    let emulated = rec.emulated_seconds?;
+    let msgs = &rec.messages;
+    let frames = msgs.len() as u64;
+    let delivered = msgs.iter().filter(|m| m.lost.is_none()).count() as u64;
+    let ratio = |d: u64, n: u64| if n == 0 { 0.0 } else { d as f64 / n as f64 };
+    let mut lost = BTreeMap::new();
+    let mut links: BTreeMap<(u32, u32), (u64, u64)> = BTreeMap::new();
+    for m in msgs {
+        if let Some(r) = m.lost {
+            *lost.entry(r.as_str().to_string()).or_insert(0) += 1;
+        }
+        let e = links.entry((m.from, m.to)).or_insert((0, 0));
+        e.0 += 1;
+        e.1 += u64::from(m.lost.is_none());
+    }
+    let delays: Vec<f64> = msgs
+        .iter()
+        .filter_map(|m| m.t_recv.map(|t| t - m.t_send))
+        .collect();
+    let count = |k: &str, delivered_only: bool| {
+        msgs.iter()
+            .filter(|m| m.kind == k && (!delivered_only || m.lost.is_none()))
+            .count() as u64
+    };
+    Some(ChannelStats {
+        frames,
+        delivered,
+        delivery_ratio: ratio(delivered, frames),
+        lost,
+        links: links
+            .into_iter()
+            .map(|((from, to), (n, d))| LinkStats {
+                from,
+                to,
+                frames: n,
+                delivery_ratio: ratio(d, n),
+            })
+            .collect(),
+        delay_mean_s: (!delays.is_empty())
+            .then(|| delays.iter().sum::<f64>() / delays.len() as f64),
+        delay_p99_s: metrics::quantile(&delays, 0.99),
+        exchanges_attempted: count("request", false),
+        exchanges_completed: count("accept", true),
+        exchanges_timed_out: rec.counters.iter().map(|c| c.timeouts).sum(),
+        bits_sent: msgs.iter().map(|m| m.bits).sum(),
+        emulated_seconds: emulated,
+        realtime_factor: emulated / rec.wall_seconds.max(1e-9),
+    })
 }
 
 fn realtime_stats(rec: &RunRecord, opts: &RunOptions) -> Option<RealtimeStats> {

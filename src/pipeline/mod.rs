@@ -65,6 +65,18 @@ pub struct RunOptions {
     pub stall_timeout: std::time::Duration,
 }
 
+/// The clock a scenario runs on when the caller does not choose one: its
+/// `algorithm.clock`, else realtime on the acoustic channel (the only clock it
+/// runs on so far), else logical.
+pub fn default_clock(sc: &Scenario) -> Clock {
+    match sc.algorithm.clock {
+        Some(crate::scenario::ClockCfg::Realtime) => Clock::Realtime,
+        Some(crate::scenario::ClockCfg::Logical) => Clock::Logical,
+        None if sc.channel.acoustic().is_some() => Clock::Realtime,
+        None => Clock::Logical,
+    }
+}
+
 impl RunOptions {
     /// A run in this process with logical clocks, no progress bar, `[expect]`
     /// checked; nothing is written unless [`Scenario::run_and_write`] is used

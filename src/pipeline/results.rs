@@ -37,6 +37,51 @@ pub struct RealtimeStats {
     pub iterations_per_second: f64,
 }
 
+/// The acoustic channel's statistics (`metrics.json` `channel`; present
+/// only on the acoustic channel).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ChannelStats {
+    /// Frames sent between nodes.
+    pub frames: u64,
+    /// Frames delivered.
+    pub delivered: u64,
+    /// `delivered / frames`.
+    pub delivery_ratio: f64,
+    /// Frames lost, by reason (`loss`, `collision`, `half_duplex`, `blocked`).
+    pub lost: BTreeMap<String, u64>,
+    /// Per directed link with traffic.
+    pub links: Vec<LinkStats>,
+    /// Mean delay of the delivered frames, send to end of arrival (seconds).
+    pub delay_mean_s: Option<f64>,
+    /// 99th percentile of that delay.
+    pub delay_p99_s: Option<f64>,
+    /// Realtime exchanges started (Requests sent).
+    pub exchanges_attempted: u64,
+    /// Exchanges answered with an Accept that arrived.
+    pub exchanges_completed: u64,
+    /// Exchanges the initiator gave up at its timeout.
+    pub exchanges_timed_out: u64,
+    /// Bits sent, all frames.
+    pub bits_sent: u64,
+    /// The emulated time the run covered (seconds).
+    pub emulated_seconds: f64,
+    /// Emulated seconds per wall-clock second of the engine.
+    pub realtime_factor: f64,
+}
+
+/// One directed link's traffic on the acoustic channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinkStats {
+    /// Sender.
+    pub from: u32,
+    /// Addressee.
+    pub to: u32,
+    /// Frames sent.
+    pub frames: u64,
+    /// `delivered / frames`.
+    pub delivery_ratio: f64,
+}
+
 /// A node that died during the run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Death {
@@ -107,6 +152,9 @@ pub struct RunMetrics {
     pub startup_seconds: Option<f64>,
     /// Realtime clock statistics.
     pub realtime: Option<RealtimeStats>,
+    /// Acoustic channel statistics (absent on the ideal channel).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub channel: Option<ChannelStats>,
     /// Nodes that died (the gap: they are left out of `theta_bar` from then on).
     pub deaths: Vec<Death>,
     /// Per-node counters.
@@ -166,6 +214,21 @@ impl RunMetrics {
         f.insert("theta_bar.prox_solves".into(), self.prox_solves as f64);
         if let Some(c) = self.crlb_rms {
             f.insert("crlb_rms".into(), c);
+        }
+        if let Some(c) = &self.channel {
+            for (k, v) in [
+                ("frames", c.frames as f64),
+                ("delivery_ratio", c.delivery_ratio),
+                ("exchanges_attempted", c.exchanges_attempted as f64),
+                ("exchanges_completed", c.exchanges_completed as f64),
+                ("exchanges_timed_out", c.exchanges_timed_out as f64),
+                ("emulated_seconds", c.emulated_seconds),
+            ] {
+                f.insert(format!("channel.{k}"), v);
+            }
+            if let Some(d) = c.delay_mean_s {
+                f.insert("channel.delay_mean_s".into(), d);
+            }
         }
         f
     }

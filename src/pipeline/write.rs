@@ -1,6 +1,6 @@
 //! The results directory of one run: `run.json`, the CSVs (`track.csv`,
-//! `nodes.csv`, `schedule.csv`, `iterations.csv`, `measurements.csv`,
-//! `truth.csv`) and `metrics.json`.
+//! `nodes.csv`, `schedule.csv`, `iterations.csv`, `messages.csv`,
+//! `measurements.csv`, `truth.csv`) and `metrics.json`.
 
 use super::*;
 
@@ -59,6 +59,32 @@ impl Outcome {
                         it.to_string(),
                         v.to_string(),
                         w.to_string(),
+                        sc.seed.to_string(),
+                    ]
+                }),
+            )?;
+        }
+        if !record.messages.is_empty() {
+            write_csv(
+                &dir.join("messages.csv"),
+                &[
+                    "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "seed",
+                ],
+                record.messages.iter().map(|r| {
+                    vec![
+                        num(r.t_send),
+                        r.t_recv.map(num).unwrap_or_default(),
+                        r.from.to_string(),
+                        r.to.to_string(),
+                        r.kind.to_string(),
+                        r.bits.to_string(),
+                        if r.lost.is_some() {
+                            "lost"
+                        } else {
+                            "delivered"
+                        }
+                        .to_string(),
+                        r.lost.map(|x| x.as_str().to_string()).unwrap_or_default(),
                         sc.seed.to_string(),
                     ]
                 }),

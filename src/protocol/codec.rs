@@ -160,7 +160,8 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
             out.push(frame(kind::NODE_DOWN, co, 0, *node, 0, &[]))
         }
         // Ticks are local to a node; never sent.
-        Control::Command(Command::Tick) => {}
+        // Node-local: a node's own clock and its own exchange timers.
+        Control::Command(Command::Tick | Command::ExchangeTimeout { .. }) => {}
         Control::StartClock(rate) => out.push(frame(kind::START_CLOCK, co, 0, 0, 0, &[*rate])),
         Control::Stop => out.push(frame(kind::STOP, co, 0, 0, 0, &[])),
         Control::Ping(seq) => out.push(frame(kind::PING, co, 0, 0, *seq, &[])),
@@ -487,6 +488,9 @@ impl ReportDecoder {
                         messages_in: d[2] as u64,
                         declines: d[3] as u64,
                         updates: d[4] as u64,
+                        // Not carried: the processes engine runs the ideal
+                        // channel, where no exchange times out.
+                        timeouts: 0,
                     },
                 );
                 Ok(None)
@@ -613,6 +617,7 @@ mod tests {
             messages_in: 12,
             declines: 1,
             updates: 9,
+            timeouts: 0,
         };
         let reports = vec![
             Report::SampleDone {

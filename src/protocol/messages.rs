@@ -52,6 +52,12 @@ pub struct NodeConfig {
     /// async nodes always report each iteration.
     #[serde(default)]
     pub trace_iterations: bool,
+    /// Realtime over a lossy channel: an initiator gives its exchange up when
+    /// no answer came within this many (emulated) seconds
+    /// ([`Output::Timer`], [`Command::ExchangeTimeout`]). `None` (the ideal
+    /// channel): it waits as long as it takes.
+    #[serde(default)]
+    pub exchange_timeout_s: Option<f64>,
 }
 
 fn default_kappa() -> usize {
@@ -107,6 +113,13 @@ pub enum Command {
     /// Realtime mode: the node's Poisson clock fired; pick a neighbour and
     /// start a pairwise exchange unless already inside one.
     Tick,
+    /// Realtime mode: the timer of exchange `seq` ([`Output::Timer`]) is due;
+    /// if that exchange is still open the initiator gives it up and keeps its
+    /// state (its Request or the answer was lost; a late answer is discarded).
+    ExchangeTimeout {
+        /// The initiator's exchange counter.
+        seq: u64,
+    },
     /// Report the current `theta` as the estimate at sample `sample`.
     Snapshot {
         /// Sample index.
@@ -180,6 +193,31 @@ impl PeerMsg {
             | PeerMsg::Average { from, .. } => from,
         }
     }
+
+    /// The kind, as written to `messages.csv`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            PeerMsg::Reflect { .. } => "reflect",
+            PeerMsg::Request { .. } => "request",
+            PeerMsg::Accept { .. } => "accept",
+            PeerMsg::Decline { .. } => "decline",
+            PeerMsg::Average { .. } => "average",
+        }
+    }
+
+    /// The values a message carries over an acoustic modem, the `fields` of
+    /// [`AcousticCfg::frame_bits`](crate::model::channel::AcousticCfg::frame_bits):
+    /// a reflected point `r = (x, y, d)` is 3 (Reflect, Request, Accept), a
+    /// consensus average `(x, y)` 2 (Average), a Decline none. The sender, the
+    /// addressee, the kind and the sequence number are the frame header
+    /// (`header_bits`).
+    pub fn values(&self) -> u32 {
+        match self {
+            PeerMsg::Reflect { .. } | PeerMsg::Request { .. } | PeerMsg::Accept { .. } => 3,
+            PeerMsg::Average { .. } => 2,
+            PeerMsg::Decline { .. } => 0,
+        }
+    }
 }
 
 /// Per-node counters, reported to the coordinator.
@@ -197,6 +235,16 @@ pub struct Counters {
     pub declines: u64,
     /// Completed DR updates of this node's `u`.
     pub updates: u64,
+    /// Exchanges given up at their timeout (realtime on a lossy channel; as
+    /// initiator). Not carried by the processes engine's frames, which run
+    /// the ideal channel only; left out of `metrics.json` when zero, so runs
+    /// on the ideal channel write what they always wrote.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub timeouts: u64,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// A report to the coordinator.
@@ -258,6 +306,14 @@ pub enum Output {
     Broadcast(PeerMsg),
     /// To the coordinator.
     Report(Report),
+    /// Realtime over a lossy channel: deliver
+    /// [`Command::ExchangeTimeout`]` { seq }` after `after_s` seconds.
+    Timer {
+        /// The exchange.
+        seq: u64,
+        /// When, from now (emulated seconds).
+        after_s: f64,
+    },
 }
 
 /// An input to the core.

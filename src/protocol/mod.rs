@@ -281,6 +281,12 @@ impl NodeCore {
                 self.async_advance(out);
             }
             Command::Tick => self.start_exchange(out),
+            Command::ExchangeTimeout { seq } => {
+                if matches!(self.exchange, Some(ex) if ex.seq == seq) {
+                    self.exchange = None;
+                    self.counters.timeouts += 1;
+                }
+            }
             Command::Snapshot { sample } => out.push(Output::Report(Report::Snapshot {
                 node: self.cfg.id,
                 sample,
@@ -556,6 +562,12 @@ impl NodeCore {
                         r,
                     },
                 });
+                if let Some(after_s) = self.cfg.exchange_timeout_s {
+                    out.push(Output::Timer {
+                        seq: self.exchange_seq,
+                        after_s,
+                    });
+                }
             }
             Err(e) => out.push(self.failed(e)),
         }
@@ -585,6 +597,7 @@ mod tests {
             seed: 7,
             mode: NodeMode::Sync,
             trace_iterations: false,
+            exchange_timeout_s: None,
         }
     }
 
@@ -776,6 +789,70 @@ mod tests {
             assert_eq!(node.counters.messages_in, 1, "the average");
             assert_eq!(node.counters.messages_out, 1, "the reflected point");
         }
+    }
+
+    /// Realtime over a lossy channel: a Request comes with its timer; at the
+    /// timeout the exchange is given up with the state unchanged and counted,
+    /// a late Accept is discarded, and the next Tick starts a new exchange.
+    /// Without a timeout (the ideal channel) no timer is asked for.
+    #[test]
+    fn a_realtime_exchange_whose_answer_is_lost_is_given_up_at_its_timeout() {
+        let mut cfg = config(LocalSolver::Gtrs, 1);
+        cfg.mode = NodeMode::Realtime;
+        cfg.exchange_timeout_s = Some(3.5);
+        let mut node = NodeCore::new(cfg.clone());
+        let mut o = Vec::new();
+        node.handle(sample(0), &mut o);
+        o.clear();
+        node.handle(Input::Command(Command::Tick), &mut o);
+        let (seq, to) = match o.as_slice() {
+            [
+                Output::Peer {
+                    to,
+                    msg: PeerMsg::Request { seq, .. },
+                },
+                Output::Timer { seq: t, after_s },
+            ] if seq == t && (*after_s - 3.5).abs() < 1e-15 => (*seq, *to),
+            other => panic!("{other:?}"),
+        };
+        let (u, theta) = (node.u, node.theta);
+        // While the exchange is open, another Tick starts nothing.
+        o.clear();
+        node.handle(Input::Command(Command::Tick), &mut o);
+        assert!(o.is_empty(), "{o:?}");
+        // A stale timer does nothing; the right one closes the exchange.
+        node.handle(
+            Input::Command(Command::ExchangeTimeout { seq: seq + 7 }),
+            &mut o,
+        );
+        assert_eq!(node.counters.timeouts, 0);
+        node.handle(Input::Command(Command::ExchangeTimeout { seq }), &mut o);
+        assert_eq!(node.counters.timeouts, 1);
+        assert_eq!((node.u, node.theta), (u, theta), "state unchanged");
+        // The late Accept is discarded.
+        node.handle(
+            Input::Peer(PeerMsg::Accept {
+                from: to,
+                seq,
+                r: Vec3::new(1.0, 2.0, 3.0),
+            }),
+            &mut o,
+        );
+        assert!(o.is_empty());
+        assert_eq!((node.u, node.theta, node.counters.updates), (u, theta, 0));
+        // The next Tick starts a new exchange.
+        node.handle(Input::Command(Command::Tick), &mut o);
+        assert!(
+            matches!(o.first(), Some(Output::Peer { msg: PeerMsg::Request { seq: s, .. }, .. }) if *s == seq + 1)
+        );
+        // On the ideal channel no timer is asked for.
+        cfg.exchange_timeout_s = None;
+        let mut ideal = NodeCore::new(cfg);
+        let mut o = Vec::new();
+        ideal.handle(sample(0), &mut o);
+        o.clear();
+        ideal.handle(Input::Command(Command::Tick), &mut o);
+        assert_eq!(o.len(), 1, "{o:?}");
     }
 
     #[test]

@@ -475,6 +475,26 @@ impl Scenario {
                 }
             }
         }
+        if a.clock == Some(ClockCfg::Realtime) {
+            if a.mode != Mode::Async {
+                return Err(InputError::at(
+                    path,
+                    "algorithm.clock",
+                    "the realtime clock runs async gossip (algorithm.mode = \"async\")",
+                ));
+            }
+            if file.realtime.is_none() {
+                return Err(InputError::at(
+                    path,
+                    "algorithm.clock",
+                    "the realtime clock needs a [realtime] table (sample_period_ms, wake_rate_hz)",
+                ));
+            }
+        }
+        if let Some(ch) = file.channel.acoustic() {
+            ch.validate(geometry.receivers.len())
+                .map_err(|(key, reason)| InputError::at(path, key, reason))?;
+        }
         // Baselines, bounds, Monte Carlo.
         check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
             .map_err(|(key, reason)| InputError::at(path, key, reason))?;
@@ -496,6 +516,7 @@ impl Scenario {
             init_u,
             schedule,
             burn_in: a.burn_in,
+            clock: a.clock,
         };
         let sc = Scenario {
             path: path.to_path_buf(),
@@ -508,6 +529,7 @@ impl Scenario {
             measurements: file.measurements.clone(),
             algorithm,
             realtime: file.realtime.clone(),
+            channel: file.channel.clone(),
             expect: file.expect.clone(),
             trace_iterations: false,
             baselines: file.baselines.clone(),

@@ -81,6 +81,8 @@ pub struct Algorithm {
     pub schedule: Option<(PathBuf, Vec<(usize, usize)>)>,
     /// Burn-in samples.
     pub burn_in: usize,
+    /// The file's clock (`algorithm.clock`), if it names one.
+    pub clock: Option<ClockCfg>,
 }
 
 /// A validated scenario.
@@ -108,6 +110,8 @@ pub struct Scenario {
     pub algorithm: Algorithm,
     /// Realtime clocks, if given.
     pub realtime: Option<RealtimeCfg>,
+    /// The network between the nodes (validated).
+    pub channel: crate::model::channel::ChannelCfg,
     /// Test thresholds.
     pub expect: ExpectCfg,
     /// Record every node's `theta` after every iteration (`iterations.csv`);

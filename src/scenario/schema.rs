@@ -30,6 +30,9 @@ pub struct ScenarioFile {
     /// Free-running emulator parameters (multi-process engine, `--clock realtime`).
     #[serde(default)]
     pub realtime: Option<RealtimeCfg>,
+    /// The network between the nodes (`[channel]`; ideal by default).
+    #[serde(default, skip_serializing_if = "is_ideal")]
+    pub channel: crate::model::channel::ChannelCfg,
     /// Thresholds the scenario tests assert.
     #[serde(default)]
     pub expect: ExpectCfg,
@@ -49,6 +52,20 @@ pub struct ScenarioFile {
     /// overrides deep-merged into the file (see `scenarios/README.md`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub variants: Vec<VariantCfg>,
+}
+
+fn is_ideal(c: &crate::model::channel::ChannelCfg) -> bool {
+    *c == crate::model::channel::ChannelCfg::Ideal {}
+}
+
+/// `algorithm.clock`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClockCfg {
+    /// The coordinator sequences the iterations.
+    Logical,
+    /// Free-running nodes on Poisson clocks.
+    Realtime,
 }
 
 /// One `[[variants]]` entry: a `name` and any scenario keys to override.
@@ -291,6 +308,11 @@ pub struct AlgorithmCfg {
     /// Replay this async schedule (CSV `iteration,v,w`) instead of drawing one.
     #[serde(default)]
     pub schedule: Option<String>,
+    /// The clock this scenario runs on unless `--clock` says otherwise:
+    /// `logical` (the default, or `realtime` on the acoustic channel) or
+    /// `realtime` (async, with a `[realtime]` table).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock: Option<ClockCfg>,
     /// Samples excluded from the `*_after_burn_in` metrics.
     #[serde(default)]
     pub burn_in: usize,

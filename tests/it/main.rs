@@ -1,6 +1,7 @@
 //! The one integration-test binary (ripgrep style): shared helpers in `util`,
 //! one module per area.
 
+mod acoustic;
 mod bad_input;
 mod baselines;
 mod bounds_ref;

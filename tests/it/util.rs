@@ -53,7 +53,9 @@ impl Drop for TempDir {
 pub fn run_inprocess(sc: &Scenario, out: &Path) -> Outcome {
     let opts = RunOptions {
         command_line: vec!["test".into()],
-        ..RunOptions::inprocess().with_out_dir(out)
+        ..RunOptions::inprocess()
+            .with_out_dir(out)
+            .with_clock(sonarnet::pipeline::default_clock(sc))
     };
     sc.run_and_write(&opts).expect("write outputs")
 }
