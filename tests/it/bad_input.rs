@@ -577,3 +577,54 @@ fn receivers_at_the_same_position_are_run_with_one_warning_naming_both() {
         );
     }
 }
+
+/// `[channel]`: every number of the acoustic channel is checked at load, an
+/// ideal channel takes no other key, the acoustic channel runs only where it
+/// is built (the discrete-event engine), and `algorithm.clock = "realtime"`
+/// needs async mode and a `[realtime]` table.
+#[test]
+fn a_bad_channel_or_clock_is_refused_naming_the_key() {
+    let realtime = "[realtime]\nsample_period_ms = 1000.0\nwake_rate_hz = 1.0\n";
+    for (table, needles) in [
+        (
+            "[channel]\nmodel = \"acoustic\"\nbit_rate = 0.0\n",
+            &["channel.bit_rate", "outside [1, 1000000000]"][..],
+        ),
+        (
+            "[channel]\nmodel = \"acoustic\"\nloss = { model = \"bernoulli\", p = 1.5 }\n",
+            &["channel.loss.p"][..],
+        ),
+        (
+            "[channel]\nmodel = \"acoustic\"\nlinks = [{ a = 0, b = 7 }]\n",
+            &["channel.links[0].b", "node 7 does not exist"][..],
+        ),
+        (
+            "[channel]\nmodel = \"ideal\"\nbit_rate = 500.0\n",
+            &["unknown field `bit_rate`"][..],
+        ),
+        (
+            "[channel]\nmodel = \"acoustic\"\nbitrate = 500.0\n",
+            &["unknown field `bitrate`"][..],
+        ),
+    ] {
+        let text = format!("{GOOD}\n{realtime}\n{table}");
+        let (code, stderr, p) = run_bad(&text, &[]);
+        assert_clear(code, &stderr, &p, needles);
+    }
+    // The acoustic channel on node processes, or on a logical clock.
+    let acoustic = format!("{GOOD}\n{realtime}\n[channel]\nmodel = \"acoustic\"\n");
+    for args in [&["--engine", "processes"][..], &["--clock", "logical"][..]] {
+        let (code, stderr, p) = run_bad_with(&acoustic, &[], args);
+        assert_clear(code, &stderr, &p, &["channel.model", "--engine inprocess"]);
+    }
+    // algorithm.clock = "realtime" without a [realtime] table, or in sync mode.
+    let no_table = GOOD.replace("mode = \"async\"", "mode = \"async\"\nclock = \"realtime\"");
+    let (code, stderr, p) = run_bad(&no_table, &[]);
+    assert_clear(code, &stderr, &p, &["algorithm.clock", "[realtime] table"]);
+    let sync = format!(
+        "{}\n{realtime}",
+        GOOD.replace("mode = \"async\"", "mode = \"sync\"\nclock = \"realtime\"")
+    );
+    let (code, stderr, p) = run_bad(&sync, &[]);
+    assert_clear(code, &stderr, &p, &["algorithm.clock", "async"]);
+}
