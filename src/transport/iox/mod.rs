@@ -209,35 +209,6 @@ impl std::fmt::Debug for IoxTransport {
     }
 }
 
-fn endpoint_index(t: &RunTopology, e: Endpoint) -> usize {
-    match e {
-        Endpoint::Node(i) => i as usize,
-        Endpoint::Coordinator => t.n_nodes(),
-    }
-}
-
-fn make_node(t: &RunTopology, name: &str) -> Result<Node<Svc>, TransportError> {
-    init_logging();
-    let prefix = resource_prefix(t.run_id());
-    let mut cfg = config_for_prefix(&prefix)?;
-    // A subscriber keeps the unread frames of senders that have exited in its
-    // "expired connections"; beyond this many (default 128) it drops them with only a
-    // log warning. One slot per possible sender (all nodes + coordinator) rules it out.
-    cfg.defaults
-        .publish_subscribe
-        .subscriber_expired_connection_buffer = t.n_nodes() + 1;
-    let node_name =
-        NodeName::new(name).map_err(|e| TransportError::ipc(format!("naming node {name}"), e))?;
-    let node = NodeBuilder::new()
-        .name(&node_name)
-        .config(&cfg)
-        .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<Svc>()
-        .map_err(|e| TransportError::ipc(format!("creating iceoryx2 node {name}"), e))?;
-    remove_global_mgmt_segment(&cfg);
-    Ok(node)
-}
-
 impl IoxTransport {
     /// The coordinator's endpoint. Creates every service of the run with limits sized
     /// from `topology` (see the [module docs](self)), so call it before starting the
