@@ -427,8 +427,8 @@ pub struct Medium {
     cfg: AcousticCfg,
     seed: u64,
     pos: Vec<Vec2>,
-    /// `hears[j]`: the nodes whose transmissions reach `j`.
-    hears: Vec<Vec<u32>>,
+    /// `reach[i]`: the nodes that node `i`'s transmissions reach.
+    reach: Vec<Vec<u32>>,
     /// Per node: when its modem is free again.
     free_at: Vec<f64>,
     /// Per node: its transmissions `[start, end)`.
@@ -446,18 +446,20 @@ impl Medium {
     /// `links[i]` (the gossip graph), with a validated `cfg` and the run seed.
     pub fn new(cfg: AcousticCfg, seed: u64, pos: Vec<Vec2>, links: &[Vec<u32>]) -> Medium {
         let n = pos.len();
-        let mut hears = vec![Vec::new(); n];
-        for (i, out) in links.iter().enumerate() {
-            for &j in out {
-                if (j as usize) < n && !hears[j as usize].contains(&(i as u32)) {
-                    hears[j as usize].push(i as u32);
-                }
-            }
-        }
+        let mut reach: Vec<Vec<u32>> = (0..n)
+            .map(|i| {
+                let mut r: Vec<u32> = links.get(i).map_or(&[][..], |l| &l[..]).to_vec();
+                r.retain(|&j| (j as usize) < n && j as usize != i);
+                r.sort_unstable();
+                r.dedup();
+                r
+            })
+            .collect();
+        reach.truncate(n);
         Medium {
             cfg,
             seed,
-            hears,
+            reach,
             free_at: vec![f64::NEG_INFINITY; n],
             sending: vec![Vec::new(); n],
             arriving: vec![Vec::new(); n],
@@ -485,10 +487,10 @@ impl Medium {
         let end = start + air;
         self.free_at[fi] = end;
         self.sending[fi].push((start, end));
-        let listeners: Vec<u32> = (0..self.pos.len() as u32)
-            .filter(|&j| j == to || self.hears[j as usize].contains(&from))
-            .filter(|&j| j != from)
-            .collect();
+        let mut listeners = self.reach[fi].clone();
+        if !listeners.contains(&to) && to != from {
+            listeners.push(to);
+        }
         for j in listeners {
             let d = self.delay(from, j);
             self.arriving[j as usize].push((start + d, end + d, id));
