@@ -74,10 +74,10 @@ pub enum LossCfg {
     },
     /// Loss from the link's length (module docs).
     Range {
-        /// Carrier frequency, kHz, in (0, 1000].
+        /// Carrier frequency, kHz, in [1e-3, 1000].
         #[serde(default = "default_carrier")]
         carrier_khz: f64,
-        /// Bandwidth, kHz, in (0, 1000].
+        /// Bandwidth, kHz, in [1e-3, 1000].
         #[serde(default = "default_bandwidth")]
         bandwidth_khz: f64,
         /// Source level, dB re 1 uPa at 1 m, in [0, 300].
@@ -160,7 +160,7 @@ pub struct AcousticCfg {
     #[serde(default = "default_time_scale")]
     pub time_scale: f64,
     /// How long a realtime initiator waits for the answer to its Request
-    /// (emulated seconds, in (0, 86400]); default
+    /// (emulated seconds, in [1e-9, 86400]); default
     /// [`AcousticCfg::default_exchange_timeout`].
     #[serde(default)]
     pub exchange_timeout_s: Option<f64>,
