@@ -234,6 +234,7 @@ pub fn run_des(
     if medium.is_some() {
         rec.messages = messages;
         rec.emulated_seconds = Some(now.as_secs_f64());
+        rec.events = Some(handled);
     }
     (rec, result)
 }

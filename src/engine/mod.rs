@@ -198,6 +198,9 @@ pub struct RunRecord {
     pub messages: Vec<MessageRecord>,
     /// Acoustic channel: the emulated time the run covered, seconds.
     pub emulated_seconds: Option<f64>,
+    /// Discrete-event engine: events handled (node ticks, deliveries, frame
+    /// judgements, coordinator timers and reports).
+    pub events: Option<u64>,
 }
 
 /// One frame between two nodes on the acoustic channel (a row of

@@ -261,6 +261,8 @@ pub fn channel_stats(rec: &RunRecord) -> Option<ChannelStats> {
         bits_sent: msgs.iter().map(|m| m.bits).sum(),
         emulated_seconds: emulated,
         realtime_factor: emulated / rec.wall_seconds.max(1e-9),
+        events: rec.events.unwrap_or(0),
+        events_per_second: rec.events.unwrap_or(0) as f64 / rec.wall_seconds.max(1e-9),
     })
 }
 

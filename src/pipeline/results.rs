@@ -67,6 +67,10 @@ pub struct ChannelStats {
     pub emulated_seconds: f64,
     /// Emulated seconds per wall-clock second of the engine.
     pub realtime_factor: f64,
+    /// Events the discrete-event engine handled.
+    pub events: u64,
+    /// Events per wall-clock second.
+    pub events_per_second: f64,
 }
 
 /// One directed link's traffic on the acoustic channel.

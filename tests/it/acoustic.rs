@@ -131,6 +131,12 @@ fn the_channel_metrics_count_the_frames_and_the_ideal_channel_writes_none() {
     assert!(ch.exchanges_completed <= ch.exchanges_attempted);
     assert!(ch.exchanges_timed_out > 0);
     assert!((ch.emulated_seconds - 100.0 * 60.0).abs() < 60.0);
+    // Every frame is an event (its judgement), and so is every node tick.
+    assert!(
+        ch.events > ch.frames + ch.exchanges_attempted,
+        "{} events",
+        ch.events
+    );
     let json = std::fs::read_to_string(tmp.path().join("modem").join("metrics.json")).unwrap();
     assert!(json.contains("\"delivery_ratio\""));
     // The ideal variant: no channel key, no messages.csv.
