@@ -394,11 +394,11 @@ fn run_single(
         )
         .into());
     }
-    if acoustic && (engine != EngineKind::Inprocess || clock != Clock::Realtime) {
+    if acoustic && engine != EngineKind::Inprocess {
         return Err(crate::model::error::InputError::at(
             &sc.path,
             "channel.model",
-            "the acoustic channel runs with --clock realtime --engine inprocess (the discrete-event engine) so far",
+            "the acoustic channel runs on --engine inprocess (the discrete-event engine) so far",
         )
         .into());
     }

@@ -1,28 +1,31 @@
-//! The discrete-event engine (issue 16 item 3): the realtime protocol in
-//! virtual time, `--engine inprocess --clock realtime`.
+//! The discrete-event engine (issue 16 item 3): the protocol in virtual time.
+//! It runs `--engine inprocess --clock realtime`, and every clock on the
+//! acoustic channel.
 //!
 //! Every node's [`NodeCore`] and the [`Coordinator`] run in one thread over an
 //! event queue ordered by (virtual time, order of scheduling): node clock ticks
 //! (each node draws its Poisson waits from its own seeded stream, as a node
-//! process does), message deliveries and the coordinator's timers (sample
-//! boundaries, snapshot deadlines). Nothing reads a wall clock, so a run is
-//! exact and deterministic from the seed, and as fast as the node cores.
+//! process does), message deliveries, the nodes' timers and the coordinator's
+//! (sample boundaries, snapshot deadlines, liveness checks). Nothing reads a
+//! wall clock, so a run is exact and deterministic from the seed, and as fast
+//! as the node cores.
 //!
 //! On the ideal channel a message is delivered at the virtual time it is
 //! sent, after every event already scheduled for that time. On the acoustic
 //! channel ([`crate::model::channel`], `[channel] model = "acoustic"`) every
-//! frame between two nodes goes through the run's [`Medium`]: it is judged
-//! when its arrival ends (delay, half-duplex, collisions, loss) and delivered
-//! then or lost, and it is recorded ([`MessageRecord`]). An initiator whose
-//! Request or answer is lost gives the exchange up at its timeout
-//! ([`crate::protocol::Command::ExchangeTimeout`]) and keeps its state; a
-//! responder that updated and whose Accept is lost stays updated, so the
-//! consensus mean is no longer conserved. The coordinator's commands and the
-//! nodes' reports are the emulator's own wiring, not acoustic: they arrive at
-//! once.
+//! frame between two nodes goes through the run's [`Medium`] (the sync root's
+//! Average is one transmission heard by every node): it is judged when its
+//! arrival ends (delay, half-duplex, collisions, loss; a frame to a node the
+//! coordinator left out is lost as `node_down`) and delivered then or lost,
+//! and it is recorded ([`MessageRecord`]); a delivered frame the node
+//! discards because the wait it answers is over is recorded `late`. How each
+//! protocol waits on a lossy channel is [`crate::protocol::Command::ExchangeTimeout`]
+//! (realtime) and [`crate::protocol::Command::RoundTimeout`] (logical clocks).
+//! The coordinator's commands and the nodes' reports are the emulator's own
+//! wiring, not acoustic: they arrive at once.
 
 use super::{Action, Coordinator, EngineError, Event, MessageRecord, Progress, RunPlan, RunRecord};
-use crate::model::channel::{Fate, Frame, Medium};
+use crate::model::channel::{Fate, Frame, Medium, Reason};
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
 use crate::protocol::{Command, Input, NodeCore, Output, PeerMsg};
@@ -76,7 +79,8 @@ fn at(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX)
 }
 
-/// Run `plan` (realtime clock) in virtual time. Returns the record of every
+/// Run `plan` in virtual time (a realtime clock, or any clock on the
+/// acoustic channel). Returns the record of every
 /// completed sample and, if the run stopped early, why. SIGINT/SIGTERM
 /// ([`super::interrupt`]) end it as [`EngineError::Interrupted`].
 pub fn run_des(
@@ -101,7 +105,7 @@ pub fn run_des(
         .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links));
     // Nothing judged from now on can overlap what ended this long ago.
     let horizon = plan.channel.as_ref().map_or(0.0, |c| {
-        2.0 * c.cfg.transmission_s(c.cfg.frame_bits(3)) + 1e-6
+        2.0 * c.cfg.transmission_s(c.cfg.frame_bits(PeerMsg::MAX_VALUES)) + 1e-6
     });
     let mut messages: Vec<MessageRecord> = Vec::new();
     coord.handle(now, [Event::Start], &mut actions);
@@ -178,7 +182,10 @@ pub fn run_des(
             Ev::ToNode(node, input) => (node, input),
             Ev::Arrive(f, msg) => {
                 let Some(m) = &medium else { continue };
-                let fate = m.judge(&f);
+                let fate = match m.judge(&f) {
+                    Fate::Delivered if dead[f.to as usize] => Fate::Lost(Reason::NodeDown),
+                    fate => fate,
+                };
                 messages.push(MessageRecord {
                     t_send: f.t_start,
                     t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
@@ -201,7 +208,17 @@ pub fn run_des(
         if dead[node as usize] {
             continue;
         }
+        let late = nodes[node as usize].counters().late;
+        let from_channel = matches!(input, Input::Peer(_)) && medium.is_some();
         nodes[node as usize].handle(input, &mut outputs);
+        if from_channel
+            && nodes[node as usize].counters().late > late
+            && let Some(last) = messages.last_mut()
+        {
+            // Delivered after its wait was over: discarded by the node.
+            last.t_recv = None;
+            last.lost = Some(Reason::Late);
+        }
         let mut reports = Vec::new();
         for o in outputs.drain(..) {
             match o {
@@ -213,16 +230,28 @@ pub fn run_des(
                     }
                     _ => queue.push(now, Ev::ToNode(to, Input::Peer(msg))),
                 },
-                Output::Broadcast(msg) => {
-                    for j in 0..nodes.len() as u32 {
-                        queue.push(now, Ev::ToNode(j, Input::Peer(msg)));
+                Output::Broadcast(msg) => match (&mut medium, &plan.channel) {
+                    (Some(m), Some(c)) => {
+                        // One transmission, heard by every other node; the
+                        // sender's loopback copy is not on the channel.
+                        let others: Vec<u32> =
+                            (0..nodes.len() as u32).filter(|&j| j != node).collect();
+                        let bits = c.cfg.frame_bits(msg.values());
+                        for f in m.broadcast(now.as_secs_f64(), node, &others, bits) {
+                            queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
+                        }
+                        queue.push(now, Ev::ToNode(node, Input::Peer(msg)));
                     }
-                }
+                    _ => {
+                        for j in 0..nodes.len() as u32 {
+                            queue.push(now, Ev::ToNode(j, Input::Peer(msg)));
+                        }
+                    }
+                },
                 Output::Report(r) => reports.push(Event::Report(r)),
-                Output::Timer { seq, after_s } => queue.push(
-                    now + wait(after_s),
-                    Ev::ToNode(node, Input::Command(Command::ExchangeTimeout { seq })),
-                ),
+                Output::Timer { after_s, then } => {
+                    queue.push(now + wait(after_s), Ev::ToNode(node, Input::Command(then)))
+                }
             }
         }
         if !reports.is_empty() {

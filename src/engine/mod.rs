@@ -402,6 +402,9 @@ pub fn run(
         );
     }
     match (kind, plan.clock) {
+        (EngineKind::Inprocess, Clock::Logical) if plan.channel.is_some() => {
+            des::run_des(plan, real, progress)
+        }
         (EngineKind::Inprocess, Clock::Logical) => run_inprocess(plan, real, progress),
         (EngineKind::Inprocess, Clock::Realtime) => des::run_des(plan, real, progress),
         (EngineKind::Threads, Clock::Logical) => threads::run_threads(plan, real, progress),

@@ -70,8 +70,8 @@ pub fn run_node<T: Transport>(
     let mut timing = Timing::default();
     // Realtime clock: rate and next wake-up.
     let mut clock: Option<(f64, Instant)> = None;
-    // Realtime over a lossy channel: open exchanges' timers (when, seq).
-    let mut timers: Vec<(Instant, u64)> = Vec::new();
+    // Over a lossy channel: the core's timers (when, the command to hand it).
+    let mut timers: Vec<(Instant, Command)> = Vec::new();
 
     loop {
         if opts.term.load(Ordering::Relaxed) {
@@ -135,13 +135,10 @@ pub fn run_node<T: Transport>(
             }
         }
         let now = Instant::now();
-        timers.retain(|&(at, seq)| {
-            let due = at <= now;
+        timers.retain(|(at, then)| {
+            let due = *at <= now;
             if due {
-                core.handle(
-                    Input::Command(Command::ExchangeTimeout { seq }),
-                    &mut outputs,
-                );
+                core.handle(Input::Command(then.clone()), &mut outputs);
             }
             !due
         });
@@ -169,8 +166,8 @@ pub fn run_node<T: Transport>(
                     }
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
-                Output::Timer { seq, after_s } => {
-                    timers.push((after(Instant::now(), after_s), seq))
+                Output::Timer { after_s, then } => {
+                    timers.push((after(Instant::now(), after_s), then))
                 }
                 Output::Report(r @ Report::IterationDone { .. }) => {
                     // Batched: sent with the sample's final report, so the

@@ -10,7 +10,7 @@ use super::{Clock, EngineError};
 use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
-use crate::protocol::{NodeConfig, NodeMode};
+use crate::protocol::{NodeConfig, NodeMode, SYNC_ROOT};
 use crate::scenario::{RowWeights, Scenario};
 use rand::RngExt;
 use std::time::Duration;
@@ -79,6 +79,9 @@ pub struct ChannelPlan {
     pub links: Vec<Vec<u32>>,
     /// The realtime exchange timeout in force, emulated seconds.
     pub exchange_timeout_s: f64,
+    /// Logical clocks: the round timeout in force, emulated seconds
+    /// ([`crate::protocol::NodeConfig::round_timeout_s`]).
+    pub round_timeout_s: Option<f64>,
 }
 
 impl RunPlan {
@@ -126,24 +129,36 @@ impl RunPlan {
             .collect();
         let channel = match sc.channel.acoustic() {
             None => None,
-            Some(_) if clock != Clock::Realtime => {
-                return Err(EngineError::Unsupported(
-                    "channel.model = \"acoustic\" runs with --clock realtime (on --engine inprocess) so far: sync rounds and logical async steps over a lossy channel are not built yet".into(),
-                ));
-            }
             Some(cfg) => {
                 let positions = sc.geometry.receivers.clone();
                 let links: Vec<Vec<u32>> = nodes.iter().map(|c| c.neighbours.clone()).collect();
                 // A Request and its Accept carry a reflected point each.
-                let timeout = cfg.exchange_timeout(&positions, &links, 3);
+                let fields = crate::protocol::PeerMsg::MAX_VALUES;
+                let timeout = cfg.exchange_timeout(&positions, &links, fields);
+                // Sync rounds talk to and from the root; async steps along
+                // the gossip links.
+                let used: Vec<Vec<u32>> = match node_mode {
+                    NodeMode::Sync => (0..nodes.len() as u32)
+                        .map(|i| match i {
+                            SYNC_ROOT => (1..nodes.len() as u32).collect(),
+                            _ => vec![SYNC_ROOT],
+                        })
+                        .collect(),
+                    _ => links.clone(),
+                };
+                let round = (node_mode != NodeMode::Realtime).then(|| {
+                    cfg.round_timeout(&positions, &used, fields, node_mode == NodeMode::Sync)
+                });
                 for c in &mut nodes {
                     c.exchange_timeout_s = Some(timeout);
+                    c.round_timeout_s = round;
                 }
                 Some(ChannelPlan {
                     cfg: cfg.clone(),
                     positions,
                     links,
                     exchange_timeout_s: timeout,
+                    round_timeout_s: round,
                 })
             }
         };
@@ -228,6 +243,7 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConf
         mode,
         trace_iterations: sc.trace_iterations,
         exchange_timeout_s: None,
+        round_timeout_s: None,
     }
 }
 

@@ -2,8 +2,7 @@
 //! how long a frame takes from one node to another, and whether it arrives.
 //!
 //! This module is the one implementation of the channel model; the
-//! discrete-event engine and the processes engine are to call it (neither does
-//! yet: the `[channel]` table and the engines come next, see issue 16's notes).
+//! discrete-event engine ([`crate::engine::des`]) calls it.
 //!
 //! # The model
 //! For a frame of `bits` bits sent by node `i` to node `j` at emulated time `t`:
@@ -164,6 +163,12 @@ pub struct AcousticCfg {
     /// [`AcousticCfg::default_exchange_timeout`].
     #[serde(default)]
     pub exchange_timeout_s: Option<f64>,
+    /// Logical clocks: how long the sync root waits for the reflected points
+    /// of a round, and an async node for its partner's point (emulated
+    /// seconds, in [1e-9, 86400]); default
+    /// [`AcousticCfg::default_round_timeout`].
+    #[serde(default)]
+    pub round_timeout_s: Option<f64>,
 }
 
 /// `[channel]`: the network between the nodes.
@@ -228,6 +233,7 @@ impl Default for AcousticCfg {
             links: Vec::new(),
             time_scale: 1.0,
             exchange_timeout_s: None,
+            round_timeout_s: None,
         }
     }
 }
@@ -252,6 +258,9 @@ impl AcousticCfg {
         in_range("channel.time_scale", self.time_scale, 1e-3, 1e6)?;
         if let Some(t) = self.exchange_timeout_s {
             in_range("channel.exchange_timeout_s", t, 1e-9, 86_400.0)?;
+        }
+        if let Some(t) = self.round_timeout_s {
+            in_range("channel.round_timeout_s", t, 1e-9, 86_400.0)?;
         }
         match self.loss {
             LossCfg::None => {}
@@ -309,6 +318,36 @@ impl AcousticCfg {
     pub fn exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
         self.exchange_timeout_s
             .unwrap_or_else(|| self.default_exchange_timeout(pos, links, fields))
+    }
+
+    /// The default logical round timeout over the links the mode uses
+    /// (`links[i]`: the nodes `i` sends to), seconds. One wait is the longest
+    /// round trip plus three frame times of `fields` values (the point, the
+    /// answer, and one frame of slack, so that an answer sent at once is
+    /// never judged late by a tie); that is the sync default. An async
+    /// partner may still be busy with one earlier step with each of its other
+    /// neighbours, so the async default is `max degree + 1` such waits.
+    pub fn default_round_timeout(
+        &self,
+        pos: &[Vec2],
+        links: &[Vec<u32>],
+        fields: u32,
+        sync: bool,
+    ) -> f64 {
+        let one = self.default_exchange_timeout(pos, links, fields)
+            + self.transmission_s(self.frame_bits(fields));
+        if sync {
+            one
+        } else {
+            let degree = links.iter().map(Vec::len).max().unwrap_or(0);
+            (degree + 1) as f64 * one
+        }
+    }
+
+    /// The logical round timeout in force (the key, or the default).
+    pub fn round_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32, sync: bool) -> f64 {
+        self.round_timeout_s
+            .unwrap_or_else(|| self.default_round_timeout(pos, links, fields, sync))
     }
 
     /// Bits of a frame carrying `fields` values.
@@ -374,9 +413,24 @@ pub enum Reason {
     HalfDuplex,
     /// The link is blocked.
     Blocked,
+    /// The addressee was down (dead, or left out by the coordinator).
+    NodeDown,
+    /// It arrived after the wait it answers was over, and was discarded
+    /// ([`crate::protocol::Counters::late`]).
+    Late,
 }
 
 impl Reason {
+    /// Every reason, in the order of the module docs.
+    pub const ALL: [Reason; 6] = [
+        Reason::Blocked,
+        Reason::HalfDuplex,
+        Reason::Collision,
+        Reason::Loss,
+        Reason::NodeDown,
+        Reason::Late,
+    ];
+
     /// The name written to `messages.csv`.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -384,6 +438,8 @@ impl Reason {
             Reason::Collision => "collision",
             Reason::HalfDuplex => "half_duplex",
             Reason::Blocked => "blocked",
+            Reason::NodeDown => "node_down",
+            Reason::Late => "late",
         }
     }
 }
@@ -479,22 +535,54 @@ impl Medium {
     /// modem transmits it when free, every node that hears `from` receives
     /// it, and its fate is judged at [`Frame::arrive_end`] by [`Medium::judge`].
     pub fn send(&mut self, t: f64, from: u32, to: u32, bits: u64) -> Frame {
+        let (id, start, end) = self.transmit(t, from, &[to], bits);
+        self.frame(id, from, to, bits, t, start, end)
+    }
+
+    /// Node `from` sends one frame of `bits` bits to every node of `to` at
+    /// time `t` (one transmission, as the sync root's Average): one [`Frame`]
+    /// per addressee, in the order given, each judged on its own.
+    pub fn broadcast(&mut self, t: f64, from: u32, to: &[u32], bits: u64) -> Vec<Frame> {
+        let (id, start, end) = self.transmit(t, from, to, bits);
+        to.iter()
+            .map(|&j| self.frame(id, from, j, bits, t, start, end))
+            .collect()
+    }
+
+    /// Puts one transmission on the medium: `(id, start, end)`.
+    fn transmit(&mut self, t: f64, from: u32, to: &[u32], bits: u64) -> (u64, f64, f64) {
         let fi = from as usize;
         let id = self.sent;
         self.sent += 1;
         let start = t.max(self.free_at[fi]);
-        let air = self.cfg.transmission_s(bits);
-        let end = start + air;
+        let end = start + self.cfg.transmission_s(bits);
         self.free_at[fi] = end;
         self.sending[fi].push((start, end));
         let mut listeners = self.reach[fi].clone();
-        if !listeners.contains(&to) && to != from {
-            listeners.push(to);
+        for &j in to {
+            if !listeners.contains(&j) && j != from {
+                listeners.push(j);
+            }
         }
         for j in listeners {
             let d = self.delay(from, j);
             self.arriving[j as usize].push((start + d, end + d, id));
         }
+        (id, start, end)
+    }
+
+    /// The frame of transmission `id` addressed to `to` (numbered on its link).
+    #[allow(clippy::too_many_arguments)]
+    fn frame(
+        &mut self,
+        id: u64,
+        from: u32,
+        to: u32,
+        bits: u64,
+        t: f64,
+        start: f64,
+        end: f64,
+    ) -> Frame {
         let number = self.numbers.entry((from, to)).or_insert(0);
         let k = *number;
         *number += 1;

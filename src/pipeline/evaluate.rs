@@ -2,6 +2,7 @@
 //! ([`super::score`]), the metrics of `metrics.json`, and the `[expect]` checks.
 
 use super::*;
+use crate::estimators::gossip::Mode;
 
 /// The `distributed` baseline: the DR engine again, in-process, on the same
 /// realization, with the baseline's own local solver, mode and iteration
@@ -124,7 +125,7 @@ pub fn evaluate(
         note,
         startup_seconds: record.startup_seconds,
         realtime: realtime_stats(record, opts),
-        channel: channel_stats(record),
+        channel: channel_stats(record, opts.clock, sc.algorithm.mode),
         deaths: record
             .deaths
             .iter()
@@ -213,8 +214,9 @@ pub fn unknown_metric<'a>(name: &str, keys: impl Iterator<Item = &'a String>) ->
 }
 
 /// The acoustic channel's statistics from the run's messages.
-pub fn channel_stats(rec: &RunRecord) -> Option<ChannelStats> {
+pub fn channel_stats(rec: &RunRecord, clock: Clock, mode: Mode) -> Option<ChannelStats> {
     let emulated = rec.emulated_seconds?;
+    let timeouts = rec.counters.iter().map(|c| c.timeouts).sum();
     let msgs = &rec.messages;
     let frames = msgs.len() as u64;
     let delivered = msgs.iter().filter(|m| m.lost.is_none()).count() as u64;
@@ -257,7 +259,22 @@ pub fn channel_stats(rec: &RunRecord) -> Option<ChannelStats> {
         delay_p99_s: metrics::quantile(&delays, 0.99),
         exchanges_attempted: count("request", false),
         exchanges_completed: count("accept", true),
-        exchanges_timed_out: rec.counters.iter().map(|c| c.timeouts).sum(),
+        exchanges_timed_out: if clock == Clock::Realtime {
+            timeouts
+        } else {
+            0
+        },
+        rounds_timed_out: if clock == Clock::Logical && mode == Mode::Sync {
+            timeouts
+        } else {
+            0
+        },
+        points_missing: rec.counters.iter().map(|c| c.missing).sum(),
+        steps_timed_out: if clock == Clock::Logical && mode == Mode::Async {
+            timeouts
+        } else {
+            0
+        },
         bits_sent: msgs.iter().map(|m| m.bits).sum(),
         emulated_seconds: emulated,
         realtime_factor: emulated / rec.wall_seconds.max(1e-9),

@@ -47,7 +47,8 @@ pub struct ChannelStats {
     pub delivered: u64,
     /// `delivered / frames`.
     pub delivery_ratio: f64,
-    /// Frames lost, by reason (`loss`, `collision`, `half_duplex`, `blocked`).
+    /// Frames lost, by reason (`loss`, `collision`, `half_duplex`,
+    /// `blocked`, `node_down`, `late`); only the reasons that occurred.
     pub lost: BTreeMap<String, u64>,
     /// Per directed link with traffic.
     pub links: Vec<LinkStats>,
@@ -59,8 +60,20 @@ pub struct ChannelStats {
     pub exchanges_attempted: u64,
     /// Exchanges answered with an Accept that arrived.
     pub exchanges_completed: u64,
-    /// Exchanges the initiator gave up at its timeout.
+    /// Realtime: exchanges the initiator gave up at its timeout.
     pub exchanges_timed_out: u64,
+    /// Sync rounds a node other than the root finished without the root's
+    /// Average (it kept its state), summed over the nodes.
+    #[serde(default)]
+    pub rounds_timed_out: u64,
+    /// Reflected points missing from the sync rounds the root averaged at
+    /// their timeout.
+    #[serde(default)]
+    pub points_missing: u64,
+    /// Async logical: steps a node finished without its partner's point (it
+    /// kept its state), summed over the nodes.
+    #[serde(default)]
+    pub steps_timed_out: u64,
     /// Bits sent, all frames.
     pub bits_sent: u64,
     /// The emulated time the run covered (seconds).
@@ -226,9 +239,17 @@ impl RunMetrics {
                 ("exchanges_attempted", c.exchanges_attempted as f64),
                 ("exchanges_completed", c.exchanges_completed as f64),
                 ("exchanges_timed_out", c.exchanges_timed_out as f64),
+                ("rounds_timed_out", c.rounds_timed_out as f64),
+                ("points_missing", c.points_missing as f64),
+                ("steps_timed_out", c.steps_timed_out as f64),
                 ("emulated_seconds", c.emulated_seconds),
             ] {
                 f.insert(format!("channel.{k}"), v);
+            }
+            // Every reason, zero when it did not occur.
+            for r in crate::model::channel::Reason::ALL {
+                let n = c.lost.get(r.as_str()).copied().unwrap_or(0);
+                f.insert(format!("channel.lost.{}", r.as_str()), n as f64);
             }
             if let Some(d) = c.delay_mean_s {
                 f.insert("channel.delay_mean_s".into(), d);

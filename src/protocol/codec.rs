@@ -63,6 +63,9 @@ pub mod kind {
     pub const READY: u32 = 36;
     /// Report: the answer to a [`PING`], `seq` = its check number.
     pub const PONG: u32 = 37;
+    /// Report: the lossy channel's counters (`data` = timeouts, missing,
+    /// late), after a [`COUNTERS`] frame, sent only when one is not zero.
+    pub const LOSS_COUNTERS: u32 = 38;
 }
 
 fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Frame {
@@ -161,7 +164,9 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
         }
         // Ticks are local to a node; never sent.
         // Node-local: a node's own clock and its own exchange timers.
-        Control::Command(Command::Tick | Command::ExchangeTimeout { .. }) => {}
+        Control::Command(
+            Command::Tick | Command::ExchangeTimeout { .. } | Command::RoundTimeout { .. },
+        ) => {}
         Control::StartClock(rate) => out.push(frame(kind::START_CLOCK, co, 0, 0, 0, &[*rate])),
         Control::Stop => out.push(frame(kind::STOP, co, 0, 0, 0, &[])),
         Control::Ping(seq) => out.push(frame(kind::PING, co, 0, 0, *seq, &[])),
@@ -179,8 +184,11 @@ pub fn encode_peer(m: &PeerMsg) -> Frame {
     }
 }
 
-fn counters_frame(node: u32, c: &Counters) -> Frame {
-    frame(
+/// The [`kind::COUNTERS`] frame, and the [`kind::LOSS_COUNTERS`] frame when
+/// the lossy channel's counters are not all zero (so that runs on the ideal
+/// channel send what they always sent).
+fn counters_frames(node: u32, c: &Counters, out: &mut Vec<Frame>) {
+    out.push(frame(
         kind::COUNTERS,
         node,
         0,
@@ -193,7 +201,17 @@ fn counters_frame(node: u32, c: &Counters) -> Frame {
             c.declines as f64,
             c.updates as f64,
         ],
-    )
+    ));
+    if c.timeouts > 0 || c.missing > 0 || c.late > 0 {
+        out.push(frame(
+            kind::LOSS_COUNTERS,
+            node,
+            0,
+            0,
+            0,
+            &[c.timeouts as f64, c.missing as f64, c.late as f64],
+        ));
+    }
 }
 
 /// Failure reasons that travel as codes.
@@ -224,7 +242,7 @@ pub fn encode_report(r: &Report, out: &mut Vec<Frame>) {
             theta,
             counters,
         } => {
-            out.push(counters_frame(*node, counters));
+            counters_frames(*node, counters, out);
             out.push(frame(
                 kind::SAMPLE_DONE,
                 *node,
@@ -240,7 +258,7 @@ pub fn encode_report(r: &Report, out: &mut Vec<Frame>) {
             theta,
             counters,
         } => {
-            out.push(counters_frame(*node, counters));
+            counters_frames(*node, counters, out);
             out.push(frame(
                 kind::SNAPSHOT_REPLY,
                 *node,
@@ -488,11 +506,17 @@ impl ReportDecoder {
                         messages_in: d[2] as u64,
                         declines: d[3] as u64,
                         updates: d[4] as u64,
-                        // Not carried: the processes engine runs the ideal
-                        // channel, where no exchange times out.
-                        timeouts: 0,
+                        ..Counters::default()
                     },
                 );
+                Ok(None)
+            }
+            LOSS_COUNTERS => {
+                let d = &f.data;
+                let c = self.counters.entry(f.from).or_default();
+                c.timeouts = d[0] as u64;
+                c.missing = d[1] as u64;
+                c.late = d[2] as u64;
                 Ok(None)
             }
             SAMPLE_DONE => Ok(Some(CoordinatorInput::Report(Report::SampleDone {
@@ -617,7 +641,9 @@ mod tests {
             messages_in: 12,
             declines: 1,
             updates: 9,
-            timeouts: 0,
+            timeouts: 3,
+            missing: 2,
+            late: 1,
         };
         let reports = vec![
             Report::SampleDone {

@@ -58,6 +58,15 @@ pub struct NodeConfig {
     /// channel): it waits as long as it takes.
     #[serde(default)]
     pub exchange_timeout_s: Option<f64>,
+    /// Logical clocks over a lossy channel ([`Command::RoundTimeout`]): the
+    /// sync root averages the reflected points that arrived within this many
+    /// (emulated) seconds of the start of its round; another node gives up on
+    /// a round's Average twice this long after it sent its reflected point;
+    /// an async-logical node gives up on its partner's reflected point this
+    /// long after it sent its own. `None` (the ideal channel): every wait
+    /// lasts as long as it takes.
+    #[serde(default)]
+    pub round_timeout_s: Option<f64>,
 }
 
 fn default_kappa() -> usize {
@@ -118,6 +127,16 @@ pub enum Command {
     /// state (its Request or the answer was lost; a late answer is discarded).
     ExchangeTimeout {
         /// The initiator's exchange counter.
+        seq: u64,
+    },
+    /// Logical clocks over a lossy channel: the wait of sync round or async
+    /// iteration `seq` ([`NodeConfig::round_timeout_s`]) is over. If the node
+    /// is still waiting in it: the sync root averages the reflected points it
+    /// has; another sync node, or an async node still without its partner's
+    /// point, keeps its state for that round or iteration and goes on. What
+    /// arrives for it later is discarded ([`Counters::late`]).
+    RoundTimeout {
+        /// The round or iteration.
         seq: u64,
     },
     /// Report the current `theta` as the estimate at sample `sample`.
@@ -205,6 +224,9 @@ impl PeerMsg {
         }
     }
 
+    /// The most values a message carries ([`PeerMsg::values`]).
+    pub const MAX_VALUES: u32 = 3;
+
     /// The values a message carries over an acoustic modem, the `fields` of
     /// [`AcousticCfg::frame_bits`](crate::model::channel::AcousticCfg::frame_bits):
     /// a reflected point `r = (x, y, d)` is 3 (Reflect, Request, Accept), a
@@ -235,12 +257,21 @@ pub struct Counters {
     pub declines: u64,
     /// Completed DR updates of this node's `u`.
     pub updates: u64,
-    /// Exchanges given up at their timeout (realtime on a lossy channel; as
-    /// initiator). Not carried by the processes engine's frames, which run
-    /// the ideal channel only; left out of `metrics.json` when zero, so runs
-    /// on the ideal channel write what they always wrote.
+    /// Waits given up at their timeout on a lossy channel: realtime
+    /// exchanges (as initiator), sync rounds without the root's Average,
+    /// async-logical iterations without the partner's point. Left out of
+    /// `metrics.json` when zero, so runs on the ideal channel write what they
+    /// always wrote.
     #[serde(skip_serializing_if = "is_zero")]
     pub timeouts: u64,
+    /// Sync root over a lossy channel: reflected points missing from the
+    /// rounds it averaged at their timeout. Left out when zero.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub missing: u64,
+    /// Messages that arrived after the wait they answer was over, and were
+    /// discarded. Left out when zero.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub late: u64,
 }
 
 fn is_zero(x: &u64) -> bool {
@@ -306,13 +337,14 @@ pub enum Output {
     Broadcast(PeerMsg),
     /// To the coordinator.
     Report(Report),
-    /// Realtime over a lossy channel: deliver
-    /// [`Command::ExchangeTimeout`]` { seq }` after `after_s` seconds.
+    /// Over a lossy channel: hand the node `then` (a
+    /// [`Command::ExchangeTimeout`] or a [`Command::RoundTimeout`]) after
+    /// `after_s` seconds.
     Timer {
-        /// The exchange.
-        seq: u64,
         /// When, from now (emulated seconds).
         after_s: f64,
+        /// The command to deliver.
+        then: Command,
     },
 }
 

@@ -93,6 +93,10 @@ pub struct NodeCore {
     queued: VecDeque<Command>,
     /// A sample has been received (`first_fix` starts from the first).
     started: bool,
+    /// The last sync round or async-logical iteration this node is done
+    /// with: what arrives for it or an earlier one is late
+    /// ([`Counters::late`]).
+    last_done: Option<u64>,
 }
 
 impl NodeCore {
@@ -116,6 +120,7 @@ impl NodeCore {
             rng,
             queued: VecDeque::new(),
             started: false,
+            last_done: None,
             cfg,
         }
     }
@@ -287,6 +292,19 @@ impl NodeCore {
                     self.counters.timeouts += 1;
                 }
             }
+            Command::RoundTimeout { seq } => match self.cfg.mode {
+                NodeMode::Sync => {
+                    if self
+                        .sync
+                        .as_ref()
+                        .is_some_and(|st| st.round == seq && st.mine.is_some())
+                    {
+                        self.sync_try_finish(true, out);
+                    }
+                }
+                NodeMode::AsyncLogical => self.async_timeout(seq, out),
+                NodeMode::Realtime => {}
+            },
             Command::Snapshot { sample } => out.push(Output::Report(Report::Snapshot {
                 node: self.cfg.id,
                 sample,
@@ -311,12 +329,15 @@ impl NodeCore {
                     if from as usize >= n || self.cfg.id != SYNC_ROOT {
                         return;
                     }
+                    let past = self.is_past(seq);
                     match &mut self.sync {
                         Some(st) if seq >= st.round && seq <= st.last_round => {
                             st.received.entry(seq).or_insert_with(|| vec![None; n])
                                 [from as usize] = Some(r);
-                            self.sync_try_finish(out);
+                            self.sync_try_finish(false, out);
                         }
+                        // A round averaged at its timeout without it.
+                        _ if past => self.counters.late += 1,
                         // A round of the next sample, sent by a faster node
                         // before this node got its SyncRounds command.
                         _ => {
@@ -326,15 +347,25 @@ impl NodeCore {
                     }
                 }
                 NodeMode::AsyncLogical | NodeMode::Realtime => {
-                    self.early.insert(seq, r);
-                    self.async_advance(out);
+                    if self.is_past(seq) {
+                        // An iteration given up at its timeout.
+                        self.counters.late += 1;
+                    } else {
+                        self.early.insert(seq, r);
+                        self.async_advance(out);
+                    }
                 }
             },
             PeerMsg::Average { seq, a, .. } => {
                 // The root ignores the loopback copy of its own broadcast.
                 if self.cfg.mode == NodeMode::Sync && self.cfg.id != SYNC_ROOT {
-                    self.averages.insert(seq, a);
-                    self.sync_try_finish(out);
+                    if self.is_past(seq) {
+                        // A round this node gave up at its timeout.
+                        self.counters.late += 1;
+                    } else {
+                        self.averages.insert(seq, a);
+                        self.sync_try_finish(false, out);
+                    }
                 }
             }
             PeerMsg::Request { from, seq, r } => {
@@ -378,6 +409,10 @@ impl NodeCore {
                     dr_update(&mut self.u, &ex.theta, &ex.r, a);
                     self.counters.updates += 1;
                     self.exchange = None;
+                } else {
+                    // The exchange was given up (timeout, or the partner
+                    // was reported down): a late answer is discarded.
+                    self.counters.late += 1;
                 }
             }
             PeerMsg::Decline { from, seq } => {
@@ -387,6 +422,8 @@ impl NodeCore {
                 {
                     self.exchange = None;
                     self.counters.declines += 1;
+                } else {
+                    self.counters.late += 1;
                 }
             }
         }
@@ -419,7 +456,16 @@ impl NodeCore {
                         },
                     });
                 }
-                self.sync_try_finish(out);
+                if let Some(t) = self.cfg.round_timeout_s {
+                    // The root waits for the points; another node for the
+                    // root's wait and the way back.
+                    let after_s = if id == SYNC_ROOT { t } else { 2.0 * t };
+                    out.push(Output::Timer {
+                        after_s,
+                        then: Command::RoundTimeout { seq: round },
+                    });
+                }
+                self.sync_try_finish(false, out);
             }
             Err(e) => {
                 self.sync = None;
@@ -430,20 +476,24 @@ impl NodeCore {
 
     /// Finish every sync round whose average is known: the root when it holds all
     /// `n` reflected points of the round (it then broadcasts their mean), every other
-    /// node when the root's average has arrived.
-    fn sync_try_finish(&mut self, out: &mut Vec<Output>) {
+    /// node when the root's average has arrived. With `timed_out`, the current
+    /// round's wait is over ([`Command::RoundTimeout`]): the root averages the
+    /// points it has; another node without the Average keeps its state.
+    fn sync_try_finish(&mut self, mut timed_out: bool, out: &mut Vec<Output>) {
         loop {
             let id = self.cfg.id;
+            let n = self.cfg.n_nodes as usize;
             let Some(st) = &mut self.sync else { return };
             let Some((theta, r)) = st.mine else { return };
             let a = if id == SYNC_ROOT {
-                let complete = st
+                let have = st
                     .received
                     .get(&st.round)
-                    .is_some_and(|v| v.iter().all(Option::is_some));
-                if !complete {
+                    .map_or(0, |v| v.iter().flatten().count());
+                if have < n && !timed_out {
                     return;
                 }
+                self.counters.missing += n.saturating_sub(have) as u64;
                 let rs = st.received.remove(&st.round).unwrap_or_default();
                 let a = mean_position(rs.iter().flatten());
                 if self.cfg.n_nodes > 1 {
@@ -454,21 +504,29 @@ impl NodeCore {
                         a,
                     }));
                 }
-                a
+                Some(a)
             } else {
                 match self.averages.remove(&st.round) {
-                    Some(a) => a,
+                    Some(a) => Some(a),
+                    None if timed_out => {
+                        self.counters.timeouts += 1;
+                        None
+                    }
                     None => return,
                 }
             };
-            dr_update(&mut self.u, &theta, &r, a);
-            self.theta = theta;
-            self.counters.updates += 1;
+            timed_out = false;
+            if let Some(a) = a {
+                dr_update(&mut self.u, &theta, &r, a);
+                self.theta = theta;
+                self.counters.updates += 1;
+            }
+            self.last_done = Some(st.round);
             if self.cfg.trace_iterations {
                 out.push(Output::Report(Report::IterationDone {
                     node: self.cfg.id,
                     iteration: st.round,
-                    theta,
+                    theta: self.theta,
                 }));
             }
             if st.round == st.last_round {
@@ -481,6 +539,11 @@ impl NodeCore {
             st.mine = None;
             self.sync_start_round(out);
         }
+    }
+
+    /// True if round or iteration `seq` is one this node is done with.
+    fn is_past(&self, seq: u64) -> bool {
+        self.last_done.is_some_and(|d| seq <= d)
     }
 
     // ----- async logical -----
@@ -509,6 +572,12 @@ impl NodeCore {
                                 r,
                             },
                         });
+                        if let Some(after_s) = self.cfg.round_timeout_s {
+                            out.push(Output::Timer {
+                                after_s,
+                                then: Command::RoundTimeout { seq: iter },
+                            });
+                        }
                     }
                     Err(e) => {
                         self.plan = None;
@@ -529,12 +598,32 @@ impl NodeCore {
             dr_update(&mut self.u, &theta, &r, a);
             self.theta = theta;
             self.counters.updates += 1;
+            self.last_done = Some(iter);
             out.push(Output::Report(Report::IterationDone {
                 node: self.cfg.id,
                 iteration: iter,
                 theta,
             }));
         }
+    }
+
+    /// Async logical, [`Command::RoundTimeout`]: if the node still waits for
+    /// its partner's point of iteration `seq`, it keeps its state, and goes on.
+    fn async_timeout(&mut self, seq: u64, out: &mut Vec<Output>) {
+        let Some(st) = &mut self.plan else { return };
+        if st.mine.is_none() || st.steps.front().is_none_or(|&(it, _)| it != seq) {
+            return;
+        }
+        st.steps.pop_front();
+        st.mine = None;
+        self.counters.timeouts += 1;
+        self.last_done = Some(seq);
+        out.push(Output::Report(Report::IterationDone {
+            node: self.cfg.id,
+            iteration: seq,
+            theta: self.theta,
+        }));
+        self.async_advance(out);
     }
 
     // ----- realtime -----
@@ -564,8 +653,10 @@ impl NodeCore {
                 });
                 if let Some(after_s) = self.cfg.exchange_timeout_s {
                     out.push(Output::Timer {
-                        seq: self.exchange_seq,
                         after_s,
+                        then: Command::ExchangeTimeout {
+                            seq: self.exchange_seq,
+                        },
                     });
                 }
             }
@@ -598,6 +689,7 @@ mod tests {
             mode: NodeMode::Sync,
             trace_iterations: false,
             exchange_timeout_s: None,
+            round_timeout_s: None,
         }
     }
 
@@ -811,7 +903,10 @@ mod tests {
                     to,
                     msg: PeerMsg::Request { seq, .. },
                 },
-                Output::Timer { seq: t, after_s },
+                Output::Timer {
+                    after_s,
+                    then: Command::ExchangeTimeout { seq: t },
+                },
             ] if seq == t && (*after_s - 3.5).abs() < 1e-15 => (*seq, *to),
             other => panic!("{other:?}"),
         };
@@ -840,6 +935,7 @@ mod tests {
         );
         assert!(o.is_empty());
         assert_eq!((node.u, node.theta, node.counters.updates), (u, theta, 0));
+        assert_eq!(node.counters.late, 1);
         // The next Tick starts a new exchange.
         node.handle(Input::Command(Command::Tick), &mut o);
         assert!(
@@ -853,6 +949,170 @@ mod tests {
         o.clear();
         ideal.handle(Input::Command(Command::Tick), &mut o);
         assert_eq!(o.len(), 1, "{o:?}");
+    }
+
+    /// A sync network of `n` nodes with a round timeout, each given sample 0
+    /// and `rounds` rounds; returns the nodes and their first outputs.
+    fn lossy_sync(n: u32, rounds: u32) -> (Vec<NodeCore>, Vec<Vec<Output>>) {
+        let mut nodes = Vec::new();
+        let mut outs = Vec::new();
+        for id in 0..n {
+            let mut cfg = config(LocalSolver::Relaxed, 1);
+            cfg.id = id;
+            cfg.n_nodes = n;
+            cfg.anchor = Vec2::new(id as f64, 2.0 * id as f64);
+            cfg.round_timeout_s = Some(2.0);
+            let mut node = NodeCore::new(cfg);
+            let mut o = Vec::new();
+            node.handle(sample(id), &mut o);
+            node.handle(
+                Input::Command(Command::SyncRounds {
+                    sample: 0,
+                    first_round: 0,
+                    rounds,
+                }),
+                &mut o,
+            );
+            nodes.push(node);
+            outs.push(o);
+        }
+        (nodes, outs)
+    }
+
+    fn timer_of(o: &[Output]) -> Option<(f64, Command)> {
+        o.iter().find_map(|x| match x {
+            Output::Timer { after_s, then } => Some((*after_s, then.clone())),
+            _ => None,
+        })
+    }
+
+    /// Sync over a lossy channel: the root waits `round_timeout` for the
+    /// points, the others twice as long for the Average. At its timeout the
+    /// root averages the points it has (its own and node 1's; node 2's is
+    /// missing), a node without the Average keeps its state, and the points
+    /// and Averages of a round given up arrive late and are discarded.
+    #[test]
+    fn a_sync_round_with_a_lost_point_is_averaged_at_its_timeout_without_it() {
+        let (mut nodes, outs) = lossy_sync(3, 2);
+        assert_eq!(
+            timer_of(&outs[0]),
+            Some((2.0, Command::RoundTimeout { seq: 0 }))
+        );
+        assert_eq!(
+            timer_of(&outs[1]),
+            Some((4.0, Command::RoundTimeout { seq: 0 }))
+        );
+        let reflect = |o: &[Output]| {
+            o.iter()
+                .find_map(|x| match x {
+                    Output::Peer { msg, .. } => Some(*msg),
+                    _ => None,
+                })
+                .unwrap()
+        };
+        let (r1, r2) = (reflect(&outs[1]), reflect(&outs[2]));
+        let own = nodes[0].sync.as_ref().and_then(|s| s.mine).unwrap().1;
+        let mut o = Vec::new();
+        nodes[0].handle(Input::Peer(r1), &mut o);
+        assert!(o.is_empty(), "the root waits for node 2: {o:?}");
+        // A stale timer does nothing; the round's timer averages.
+        nodes[0].handle(Input::Command(Command::RoundTimeout { seq: 5 }), &mut o);
+        assert!(o.is_empty());
+        nodes[0].handle(Input::Command(Command::RoundTimeout { seq: 0 }), &mut o);
+        let PeerMsg::Reflect { r: p1, .. } = r1 else {
+            unreachable!()
+        };
+        let avg = match o.first() {
+            Some(Output::Broadcast(m @ PeerMsg::Average { seq: 0, a, .. })) => {
+                assert_eq!(*a, mean_position([own, p1].iter()));
+                *m
+            }
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(nodes[0].counters.missing, 1);
+        assert_eq!(nodes[0].counters.updates, 1);
+        // Node 2's point of round 0 comes late: discarded.
+        nodes[0].handle(Input::Peer(r2), &mut o);
+        assert_eq!(nodes[0].counters.late, 1);
+        // Node 1 gets the Average; node 2 misses it and keeps its state.
+        let mut o1 = Vec::new();
+        nodes[1].handle(Input::Peer(avg), &mut o1);
+        assert_eq!(nodes[1].counters.updates, 1);
+        let (u2, theta2) = (nodes[2].u, nodes[2].theta);
+        let mut o2 = Vec::new();
+        nodes[2].handle(Input::Command(Command::RoundTimeout { seq: 0 }), &mut o2);
+        assert_eq!((nodes[2].u, nodes[2].theta), (u2, theta2));
+        assert_eq!(nodes[2].counters.timeouts, 1);
+        assert_eq!(nodes[2].counters.updates, 0);
+        // ... and goes on to round 1; the round-0 Average, late, is discarded.
+        assert!(matches!(
+            timer_of(&o2),
+            Some((_, Command::RoundTimeout { seq: 1 }))
+        ));
+        nodes[2].handle(Input::Peer(avg), &mut o2);
+        assert_eq!(nodes[2].counters.late, 1);
+        assert_eq!(nodes[2].counters.updates, 0);
+    }
+
+    /// Async logical over a lossy channel: a node whose partner's point did
+    /// not come within the timeout keeps its state, reports the iteration,
+    /// and goes on; the point, when it comes, is late and discarded.
+    #[test]
+    fn an_async_step_whose_partner_point_is_lost_keeps_the_state_and_goes_on() {
+        let mut cfg = config(LocalSolver::Relaxed, 1);
+        cfg.mode = NodeMode::AsyncLogical;
+        cfg.round_timeout_s = Some(1.5);
+        let mut node = NodeCore::new(cfg);
+        let mut o = Vec::new();
+        node.handle(sample(0), &mut o);
+        node.handle(
+            Input::Command(Command::AsyncPlan {
+                sample: 0,
+                steps: vec![(4, 0), (9, 2)],
+            }),
+            &mut o,
+        );
+        assert_eq!(timer_of(&o), Some((1.5, Command::RoundTimeout { seq: 4 })));
+        let (u, theta) = (node.u, node.theta);
+        o.clear();
+        node.handle(Input::Command(Command::RoundTimeout { seq: 4 }), &mut o);
+        assert_eq!((node.u, node.theta), (u, theta));
+        assert_eq!(node.counters.timeouts, 1);
+        assert!(o.iter().any(|x| matches!(
+            x,
+            Output::Report(Report::IterationDone { iteration: 4, .. })
+        )));
+        // The next step's point went out, with its timer.
+        assert!(o.iter().any(|x| matches!(
+            x,
+            Output::Peer {
+                to: 2,
+                msg: PeerMsg::Reflect { seq: 9, .. }
+            }
+        )));
+        assert_eq!(timer_of(&o), Some((1.5, Command::RoundTimeout { seq: 9 })));
+        // Node 0's point of iteration 4 arrives late: discarded.
+        let late = PeerMsg::Reflect {
+            from: 0,
+            seq: 4,
+            r: Vec3::new(1.0, 1.0, 1.0),
+        };
+        o.clear();
+        node.handle(Input::Peer(late), &mut o);
+        assert!(o.is_empty());
+        assert_eq!((node.counters.late, node.counters.updates), (1, 0));
+        // Node 2's point of iteration 9 in time: the update and the sample's end.
+        let ok = PeerMsg::Reflect {
+            from: 2,
+            seq: 9,
+            r: Vec3::new(1.0, 1.0, 1.0),
+        };
+        node.handle(Input::Peer(ok), &mut o);
+        assert_eq!(node.counters.updates, 1);
+        assert!(
+            o.iter()
+                .any(|x| matches!(x, Output::Report(Report::SampleDone { .. })))
+        );
     }
 
     #[test]

@@ -611,12 +611,10 @@ fn a_bad_channel_or_clock_is_refused_naming_the_key() {
         let (code, stderr, p) = run_bad(&text, &[]);
         assert_clear(code, &stderr, &p, needles);
     }
-    // The acoustic channel on node processes, or on a logical clock.
+    // The acoustic channel on node processes.
     let acoustic = format!("{GOOD}\n{realtime}\n[channel]\nmodel = \"acoustic\"\n");
-    for args in [&["--engine", "processes"][..], &["--clock", "logical"][..]] {
-        let (code, stderr, p) = run_bad_with(&acoustic, &[], args);
-        assert_clear(code, &stderr, &p, &["channel.model", "--engine inprocess"]);
-    }
+    let (code, stderr, p) = run_bad_with(&acoustic, &[], &["--engine", "processes"]);
+    assert_clear(code, &stderr, &p, &["channel.model", "--engine inprocess"]);
     // algorithm.clock = "realtime" without a [realtime] table, or in sync mode.
     let no_table = GOOD.replace("mode = \"async\"", "mode = \"async\"\nclock = \"realtime\"");
     let (code, stderr, p) = run_bad(&no_table, &[]);
