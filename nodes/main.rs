@@ -99,6 +99,7 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
         verbose: launch.verbose,
         term: &term,
         coordinator_alive: &alive,
+        channel: launch.channel,
     };
     let result = run_node(&mut tx, launch.node, &opts);
     drop(tx);

@@ -379,7 +379,7 @@ fn run_single(
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let acoustic = sc.channel.acoustic().is_some();
-    // The acoustic channel runs on the discrete-event engine so far.
+    // The acoustic channel runs on the discrete-event engine by default.
     let engine = args.engine().unwrap_or(if acoustic {
         EngineKind::Inprocess
     } else {
@@ -394,11 +394,11 @@ fn run_single(
         )
         .into());
     }
-    if acoustic && engine != EngineKind::Inprocess {
+    if acoustic && engine == EngineKind::Threads {
         return Err(crate::model::error::InputError::at(
             &sc.path,
             "channel.model",
-            "the acoustic channel runs on --engine inprocess (the discrete-event engine) so far",
+            "the acoustic channel runs on --engine inprocess (the discrete-event engine) or --engine processes, not threads",
         )
         .into());
     }

@@ -20,6 +20,7 @@ pub mod plan;
 pub mod preflight;
 pub mod processes;
 pub mod threads;
+pub mod water;
 
 pub use coordinator::{Action, Coordinator, Event, Timer};
 pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
@@ -201,6 +202,9 @@ pub struct RunRecord {
     /// Discrete-event engine: events handled (node ticks, deliveries, frame
     /// judgements, coordinator timers and reports).
     pub events: Option<u64>,
+    /// Processes engine on the acoustic channel: every delivered frame's
+    /// realised error, forwarded minus planned end of arrival (emulated ms).
+    pub delivery_errors_ms: Vec<f64>,
 }
 
 /// One frame between two nodes on the acoustic channel (a row of
@@ -265,6 +269,11 @@ pub fn drive(
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
     let start = Instant::now();
+    // The coordinator's clock: emulated time on the acoustic channel
+    // (`channel.time_scale` emulated seconds per wall second), else wall time.
+    let scale = plan.channel.as_ref().map(|c| c.cfg.time_scale);
+    let to_coord = |wall: Duration| scale.map_or(wall, |s| wall.mul_f64(s));
+    let to_wall = |coord: Duration| scale.map_or(coord, |s| coord.div_f64(s));
     let mut coord = Coordinator::new(plan, real);
     let mut actions = Vec::new();
     let mut events = Vec::new();
@@ -311,11 +320,11 @@ pub fn drive(
         timers.sort_by_key(|t| t.0);
         let timeout = timers
             .first()
-            .map(|(at, _)| at.saturating_sub(start.elapsed()));
+            .map(|(at, _)| to_wall(at.saturating_sub(to_coord(start.elapsed()))));
         if let Err(e) = net.recv(timeout, &mut events) {
             break Err(e);
         }
-        let now = start.elapsed();
+        let now = to_coord(start.elapsed());
         let due = timers.partition_point(|(at, _)| *at <= now);
         events.extend(timers.drain(..due).map(|(_, t)| Event::Timer(t)));
         coord.handle(now, events.drain(..), &mut actions);
@@ -392,13 +401,12 @@ pub fn run(
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    if plan.channel.is_some() && kind != EngineKind::Inprocess {
+    if plan.channel.is_some() && kind == EngineKind::Threads {
         return (
             RunRecord::empty(plan.n()),
-            Err(EngineError::Unsupported(format!(
-                "the acoustic channel runs on the discrete-event engine (--engine inprocess) so far, not {}",
-                kind.as_str()
-            ))),
+            Err(EngineError::Unsupported(
+                "the acoustic channel runs on the discrete-event engine (--engine inprocess) or on node processes (--engine processes), not threads".into(),
+            )),
         );
     }
     match (kind, plan.clock) {

@@ -26,6 +26,11 @@ pub struct NodeLoop<'a> {
     /// Asked only when idle (a system call per message would cost more than the
     /// message): `false` once the coordinator is gone, which fails the loop.
     pub coordinator_alive: &'a dyn Fn() -> bool,
+    /// The acoustic channel's shared clock ([`super::water`]): gossip frames
+    /// go to the coordinator's water stamped with their emulated send time,
+    /// and the node's clock waits and timers are emulated seconds. `None`
+    /// (the ideal channel): frames go straight to the peers, in wall time.
+    pub channel: Option<super::water::ChannelClock>,
 }
 
 /// Why a node stopped other than by STOP or `term`.
@@ -62,6 +67,11 @@ pub fn run_node<T: Transport>(
     }
 
     let mut core = NodeCore::new(node);
+    // Emulated seconds as wall seconds.
+    let wall = |emulated: f64| match opts.channel {
+        Some(c) => emulated / c.time_scale,
+        None => emulated,
+    };
     let mut decoder = NodeDecoder::default();
     let mut frames: Vec<Frame> = Vec::new();
     let mut outputs: Vec<Output> = Vec::new();
@@ -104,7 +114,13 @@ pub fn run_node<T: Transport>(
             })?;
             match input {
                 None => {}
-                Some(NodeInput::Peer(m)) => core.handle(Input::Peer(m), &mut outputs),
+                Some(NodeInput::Peer(m)) => {
+                    let late = core.counters().late;
+                    core.handle(Input::Peer(m), &mut outputs);
+                    if opts.channel.is_some() && core.counters().late > late {
+                        tx.send(Endpoint::Coordinator, &codec::encode_late(id, &m))?;
+                    }
+                }
                 Some(NodeInput::Control(Control::Command(c))) => {
                     if opts.verbose {
                         log_command(id, &c);
@@ -113,7 +129,7 @@ pub fn run_node<T: Transport>(
                 }
                 Some(NodeInput::Control(Control::StartClock(rate))) => {
                     let wait = core.draw_wait(rate);
-                    clock = Some((rate, after(Instant::now(), wait)));
+                    clock = Some((rate, after(Instant::now(), wall(wait))));
                 }
                 Some(NodeInput::Control(Control::Ping(seq))) => {
                     // Answered by the loop, not the protocol core: a node that
@@ -147,7 +163,7 @@ pub fn run_node<T: Transport>(
         {
             core.handle(Input::Command(Command::Tick), &mut outputs);
             let wait = core.draw_wait(rate);
-            clock = Some((rate, after(next.max(Instant::now()), wait)));
+            clock = Some((rate, after(next.max(Instant::now()), wall(wait))));
         }
         if outputs.is_empty() {
             timing.busy_seconds += busy.elapsed().as_secs_f64();
@@ -156,6 +172,14 @@ pub fn run_node<T: Transport>(
         let mut gone: Vec<u32> = Vec::new();
         for o in outputs.drain(..) {
             match o {
+                Output::Peer { to, msg } if let Some(c) = opts.channel => {
+                    let f = codec::encode_channel(&msg, to, c.now_s());
+                    tx.send(Endpoint::Coordinator, &f)?;
+                }
+                Output::Broadcast(msg) if let Some(c) = opts.channel => {
+                    let f = codec::encode_channel(&msg, codec::TO_ALL, c.now_s());
+                    tx.send(Endpoint::Coordinator, &f)?;
+                }
                 Output::Peer { to, msg } => {
                     match tx.send(Endpoint::Node(to), &codec::encode_peer(&msg)) {
                         // A neighbour that exited on its own (SIGTERM, a panic,
@@ -167,7 +191,7 @@ pub fn run_node<T: Transport>(
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
                 Output::Timer { after_s, then } => {
-                    timers.push((after(Instant::now(), after_s), then))
+                    timers.push((after(Instant::now(), wall(after_s)), then))
                 }
                 Output::Report(r @ Report::IterationDone { .. }) => {
                     // Batched: sent with the sample's final report, so the

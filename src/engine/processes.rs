@@ -17,6 +17,7 @@
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
+use super::water::{ChannelClock, Water};
 use super::{Clock, EngineError, Event, Network, RunPlan, RunRecord};
 use crate::estimators::gossip::Mode;
 use crate::model::synth::Realization;
@@ -54,6 +55,10 @@ pub struct NodeLaunch {
     /// [`IoxTransport::set_poll`]).
     #[serde(default)]
     pub poll_us: u64,
+    /// The acoustic channel's shared clock: gossip goes through the
+    /// coordinator's water ([`super::water`]). `None`: the ideal channel.
+    #[serde(default)]
+    pub channel: Option<ChannelClock>,
 }
 
 impl NodeLaunch {
@@ -165,6 +170,10 @@ pub struct Processes {
     /// The run's IPC namespace.
     pub run_id: String,
     stopped: bool,
+    /// The acoustic channel between the nodes (`None`: the ideal channel,
+    /// where nodes send to each other directly).
+    water: Option<Water>,
+    delivered: Vec<(u32, crate::protocol::PeerMsg)>,
 }
 
 fn status_text(s: &ExitStatus) -> String {
@@ -181,12 +190,14 @@ impl Processes {
     /// Create the run's services (namespace `run_id`, from
     /// [`unique_run_id`](crate::transport::unique_run_id)) and spawn one node
     /// process per receiver; returns once every node reported READY.
+    /// With `water`, the nodes gossip through it (the acoustic channel).
     pub fn spawn(
         run_id: String,
         configs: Vec<NodeConfig>,
         graph_neighbours: Vec<Vec<u32>>,
         inbox_buffer: usize,
         broadcast: bool,
+        water: Option<Water>,
         opts: &ProcessOptions,
     ) -> Result<Processes, EngineError> {
         let prog = &opts.node_program;
@@ -209,6 +220,7 @@ impl Processes {
             node: configs[0].clone(),
             verbose: opts.verbose,
             poll_us: opts.poll_us,
+            channel: water.as_ref().map(Water::clock),
         };
         let topo = launch0.run_topology().map_err(EngineError::Transport)?;
         let tx = IoxTransport::coordinator(&topo).map_err(EngineError::Transport)?;
@@ -226,6 +238,8 @@ impl Processes {
             verbose: opts.verbose,
             run_id,
             stopped: false,
+            water,
+            delivered: Vec::new(),
         };
         for cfg in configs {
             let id = cfg.id;
@@ -357,12 +371,53 @@ impl Processes {
                         *t = timing;
                     }
                 }
+                Ok(Some(CoordinatorInput::Channel { msg, to, t_send })) => {
+                    if let Some(w) = &mut self.water {
+                        w.submit(msg, to, t_send);
+                    }
+                }
+                Ok(Some(CoordinatorInput::Late {
+                    node, from, kind, ..
+                })) => {
+                    if let Some(w) = &mut self.water {
+                        w.mark_late(node, from, kind);
+                    }
+                }
                 Ok(Some(x)) => out.push(x),
                 Ok(None) => {}
                 Err(e) => return Err(EngineError::BadFrame(e)),
             }
         }
         Ok(out)
+    }
+
+    /// Forward every frame of the water whose judgement is due (delivered
+    /// ones to their addressee), and flush.
+    fn pump(&mut self) -> Result<(), EngineError> {
+        let Some(w) = &mut self.water else {
+            return Ok(());
+        };
+        w.judge_due(w.clock().now_s(), &mut self.delivered);
+        if self.delivered.is_empty() {
+            return Ok(());
+        }
+        let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
+        for (to, msg) in self.delivered.drain(..) {
+            if self.dead.get(to as usize).copied().unwrap_or(true) {
+                continue;
+            }
+            match tx.send(Endpoint::Node(to), &codec::encode_peer(&msg)) {
+                Err(TransportError::PeerGone { .. }) => {}
+                r => r.map_err(EngineError::Transport)?,
+            }
+        }
+        tx.flush().map_err(EngineError::Transport)
+    }
+
+    /// The water's records and delivery errors, times moved `offset_s`
+    /// earlier (`None` on the ideal channel).
+    fn take_water(&mut self, offset_s: f64) -> Option<(Vec<super::MessageRecord>, Vec<f64>)> {
+        self.water.take().map(|w| w.into_records(offset_s))
     }
 
     /// Send a control message to one node.
@@ -498,18 +553,28 @@ impl Network for Processes {
                 out.push(Event::Interrupted);
                 return Ok(());
             }
-            let slice = deadline.map_or(Duration::from_millis(50), |d| {
+            let mut slice = deadline.map_or(Duration::from_millis(50), |d| {
                 d.saturating_duration_since(Instant::now())
                     .min(Duration::from_millis(50))
             });
+            if let Some(due) = self.water.as_ref().and_then(Water::next_due) {
+                slice = slice.min(due);
+            }
             for x in self.receive(slice)? {
                 match x {
                     CoordinatorInput::Report(r) => out.push(Event::Report(r)),
                     CoordinatorInput::Pong { node, seq } => out.push(Event::Pong { node, seq }),
-                    CoordinatorInput::Ready { .. } | CoordinatorInput::Timing { .. } => {}
+                    CoordinatorInput::Ready { .. }
+                    | CoordinatorInput::Timing { .. }
+                    | CoordinatorInput::Channel { .. }
+                    | CoordinatorInput::Late { .. } => {}
                 }
             }
+            self.pump()?;
             while let Some((node, how)) = self.check_children() {
+                if let Some(w) = &mut self.water {
+                    w.set_dead(node);
+                }
                 out.push(Event::NodeDied { node, how });
             }
             if !out.is_empty() || deadline.is_some_and(|d| Instant::now() >= d) {
@@ -539,6 +604,9 @@ impl Network for Processes {
         }
         if let Some(d) = self.dead.get_mut(i) {
             *d = true;
+        }
+        if let Some(w) = &mut self.water {
+            w.set_dead(node);
         }
     }
 }
@@ -624,7 +692,19 @@ pub fn run_processes(
     // The run id is chosen first, so that a run that fails to start still
     // records the namespace it used.
     let run_id = crate::transport::unique_run_id();
-    let spawned = Processes::spawn(run_id.clone(), configs, neighbours, inbox, broadcast, opts);
+    let water = plan.channel.as_ref().map(|c| {
+        let clock = ChannelClock::start(c.cfg.time_scale);
+        Water::new(c, plan.seed, clock)
+    });
+    let spawned = Processes::spawn(
+        run_id.clone(),
+        configs,
+        neighbours,
+        inbox,
+        broadcast,
+        water,
+        opts,
+    );
     let mut procs = match spawned {
         Ok(p) => p,
         Err(e) => {
@@ -633,7 +713,16 @@ pub fn run_processes(
             return (rec, Err(e));
         }
     };
+    // The run's emulated time 0 is the start of the drive, as in the
+    // discrete-event engine.
+    let offset_s = procs.water.as_ref().map_or(0.0, |w| w.clock().now_s());
     let (mut rec, res) = super::drive(plan, real, &mut procs, progress);
+    if let Some((messages, errors)) = procs.take_water(offset_s) {
+        rec.emulated_seconds =
+            Some(rec.wall_seconds * plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale));
+        rec.messages = messages;
+        rec.delivery_errors_ms = errors;
+    }
     rec.startup_seconds = Some(procs.startup_seconds);
     rec.run_id = Some(procs.run_id.clone());
     rec.timing = procs.timing.clone();
@@ -652,7 +741,7 @@ mod tests {
             node_program: NodeProgram::binary("/nonexistent/sonarnet-node"),
             ..Default::default()
         };
-        let Err(e) = Processes::spawn("r".into(), vec![], vec![], 8, false, &opts) else {
+        let Err(e) = Processes::spawn("r".into(), vec![], vec![], 8, false, None, &opts) else {
             panic!("spawned without a node program");
         };
         assert_eq!(

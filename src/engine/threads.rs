@@ -56,6 +56,7 @@ impl Threads {
                     verbose: false,
                     term: &term,
                     coordinator_alive: &alive,
+                    channel: None,
                 };
                 run_node(&mut node_tx, cfg, &opts)
             })));

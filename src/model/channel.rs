@@ -297,10 +297,10 @@ impl AcousticCfg {
         Ok(())
     }
 
-    /// The default realtime exchange timeout: twice the longest one-way delay
+    /// The longest round trip over `links`: twice the longest one-way delay
     /// between linked nodes plus twice the time to send a frame of `fields`
     /// values (a Request and its answer), seconds.
-    pub fn default_exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+    pub fn round_trip(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
         let mut max_delay = 0.0f64;
         for (i, out) in links.iter().enumerate() {
             for &j in out {
@@ -314,6 +314,16 @@ impl AcousticCfg {
         2.0 * max_delay + 2.0 * self.transmission_s(self.frame_bits(fields))
     }
 
+    /// The default realtime exchange timeout: the longest round trip
+    /// ([`AcousticCfg::round_trip`]) plus one frame time of slack, seconds.
+    /// Without the slack an answer sent at once over the longest link would
+    /// arrive exactly at the timeout, and be late by any jitter (or by the
+    /// order of two events at one virtual time), so that link would never
+    /// complete an exchange.
+    pub fn default_exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+        self.round_trip(pos, links, fields) + self.transmission_s(self.frame_bits(fields))
+    }
+
     /// The exchange timeout in force (the key, or the default).
     pub fn exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
         self.exchange_timeout_s
@@ -322,11 +332,11 @@ impl AcousticCfg {
 
     /// The default logical round timeout over the links the mode uses
     /// (`links[i]`: the nodes `i` sends to), seconds. One wait is the longest
-    /// round trip plus three frame times of `fields` values (the point, the
-    /// answer, and one frame of slack, so that an answer sent at once is
-    /// never judged late by a tie); that is the sync default. An async
-    /// partner may still be busy with one earlier step with each of its other
-    /// neighbours, so the async default is `max degree + 1` such waits.
+    /// round trip plus one frame time of slack, as for an exchange
+    /// ([`AcousticCfg::default_exchange_timeout`]); that is the sync default.
+    /// An async partner may still be busy with one earlier step with each of
+    /// its other neighbours, so the async default is `max degree + 1` such
+    /// waits.
     pub fn default_round_timeout(
         &self,
         pos: &[Vec2],
@@ -334,8 +344,7 @@ impl AcousticCfg {
         fields: u32,
         sync: bool,
     ) -> f64 {
-        let one = self.default_exchange_timeout(pos, links, fields)
-            + self.transmission_s(self.frame_bits(fields));
+        let one = self.default_exchange_timeout(pos, links, fields);
         if sync {
             one
         } else {

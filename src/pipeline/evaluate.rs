@@ -275,6 +275,8 @@ pub fn channel_stats(rec: &RunRecord, clock: Clock, mode: Mode) -> Option<Channe
         } else {
             0
         },
+        delivery_error_p50_ms: metrics::quantile(&rec.delivery_errors_ms, 0.5),
+        delivery_error_p99_ms: metrics::quantile(&rec.delivery_errors_ms, 0.99),
         bits_sent: msgs.iter().map(|m| m.bits).sum(),
         emulated_seconds: emulated,
         realtime_factor: emulated / rec.wall_seconds.max(1e-9),

@@ -74,6 +74,14 @@ pub struct ChannelStats {
     /// kept its state), summed over the nodes.
     #[serde(default)]
     pub steps_timed_out: u64,
+    /// Processes engine: the median realised delivery error of the
+    /// delivered frames, forwarded minus planned end of arrival (emulated
+    /// ms); absent on the discrete-event engine, which is exact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delivery_error_p50_ms: Option<f64>,
+    /// Processes engine: its 99th percentile (emulated ms).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delivery_error_p99_ms: Option<f64>,
     /// Bits sent, all frames.
     pub bits_sent: u64,
     /// The emulated time the run covered (seconds).

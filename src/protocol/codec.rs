@@ -66,6 +66,9 @@ pub mod kind {
     /// Report: the lossy channel's counters (`data` = timeouts, missing,
     /// late), after a [`COUNTERS`] frame, sent only when one is not zero.
     pub const LOSS_COUNTERS: u32 = 38;
+    /// Report (acoustic channel): the node discarded a frame as late;
+    /// `aux` = its sender, `seq` = its sequence number, `sample` = its kind.
+    pub const LATE: u32 = 39;
 }
 
 fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Frame {
@@ -398,33 +401,63 @@ impl NodeDecoder {
             STOP => Ok(Some(NodeInput::Control(Control::Stop))),
             PING => Ok(Some(NodeInput::Control(Control::Ping(f.seq)))),
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
-            REFLECT => Ok(Some(NodeInput::Peer(PeerMsg::Reflect {
-                from: f.from,
-                seq: f.seq,
-                r: v3(&f.data),
-            }))),
-            REQUEST => Ok(Some(NodeInput::Peer(PeerMsg::Request {
-                from: f.from,
-                seq: f.seq,
-                r: v3(&f.data),
-            }))),
-            ACCEPT => Ok(Some(NodeInput::Peer(PeerMsg::Accept {
-                from: f.from,
-                seq: f.seq,
-                r: v3(&f.data),
-            }))),
-            DECLINE => Ok(Some(NodeInput::Peer(PeerMsg::Decline {
-                from: f.from,
-                seq: f.seq,
-            }))),
-            AVERAGE => Ok(Some(NodeInput::Peer(PeerMsg::Average {
-                from: f.from,
-                seq: f.seq,
-                a: crate::model::geometry::Vec2::new(f.data[0], f.data[1]),
-            }))),
+            REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
+                Ok(decode_peer(f).map(NodeInput::Peer))
+            }
             k => Err(DecodeError::UnknownKind(k)),
         }
     }
+}
+
+/// The gossip message a peer frame carries (`None` for another kind).
+pub fn decode_peer(f: &Frame) -> Option<PeerMsg> {
+    use kind::*;
+    let (from, seq) = (f.from, f.seq);
+    Some(match f.kind {
+        REFLECT => PeerMsg::Reflect {
+            from,
+            seq,
+            r: v3(&f.data),
+        },
+        REQUEST => PeerMsg::Request {
+            from,
+            seq,
+            r: v3(&f.data),
+        },
+        ACCEPT => PeerMsg::Accept {
+            from,
+            seq,
+            r: v3(&f.data),
+        },
+        DECLINE => PeerMsg::Decline { from, seq },
+        AVERAGE => PeerMsg::Average {
+            from,
+            seq,
+            a: crate::model::geometry::Vec2::new(f.data[0], f.data[1]),
+        },
+        _ => return None,
+    })
+}
+
+/// `aux` of a channel frame addressed to every other node (the sync root's
+/// Average).
+pub const TO_ALL: u32 = u32::MAX;
+
+/// A gossip message handed to the coordinator's acoustic channel
+/// ([`crate::engine::water`]) instead of its addressee: the peer frame, with
+/// `aux` = the addressee ([`TO_ALL`] for a broadcast) and `data[4]` = the
+/// emulated time it was sent (no message uses `data[4]`).
+pub fn encode_channel(m: &PeerMsg, to: u32, t_send: f64) -> Frame {
+    let mut f = encode_peer(m);
+    f.aux = to;
+    f.data[4] = t_send;
+    f
+}
+
+/// The [`kind::LATE`] report of node `node`, which discarded `m` as late.
+pub fn encode_late(node: u32, m: &PeerMsg) -> Frame {
+    let f = encode_peer(m);
+    frame(kind::LATE, node, f.kind, f.from, f.seq, &[])
 }
 
 /// Per-node time split reported by node processes.
@@ -482,6 +515,28 @@ pub enum CoordinatorInput {
         /// The split.
         timing: Timing,
     },
+    /// Acoustic channel: a node's gossip message for the water
+    /// ([`encode_channel`]).
+    Channel {
+        /// The message (its sender is `msg.from()`).
+        msg: PeerMsg,
+        /// The addressee, [`TO_ALL`] for every other node.
+        to: u32,
+        /// When the node sent it, emulated seconds.
+        t_send: f64,
+    },
+    /// Acoustic channel: node `node` discarded a frame as late
+    /// ([`encode_late`]).
+    Late {
+        /// The node that discarded it.
+        node: u32,
+        /// Its sender.
+        from: u32,
+        /// Its kind ([`PeerMsg::kind`]).
+        kind: &'static str,
+        /// Its sequence number.
+        seq: u64,
+    },
 }
 
 /// Reassembles the reports of all nodes at the coordinator.
@@ -510,6 +565,28 @@ impl ReportDecoder {
                     },
                 );
                 Ok(None)
+            }
+            REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
+                Ok(decode_peer(f).map(|msg| CoordinatorInput::Channel {
+                    msg,
+                    to: f.aux,
+                    t_send: f.data[4],
+                }))
+            }
+            LATE => {
+                let probe = Frame {
+                    kind: f.sample,
+                    ..*f
+                };
+                let Some(m) = decode_peer(&probe) else {
+                    return Err(DecodeError::UnknownKind(f.sample));
+                };
+                Ok(Some(CoordinatorInput::Late {
+                    node: f.from,
+                    from: f.aux,
+                    kind: m.kind(),
+                    seq: f.seq,
+                }))
             }
             LOSS_COUNTERS => {
                 let d = &f.data;

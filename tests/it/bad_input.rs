@@ -611,9 +611,9 @@ fn a_bad_channel_or_clock_is_refused_naming_the_key() {
         let (code, stderr, p) = run_bad(&text, &[]);
         assert_clear(code, &stderr, &p, needles);
     }
-    // The acoustic channel on node processes.
+    // The acoustic channel on node threads.
     let acoustic = format!("{GOOD}\n{realtime}\n[channel]\nmodel = \"acoustic\"\n");
-    let (code, stderr, p) = run_bad_with(&acoustic, &[], &["--engine", "processes"]);
+    let (code, stderr, p) = run_bad_with(&acoustic, &[], &["--engine", "threads"]);
     assert_clear(code, &stderr, &p, &["channel.model", "--engine inprocess"]);
     // algorithm.clock = "realtime" without a [realtime] table, or in sync mode.
     let no_table = GOOD.replace("mode = \"async\"", "mode = \"async\"\nclock = \"realtime\"");
