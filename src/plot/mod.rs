@@ -1,6 +1,7 @@
 //! Plots of a results directory (issue 7), drawn with `plotters`.
 //!
-//! Every run writes five SVG figures next to its outputs (PNG on request):
+//! Every run writes five SVG figures next to its outputs (seven on the
+//! acoustic channel; PNG on request):
 //!
 //! * `tracks.svg`: the true track, the distributed estimate `theta_bar`
 //!   (seed 002 eq. (11) averaged over nodes), the centralised ML reference and
@@ -16,6 +17,9 @@
 //!   (seed 001) of every track; Monte Carlo runs draw mean and band.
 //! * `network.svg`: the graph with per-node counters (prox solves, messages,
 //!   declines).
+//! * On the acoustic channel, `messages.svg`: a message-sequence diagram of
+//!   the first frames (lost ones marked with their reason), and
+//!   `channel.svg`: each link's delivery ratio against its length.
 //!
 //! The pipeline is: [`load_run`] reads a directory into [`RunData`]; the
 //! builders in [`figures`] turn it into [`Figure`]s, a backend-free
@@ -382,7 +386,8 @@ pub fn write_figures(
 }
 
 /// Read the results directory `dir` and write its SVG plots into it
-/// (`tracks.svg`, `error.svg`, `consensus.svg`, `ctte.svg`, `network.svg`).
+/// (`tracks.svg`, `error.svg`, `consensus.svg`, `ctte.svg`, `network.svg`,
+/// and on the acoustic channel `messages.svg` and `channel.svg`).
 /// `sonarnet run` calls this after writing its outputs.
 pub fn write_run_plots(dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     let data = load_run(dir)?;

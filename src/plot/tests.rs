@@ -84,6 +84,7 @@ fn data() -> RunData {
         nodes: nodes(),
         iterations: None,
         monte_carlo: None,
+        messages: None,
     }
 }
 
@@ -437,4 +438,65 @@ fn tick_labels_are_compact() {
     assert_eq!(tick(2.5), "2.5");
     assert_eq!(tick(-0.0), "0");
     assert_eq!(tick(1e7), "1.0e7");
+}
+
+/// A messages.csv: two requests delivered on link 0 -> 1 and 1 -> 0, the
+/// same request size lost on 0 -> 1 (collision), and an accept lost late.
+const MESSAGES: &str = "\
+t_send,t_recv,from,to,kind,bits,fate,reason,seed
+1.0,3.0,0,1,request,240,delivered,,7
+2.5,4.0,1,0,accept,240,delivered,,7
+5.0,,0,1,request,240,lost,collision,7
+6.0,,1,0,decline,48,lost,late,7
+";
+
+/// `messages.svg`: one line per node, an arrow per delivered frame from
+/// (send, sender) to (arrival, addressee), and a lost frame drawn to where it
+/// would have arrived (the delay of a delivered frame of its size on its
+/// link, else of its link) with a cross and its reason; `channel.svg` puts
+/// each link at its length. Neither exists off the acoustic channel.
+#[test]
+fn the_channel_figures_draw_each_frame_where_the_channel_put_it() {
+    let mut d = data();
+    assert!(messages_figure(&d).is_none() && channel_figure(&d).is_none());
+    let msgs = parse_messages(Path::new("messages.csv"), &csv_of(MESSAGES)).unwrap();
+    assert_eq!(msgs[2].reason.as_deref(), Some("collision"));
+    d.messages = Some(msgs);
+    let f = messages_figure(&d).unwrap();
+    let p = &f.panels[0];
+    let seg = |name: &str| -> Vec<Vec<(f64, f64)>> {
+        p.series
+            .iter()
+            .filter(|s| s.name == name)
+            .map(|s| s.segments[0].clone())
+            .collect()
+    };
+    assert_eq!(seg("node 0").len(), 1);
+    assert_eq!(seg("request"), vec![vec![(1.0, 0.0), (3.0, 1.0)]]);
+    // Lost at 5.0: the delay of the delivered 240-bit request on 0 -> 1 (2 s).
+    assert_eq!(seg("lost request head"), vec![vec![(7.0, 1.0)]]);
+    // Lost at 6.0: no 48-bit frame delivered on 1 -> 0; that link's 1.5 s.
+    assert_eq!(seg("lost decline head"), vec![vec![(7.5, 0.0)]]);
+    assert!(p.labels.iter().any(|l| l.lines == ["late"]));
+    for pt in p.points() {
+        assert!(p.contains(pt), "{pt:?} outside the ranges");
+    }
+    // channel.svg from metrics.json's links: 0 -> 1 is 2500 m long.
+    d.metrics = Some(
+        crate::pipeline::RunMetrics::from_json(json!({"channel": {
+            "frames": 4, "delivered": 2, "delivery_ratio": 0.5, "lost": {},
+            "links": [{"from": 0, "to": 1, "frames": 2, "delivery_ratio": 0.5}],
+            "delay_mean_s": 1.75, "delay_p99_s": 2.0, "exchanges_attempted": 2,
+            "exchanges_completed": 1, "exchanges_timed_out": 0, "bits_sent": 768,
+            "emulated_seconds": 10.0, "realtime_factor": 1.0, "events": 0,
+            "events_per_second": 0.0}}))
+        .unwrap(),
+    );
+    let c = channel_figure(&d).unwrap();
+    assert_eq!(c.panels[0].series[0].segments, vec![vec![(2500.0, 0.5)]]);
+    assert!(c.panels[0].contains((2500.0, 0.5)));
+    // A bad cell names its line and column.
+    let bad = MESSAGES.replace("6.0,,1,0,decline", "6.0,,1,x,decline");
+    let e = parse_messages(Path::new("messages.csv"), &csv_of(&bad)).unwrap_err();
+    assert!(e.to_string().contains("line 5, column to"), "{e}");
 }

@@ -51,6 +51,12 @@ pub fn caption(name: &str) -> &'static str {
         "network" => {
             "The gossip graph to scale. Each node is coloured by its number of prox solves and labelled with its counters: prox solves, gossip messages sent (↑) and received (↓), and declined exchanges."
         }
+        "messages" => {
+            "The first frames on the acoustic channel as a message-sequence diagram: one line per node, emulated time to the right. Each delivered frame is an arrow from its sender at the start of its transmission to its addressee at the end of its arrival, coloured by kind; a lost frame is a dashed red line to where it would have arrived, with a cross and the reason (loss, collision, half_duplex, blocked, node_down, late)."
+        }
+        "channel" => {
+            "Each directed link's delivery ratio (frames delivered over frames sent, label i→j with the frames sent) against the link's length. Losses grow with range under the range loss model; collisions and half-duplex losses depend on the traffic at the receiver."
+        }
         "compare-error" => "Error per sample of every track: run A solid, run B dashed.",
         "compare-ctte" => "Running CTTE of every track: run A solid, run B dashed.",
         _ => "",

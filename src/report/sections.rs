@@ -182,6 +182,7 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
                     | "nodes"
                     | "deaths"
                     | "realtime"
+                    | "channel"
                     | "engine"
                     | "mode"
                     | "clock"
@@ -211,6 +212,28 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
     if let Some(Value::Object(rt)) = all.get("realtime") {
         for (k, v) in rt {
             rows.push((format!("realtime.{k}"), show(v)));
+        }
+    }
+    // The acoustic channel: its scalars, the losses by reason in one row;
+    // the per-link ratios are drawn in channel.svg.
+    if let Some(Value::Object(ch)) = all.get("channel") {
+        for (k, v) in ch {
+            match (k.as_str(), v) {
+                ("links", _) => {}
+                ("lost", Value::Object(by)) => {
+                    let list: Vec<String> = by.iter().map(|(r, n)| format!("{r} {n}")).collect();
+                    let text = if list.is_empty() {
+                        "none".into()
+                    } else {
+                        list.join(", ")
+                    };
+                    rows.push(("channel.lost".into(), text));
+                }
+                _ => {
+                    let text = num(v).map_or_else(|| show(v), fmt_num);
+                    rows.push((format!("channel.{k}"), text));
+                }
+            }
         }
     }
     if !m.deaths.is_empty() {

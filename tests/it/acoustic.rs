@@ -98,7 +98,10 @@ fn bernoulli_loss_on_the_channel_lies_within_its_999_per_mille_binomial_interval
             "channel = { model = \"acoustic\", time_scale = 60.0, loss = { model = \"bernoulli\", p = 0.2 } }",
             "channel = { model = \"acoustic\", half_duplex = false, collisions = false, loss = { model = \"bernoulli\", p = 0.2 } }",
         );
-    assert!(text.contains("collisions = false, loss"), "the variant changed");
+    assert!(
+        text.contains("collisions = false, loss"),
+        "the variant changed"
+    );
     let path = tmp.write("bern.toml", &text);
     let sc = Scenario::load_all(&path)
         .unwrap()
@@ -317,4 +320,34 @@ fn an_acoustic_processes_run_agrees_with_the_discrete_event_engine() {
         (pp - pd).abs() < 3.29 * sd,
         "processes {pp:.4} vs discrete-event {pd:.4} (sd {sd:.4})"
     );
+}
+
+/// Issue 16 item 5: an acoustic run draws `messages.svg` and `channel.svg`,
+/// and the HTML report shows both with the channel's metrics; a run on the
+/// ideal channel draws neither.
+#[test]
+fn an_acoustic_run_draws_the_message_diagram_and_the_delivery_by_length() {
+    let tmp = TempDir::new("acoustic-plots");
+    let file = scenario("mourya2017-spiral-acoustic.toml");
+    for (v, acoustic) in [("bernoulli-0.2", true), ("ideal", false)] {
+        let out = tmp.path().join(v);
+        let o = crate::util::run_file(
+            &file,
+            &out,
+            &["--variant", v, "--engine", "inprocess", "--report"],
+            std::time::Duration::from_secs(120),
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        for f in ["messages.svg", "channel.svg"] {
+            assert_eq!(out.join(f).is_file(), acoustic, "{v}: {f}");
+        }
+        let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+        for needle in [
+            "id=\"plot-messages\"",
+            "id=\"plot-channel\"",
+            "channel.delivery_ratio",
+        ] {
+            assert_eq!(html.contains(needle), acoustic, "{v}: {needle}");
+        }
+    }
 }

@@ -219,6 +219,8 @@ pub struct RunData {
     pub iterations: Option<Vec<NodePoint>>,
     /// Monte Carlo outputs, when present.
     pub monte_carlo: Option<MonteCarlo>,
+    /// `messages.csv` (the acoustic channel), when present.
+    pub messages: Option<Vec<MessageRow>>,
 }
 
 impl RunData {
@@ -308,6 +310,12 @@ pub fn load_run(dir: &Path) -> Result<RunData, InputError> {
     } else {
         None
     };
+    let msgs = dir.join("messages.csv");
+    let messages = if msgs.is_file() {
+        Some(parse_messages(&msgs, &read_csv(&msgs)?)?)
+    } else {
+        None
+    };
     let monte_carlo = if is_mc {
         let trials = dir.join("trials.csv");
         if !trials.is_file() {
@@ -342,6 +350,7 @@ pub fn load_run(dir: &Path) -> Result<RunData, InputError> {
         nodes,
         iterations,
         monte_carlo,
+        messages,
     })
 }
 

@@ -282,3 +282,75 @@ pub fn parse_node_points(
     }
     Ok(out)
 }
+
+/// One row of `messages.csv` (the acoustic channel): a frame between two
+/// nodes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MessageRow {
+    /// Start of its transmission (emulated s).
+    pub t_send: f64,
+    /// End of its arrival (emulated s), `None` when it was lost.
+    pub t_recv: Option<f64>,
+    /// Sender.
+    pub from: usize,
+    /// Addressee.
+    pub to: usize,
+    /// Kind (`request`, `accept`, `decline`, `reflect`, `average`).
+    pub kind: String,
+    /// Bits on the channel.
+    pub bits: u64,
+    /// Why it was lost (`None`: delivered).
+    pub reason: Option<String>,
+}
+
+/// Parse `messages.csv` (`t_send,t_recv,from,to,kind,bits,fate,reason,seed`).
+pub fn parse_messages(p: &Path, csv: &Csv) -> Result<Vec<MessageRow>, InputError> {
+    let need = [
+        "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason",
+    ];
+    let mut cols = [0usize; 8];
+    for (k, n) in need.iter().enumerate() {
+        cols[k] = csv.col(n).ok_or_else(|| {
+            InputError::at(
+                p,
+                "line 1",
+                format!("no `{n}` column (expected {})", need.join(",")),
+            )
+        })?;
+    }
+    let mut out = Vec::with_capacity(csv.rows.len());
+    for (i, r) in csv.rows.iter().enumerate() {
+        let text = |k: usize| r.get(cols[k]).map_or("", |s| s.trim());
+        let num = |k: usize| csv.cell(p, i, cols[k], text(k));
+        let bad = |k: usize, why: &str| {
+            InputError::at(
+                p,
+                format!("line {}, column {}", i + 2, need[k]),
+                why.to_string(),
+            )
+        };
+        let index = |k: usize| -> Result<u64, InputError> {
+            match num(k)? {
+                Some(x) if x >= 0.0 && x.fract().abs() < 1e-9 && x < 9e15 => Ok(x as u64),
+                _ => Err(bad(k, "expected a non-negative integer")),
+            }
+        };
+        let t_send = num(0)?.ok_or_else(|| bad(0, "empty cell"))?;
+        let fate = text(6);
+        let reason = match fate {
+            "delivered" => None,
+            "lost" => Some(text(7).to_string()),
+            _ => return Err(bad(6, "expected `delivered` or `lost`")),
+        };
+        out.push(MessageRow {
+            t_send,
+            t_recv: num(1)?,
+            from: index(2)? as usize,
+            to: index(3)? as usize,
+            kind: text(4).to_string(),
+            bits: index(5)?,
+            reason,
+        });
+    }
+    Ok(out)
+}

@@ -1,9 +1,11 @@
 //! Figure builders: [`RunData`] in, backend-free [`Figure`]s out.
 
+mod channel;
 mod consensus;
 mod network;
 mod series;
 mod tracks;
+pub use channel::*;
 pub use consensus::*;
 pub use network::*;
 pub use series::*;
@@ -307,16 +309,19 @@ fn draw_geometry(data: &RunData, panel: &mut Panel, legend: &mut Vec<LegendItem>
     }
 }
 
-/// The five figures of a run, in report order: tracks, error, consensus,
-/// ctte, network.
+/// The figures of a run, in report order: tracks, error, consensus, ctte,
+/// network, and on the acoustic channel messages and channel.
 pub fn run_figures(data: &RunData) -> Vec<Figure> {
-    vec![
+    let mut figs = vec![
         tracks_figure(data),
         error_figure(data),
         consensus_figure(data),
         ctte_figure(data),
         network_figure(data),
-    ]
+    ];
+    figs.extend(messages_figure(data));
+    figs.extend(channel_figure(data));
+    figs
 }
 
 /// Overlay of runs `a` (solid) and `b` (dashed) for a comparison report:
