@@ -291,29 +291,28 @@ fn run_monte_carlo_command(
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let cli = std::path::Path::new("<command line>");
-    if sc.channel.acoustic().is_some() {
-        return Err(crate::model::error::InputError::at(
-            &sc.path,
-            "channel.model",
-            "Monte Carlo trials run logical clocks, and the acoustic channel runs with --clock realtime --engine inprocess, one run at a time, so far",
-        )
-        .into());
-    }
-    if args.engine().is_some_and(|e| e != EngineKind::Inprocess)
-        || args.clock_for(sc) == Clock::Realtime
-        || args.poll_us > 0
-    {
+    // Trials run in-process: logical clocks directly, realtime clocks and the
+    // acoustic channel in virtual time (the discrete-event engine); both are
+    // exact and deterministic from each trial's seed.
+    let clock = args.clock_for(sc);
+    if args.engine().is_some_and(|e| e != EngineKind::Inprocess) || args.poll_us > 0 {
         return Err(crate::model::error::InputError::at(
             cli,
-            if args.clock_for(sc) == Clock::Realtime {
-                "--clock"
-            } else if args.poll_us > 0 {
+            if args.poll_us > 0 {
                 "--poll-us"
             } else {
                 "--engine"
             },
-            "Monte Carlo trials run in-process with logical clocks (the engines give \
-             identical numbers); drop --engine processes|threads / --clock realtime or use --trials 1",
+            "Monte Carlo trials run in-process (logical clocks, or realtime clocks and the acoustic \
+             channel in virtual time); drop --engine processes|threads or use --trials 1",
+        )
+        .into());
+    }
+    if clock == Clock::Realtime && sc.algorithm.mode != Mode::Async {
+        return Err(crate::model::error::InputError::at(
+            cli,
+            "--clock",
+            "realtime clocks need async mode",
         )
         .into());
     }
@@ -325,7 +324,7 @@ fn run_monte_carlo_command(
     );
     let opts = RunOptions {
         engine: EngineKind::Inprocess,
-        clock: Clock::Logical,
+        clock,
         out_dir,
         command_line: std::env::args().collect(),
         progress: !args.quiet && std::io::stdout().is_terminal(),

@@ -351,3 +351,59 @@ fn an_acoustic_run_draws_the_message_diagram_and_the_delivery_by_length() {
         }
     }
 }
+
+/// The discrete-event engine is the fast path for Monte Carlo runs over the
+/// channel (issue 16 item 3): trials of an acoustic variant run in virtual
+/// time, each from its own seed (so each has its own channel fates), trial 0
+/// is the single run of the base seed number for number, and the channel's
+/// metrics are columns of `trials.csv`. Node processes are refused.
+#[test]
+fn monte_carlo_trials_run_the_acoustic_channel_in_virtual_time() {
+    let tmp = TempDir::new("acoustic-mc");
+    let file = scenario("mourya2017-spiral-acoustic.toml");
+    let mc = tmp.path().join("mc");
+    let o = crate::util::run_file(
+        &file,
+        &mc,
+        &["--variant", "modem", "--trials", "4"],
+        std::time::Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(mc.join("trials.csv")).unwrap();
+    let mut rdr = csv::Reader::from_reader(text.as_bytes());
+    let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+    let col = |n: &str| {
+        header
+            .iter()
+            .position(|h| h == n)
+            .unwrap_or_else(|| panic!("no {n}"))
+    };
+    let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), 4);
+    let frames: Vec<&str> = rows.iter().map(|r| &r[col("channel.frames")]).collect();
+    assert!(
+        frames.iter().any(|f| *f != frames[0]),
+        "every trial had the same channel: {frames:?}"
+    );
+    let single = run(&variant("modem"), &tmp.path().join("single"));
+    let rmse0: f64 = rows[0][col("theta_bar.rmse_after_burn_in")]
+        .parse()
+        .unwrap();
+    let want = single.metrics.rmse_after_burn_in.unwrap();
+    assert!(rmse0.to_bits() == want.to_bits(), "{rmse0} vs {want}");
+    let o = crate::util::run_file(
+        &file,
+        &tmp.path().join("p"),
+        &[
+            "--variant",
+            "modem",
+            "--trials",
+            "4",
+            "--engine",
+            "processes",
+        ],
+        std::time::Duration::from_secs(60),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--engine"));
+}
