@@ -352,6 +352,41 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
     }
 }
 
+/// Issue 16 item 3: the discrete-event engine, given a logical clock on the
+/// ideal channel, runs the same coordinator and node cores as the in-process
+/// engine and gives its numbers bit for bit, in both modes.
+#[test]
+fn the_discrete_event_engine_on_a_logical_clock_gives_the_in_process_numbers() {
+    for mode in [Mode::Async, Mode::Sync] {
+        let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+            .unwrap()
+            .with_samples(15)
+            .unwrap()
+            .with_mode(mode)
+            .unwrap();
+        let real = sc.realize();
+        let (want, res) = crate::util::record(&sc, &real);
+        res.unwrap();
+        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let (got, res) = sonarnet::engine::des::run_des(&plan, &real, &mut |_, _| {});
+        res.unwrap_or_else(|e| panic!("{mode:?}: {e}"));
+        assert_eq!(got.thetas.len(), 15, "{mode:?}");
+        assert!(
+            got.thetas
+                .iter()
+                .flatten()
+                .zip(want.thetas.iter().flatten())
+                .all(|(x, y)| x
+                    .iter()
+                    .zip(y.iter())
+                    .all(|(p, q)| p.to_bits() == q.to_bits())),
+            "{mode:?}: the discrete-event engine's thetas differ"
+        );
+        assert_eq!(got.schedule, want.schedule, "{mode:?}");
+        assert_eq!(got.counters, want.counters, "{mode:?}");
+    }
+}
+
 #[test]
 fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
