@@ -17,7 +17,7 @@
 //! (wall) after its arrival ends, so that every frame sent before that end
 //! has reached the coordinator; the OS does not wake anyone exactly on time,
 //! so each delivery's realised error (forwarded minus planned arrival end,
-//! emulated ms) is kept ([`Water::delivery_errors_ms`]).
+//! emulated ms) is kept ([`Water::into_records`]).
 //!
 //! [`Water`] is I/O-free: times are passed in, and what to forward is
 //! returned.

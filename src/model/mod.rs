@@ -7,6 +7,7 @@
 
 pub mod channel;
 pub mod error;
+pub mod fault;
 pub mod geometry;
 pub mod graph;
 pub mod measure;

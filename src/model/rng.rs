@@ -34,6 +34,9 @@ pub enum Stream {
     /// The fate of one frame on the acoustic channel (index from the link
     /// and the frame's number on it, [`crate::model::channel`]).
     Channel = 8,
+    /// Fault draws: `link_loss` fates (keyed by link and frame number) and the
+    /// random nemesis (index 0).
+    Faults = 9,
 }
 
 /// SplitMix64's output function: a bijective mix of 64 bits.
