@@ -197,6 +197,13 @@ pub struct RunArgs {
     /// Douglas-Rachford iterations per sample (overrides the scenario).
     #[arg(long)]
     pub iterations_per_sample: Option<usize>,
+    /// A fault to inject, repeatable, after the scenario's [[faults]]:
+    /// KIND:KEY=VALUE,... with the keys of a [[faults]] entry, e.g.
+    /// `pause:node=3,at_s=20,for_s=10` or
+    /// `partition:groups=[[0,1,2],[3,4,5]],at_sample=30,for_samples=20`
+    /// (scenarios/README.md, [[faults]]).
+    #[arg(long = "fault", value_name = "KIND:KEY=VALUE,...")]
+    pub faults: Vec<String>,
     /// Number of samples to run (overrides target.samples; with a trace, at
     /// most its length; must exceed algorithm.burn_in).
     #[arg(long)]

@@ -173,6 +173,9 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
             sc = sc.with_baselines(b.clone())?;
         }
         sc = sc.with_trials(args.trials)?;
+        for flag in &args.faults {
+            sc = sc.with_fault_flag(flag)?;
+        }
         let sc = sc.with_trace_iterations(args.trace_iterations);
         sc.check_size_cli()?;
         out.push(sc);

@@ -55,6 +55,12 @@ pub enum Event {
         /// How it ended (exit status, signal, error).
         how: String,
     },
+    /// A node that died is up again (restarted, issue 17; realtime clock):
+    /// it rejoins with the current sample's measurements.
+    NodeUp {
+        /// The node.
+        node: u32,
+    },
     /// The user asked the run to stop (SIGINT/SIGTERM).
     Interrupted,
     /// A node answered liveness check `seq` ([`Control::Ping`]).
@@ -454,7 +460,8 @@ impl<'a> Coordinator<'a> {
                         sample: *completed as u32,
                     });
                 }
-                Event::Report(_) | Event::Timer(_) | Event::Pong { .. } => {}
+                // Restarts run on the realtime clock.
+                Event::Report(_) | Event::Timer(_) | Event::Pong { .. } | Event::NodeUp { .. } => {}
             }
         }
         while let Some(thetas) = self.pop_complete() {
@@ -683,6 +690,7 @@ impl<'a> Coordinator<'a> {
                     });
                 }
                 Event::NodeDied { node, how } => self.node_died(node, how, out)?,
+                Event::NodeUp { node } => self.node_up(node, out),
                 Event::Interrupted => return Err(EngineError::Interrupted { sample: k }),
                 Event::Report(_) | Event::Timer(_) | Event::Pong { .. } => {}
             }
@@ -733,6 +741,41 @@ impl<'a> Coordinator<'a> {
         out.push(Action::Flush);
         out.push(boundary(k + 1, period));
         Ok(false)
+    }
+
+    /// A node is up again during a realtime run: its neighbours may call it
+    /// again ([`Command::NodeUp`]), and it gets the current sample's
+    /// measurements and its clock.
+    fn node_up(&mut self, node: u32, out: &mut Vec<Action>) {
+        let i = node as usize;
+        if !self.dead.get(i).is_some_and(|d| *d) {
+            return;
+        }
+        self.dead[i] = false;
+        let k = self.sample() as usize;
+        out.push(Action::Log(format!(
+            "node {node} is up again at sample {k}"
+        )));
+        for j in (0..self.plan.n()).filter(|&j| j != i && !self.dead[j]) {
+            out.push(send(j, Command::NodeUp { node }));
+        }
+        if let Some(meas) = self.real.measurements.get(k).and_then(|m| m.nodes.get(i)) {
+            out.push(send(
+                i,
+                Command::Sample {
+                    sample: k as u32,
+                    meas: meas.clone(),
+                    sigmas: self.real.sigmas[k],
+                },
+            ));
+        }
+        if let Some(rt) = self.plan.realtime {
+            out.push(Action::Send {
+                node,
+                msg: Control::StartClock(rt.wake_rate_hz),
+            });
+        }
+        out.push(Action::Flush);
     }
 
     /// A node died during a realtime run: leave it out while the rest of the

@@ -23,13 +23,27 @@
 //! (realtime) and [`crate::protocol::Command::RoundTimeout`] (logical clocks).
 //! The coordinator's commands and the nodes' reports are the emulator's own
 //! wiring, not acoustic: they arrive at once.
+//!
+//! Faults (issue 17, [`crate::model::fault`]) are events too, applied
+//! exactly at their virtual time: a paused node does nothing (what reaches it
+//! waits, its clock fires once on resume, as a SIGSTOPped process's would); a
+//! crashed node is dead and the coordinator is told at once; a restarted node
+//! is a new [`NodeCore`] (fresh, or from its last [`Output::Checkpoint`]) that
+//! the coordinator re-admits ([`Event::NodeUp`]); partitions, link loss and
+//! delay act on every frame between two nodes, on either channel; a drifting
+//! clock scales the node's Poisson waits and timers.
 
-use super::{Action, Coordinator, EngineError, Event, MessageRecord, Progress, RunPlan, RunRecord};
+use super::{
+    Action, Coordinator, EngineError, Event, FaultRecord, MessageRecord, Progress, RunPlan,
+    RunRecord,
+};
 use crate::model::channel::{Fate, Frame, Medium, Reason};
+use crate::model::fault::{FaultKind, LinkFaults, fault_draw};
+use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
 use crate::protocol::{Command, Input, NodeCore, Output, PeerMsg};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
@@ -39,14 +53,21 @@ const INTERRUPT_CHECK_EVERY: u64 = 4096;
 /// Something that happens at a virtual time.
 #[derive(Debug)]
 enum Ev {
-    /// Node `0`'s Poisson clock fires.
-    Tick(u32),
+    /// Node `0`'s Poisson clock fires (incarnation `1`: a restarted node's
+    /// old clock is stale).
+    Tick(u32, u32),
     /// An input reaches a node.
     ToNode(u32, Input),
+    /// A node's own timer (incarnation `1`).
+    Timer(u32, u32, Command),
     /// An event reaches the coordinator.
     ToCoordinator(Event),
     /// The arrival of a frame on the acoustic channel ends: judge it.
     Arrive(Frame, PeerMsg),
+    /// Fault `0` starts.
+    FaultStart(usize),
+    /// Fault `0` ends.
+    FaultEnd(usize),
 }
 
 /// The event queue: `(time, sequence) -> event`, so events at one time keep
@@ -79,10 +100,49 @@ fn at(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX)
 }
 
+/// One node of the run as the engine sees it.
+struct Slot {
+    core: NodeCore,
+    /// Poisson rate once its clock is started.
+    rate: Option<f64>,
+    dead: bool,
+    /// Incarnation (bumped by a restart).
+    epoch: u32,
+    /// Paused: inputs held until it resumes, and whether its clock fired.
+    paused: bool,
+    held: Vec<Input>,
+    tick_due: bool,
+    /// Waits and timers are multiplied by this (clock drift).
+    clock_factor: f64,
+    /// Its last checkpoint `(u, theta)`.
+    checkpoint: Option<(Vec3, Vec3)>,
+}
+
+/// The whole run in virtual time.
+struct Des<'a> {
+    plan: &'a RunPlan,
+    nodes: Vec<Slot>,
+    coord: Coordinator<'a>,
+    queue: Queue,
+    actions: Vec<Action>,
+    outputs: Vec<Output>,
+    now: Duration,
+    medium: Option<Medium>,
+    /// Link faults on the ideal channel (the medium has its own).
+    links: LinkFaults,
+    /// Ideal channel: frames sent per directed link (the fault draws' key).
+    numbers: HashMap<(u32, u32), u64>,
+    messages: Vec<MessageRecord>,
+    faults: Vec<FaultRecord>,
+    /// Index into `faults` of each fault of the plan, once applied.
+    applied: Vec<Option<usize>>,
+    paused_masks: Vec<Vec<bool>>,
+}
+
 /// Run `plan` in virtual time (a realtime clock, or any clock on the
-/// acoustic channel). Returns the record of every
-/// completed sample and, if the run stopped early, why. SIGINT/SIGTERM
-/// ([`super::interrupt`]) end it as [`EngineError::Interrupted`].
+/// acoustic channel). Returns the record of every completed sample and, if
+/// the run stopped early, why. SIGINT/SIGTERM ([`super::interrupt`]) end it as
+/// [`EngineError::Interrupted`].
 pub fn run_des(
     plan: &RunPlan,
     real: &Realization,
@@ -90,103 +150,211 @@ pub fn run_des(
 ) -> (RunRecord, Result<(), EngineError>) {
     let start = std::time::Instant::now();
     let interrupt = super::interrupt::flag();
-    let mut nodes: Vec<NodeCore> = plan.nodes.iter().cloned().map(NodeCore::new).collect();
-    let mut rates: Vec<Option<f64>> = vec![None; nodes.len()];
-    let mut dead = vec![false; nodes.len()];
-    let mut coord = Coordinator::new(plan, real);
-    let mut queue = Queue::default();
-    let mut actions = Vec::new();
-    let mut outputs = Vec::new();
-    let mut now = Duration::ZERO;
-    let mut handled = 0u64;
-    let mut medium = plan
-        .channel
-        .as_ref()
-        .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links));
+    let mut des = Des {
+        plan,
+        nodes: plan
+            .nodes
+            .iter()
+            .cloned()
+            .map(|c| Slot {
+                core: NodeCore::new(c),
+                rate: None,
+                dead: false,
+                epoch: 0,
+                paused: false,
+                held: Vec::new(),
+                tick_due: false,
+                clock_factor: 1.0,
+                checkpoint: None,
+            })
+            .collect(),
+        coord: Coordinator::new(plan, real),
+        queue: Queue::default(),
+        actions: Vec::new(),
+        outputs: Vec::new(),
+        now: Duration::ZERO,
+        medium: plan
+            .channel
+            .as_ref()
+            .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links)),
+        links: LinkFaults::default(),
+        numbers: HashMap::new(),
+        messages: Vec::new(),
+        faults: Vec::new(),
+        applied: vec![None; plan.faults.len()],
+        paused_masks: Vec::new(),
+    };
+    for (id, f) in plan.faults.iter().enumerate() {
+        des.queue.push(at(f.at_s), Ev::FaultStart(id));
+        if let Some(u) = f.until_s {
+            des.queue.push(at(u), Ev::FaultEnd(id));
+        }
+    }
     // Nothing judged from now on can overlap what ended this long ago.
     let horizon = plan.channel.as_ref().map_or(0.0, |c| {
         2.0 * c.cfg.transmission_s(c.cfg.frame_bits(PeerMsg::MAX_VALUES)) + 1e-6
     });
-    let mut messages: Vec<MessageRecord> = Vec::new();
-    coord.handle(now, [Event::Start], &mut actions);
+    let mut handled = 0u64;
+    des.coord.handle(des.now, [Event::Start], &mut des.actions);
     let result = loop {
-        // The coordinator's actions, at `now`.
-        let mut done = None;
-        for a in actions.drain(..) {
-            match a {
-                Action::Send { node, msg } => {
-                    let i = node as usize;
-                    match msg {
-                        Control::Command(c) => queue.push(now, Ev::ToNode(node, Input::Command(c))),
-                        Control::StartClock(rate) => {
-                            rates[i] = Some(rate);
-                            let w = nodes[i].draw_wait(rate);
-                            queue.push(now + wait(w), Ev::Tick(node));
-                        }
-                        Control::Ping(seq) => {
-                            queue.push(now, Ev::ToCoordinator(Event::Pong { node, seq }))
-                        }
-                        Control::Stop => {}
-                    }
-                }
-                Action::SetTimer { at, timer } => {
-                    queue.push(at, Ev::ToCoordinator(Event::Timer(timer)))
-                }
-                Action::Progress {
-                    samples,
-                    iterations,
-                } => progress(samples, iterations),
-                Action::Abandon { node } => dead[node as usize] = true,
-                Action::Flush | Action::Log(_) => {}
-                Action::Done(r) => done = Some(r),
-            }
-        }
-        if let Some(r) = done {
+        if let Some(r) = des.perform(progress) {
             break r;
         }
-        if coord.is_done() {
+        if des.coord.is_done() {
             break Ok(());
         }
         handled += 1;
         if handled.is_multiple_of(INTERRUPT_CHECK_EVERY) {
-            if let Some(m) = &mut medium {
-                m.forget_before(now.as_secs_f64() - horizon);
+            if let Some(m) = &mut des.medium {
+                m.forget_before(des.now.as_secs_f64() - horizon);
             }
             if interrupt.load(Ordering::SeqCst) {
-                coord.handle(now, [Event::Interrupted], &mut actions);
+                des.coord
+                    .handle(des.now, [Event::Interrupted], &mut des.actions);
                 continue;
             }
         }
-        let Some((t, ev)) = queue.pop() else {
+        let Some((t, ev)) = des.queue.pop() else {
             break Err(EngineError::Stalled(
                 "the discrete-event queue ran empty before the run ended".into(),
             ));
         };
-        now = t;
-        let node_input = match ev {
-            Ev::ToCoordinator(e) => {
-                coord.handle(now, [e], &mut actions);
-                continue;
-            }
-            Ev::Tick(node) => {
-                let i = node as usize;
-                if dead[i] {
-                    continue;
+        des.now = t;
+        des.event(ev);
+    };
+    let emulated = des.now.as_secs_f64();
+    let Des {
+        coord,
+        medium,
+        messages,
+        faults,
+        paused_masks,
+        ..
+    } = des;
+    let mut rec = coord.into_record(result.is_err());
+    rec.wall_seconds = start.elapsed().as_secs_f64();
+    if medium.is_some() {
+        rec.messages = messages;
+        rec.emulated_seconds = Some(emulated);
+        rec.events = Some(handled);
+    }
+    if !plan.faults.is_empty() {
+        rec.faults = faults;
+        rec.paused = paused_masks;
+        rec.paused.truncate(rec.thetas.len());
+    }
+    (rec, result)
+}
+
+impl Des<'_> {
+    /// Carry out the coordinator's actions at `now`; `Some` when the run is over.
+    fn perform(&mut self, progress: Progress<'_>) -> Option<Result<(), EngineError>> {
+        let mut done = None;
+        let now = self.now;
+        for a in std::mem::take(&mut self.actions) {
+            match a {
+                Action::Send { node, msg } => match msg {
+                    Control::Command(c) => {
+                        self.queue.push(now, Ev::ToNode(node, Input::Command(c)))
+                    }
+                    Control::StartClock(rate) => {
+                        let Some(slot) = self.nodes.get_mut(node as usize) else {
+                            continue;
+                        };
+                        slot.rate = Some(rate);
+                        let w = slot.core.draw_wait(rate) * slot.clock_factor;
+                        self.queue.push(now + wait(w), Ev::Tick(node, slot.epoch));
+                    }
+                    Control::Ping(seq) => self
+                        .queue
+                        .push(now, Ev::ToCoordinator(Event::Pong { node, seq })),
+                    Control::Stop => {}
+                },
+                Action::SetTimer { at, timer } => {
+                    self.queue.push(at, Ev::ToCoordinator(Event::Timer(timer)))
                 }
-                if let Some(rate) = rates[i] {
-                    let w = nodes[i].draw_wait(rate);
-                    queue.push(now + wait(w), Ev::Tick(node));
+                Action::Progress {
+                    samples,
+                    iterations,
+                } => {
+                    if !self.plan.faults.is_empty() {
+                        let mask: Vec<bool> = self.nodes.iter().map(|s| s.paused).collect();
+                        self.paused_masks.resize(samples, mask);
+                    }
+                    progress(samples, iterations)
+                }
+                Action::Abandon { node } => self.abandon(node),
+                Action::Flush | Action::Log(_) => {}
+                Action::Done(r) => done = Some(r),
+            }
+        }
+        done
+    }
+
+    /// The coordinator gave up on `node`: it is dead; a pause that caused it
+    /// is detected now.
+    fn abandon(&mut self, node: u32) {
+        let Some(slot) = self.nodes.get_mut(node as usize) else {
+            return;
+        };
+        slot.dead = true;
+        for (id, f) in self.plan.faults.iter().enumerate() {
+            if let (FaultKind::Pause { node: p }, Some(r)) = (&f.kind, self.applied[id])
+                && *p == node
+                && self.faults[r].detected_s.is_none()
+            {
+                self.faults[r].detected_s = Some(self.now.as_secs_f64());
+            }
+        }
+    }
+
+    fn event(&mut self, ev: Ev) {
+        let now = self.now;
+        let (node, input) = match ev {
+            Ev::ToCoordinator(e) => {
+                self.coord.handle(now, [e], &mut self.actions);
+                return;
+            }
+            Ev::FaultStart(id) => return self.fault_start(id),
+            Ev::FaultEnd(id) => return self.fault_end(id),
+            Ev::Tick(node, epoch) => {
+                let Some(slot) = self.nodes.get_mut(node as usize) else {
+                    return;
+                };
+                if slot.dead || slot.epoch != epoch {
+                    return;
+                }
+                if slot.paused {
+                    // A stopped process's clock fires once when it resumes.
+                    slot.tick_due = true;
+                    return;
+                }
+                if let Some(rate) = slot.rate {
+                    let w = slot.core.draw_wait(rate) * slot.clock_factor;
+                    self.queue.push(now + wait(w), Ev::Tick(node, epoch));
                 }
                 (node, Input::Command(Command::Tick))
             }
+            Ev::Timer(node, epoch, c) => {
+                if self
+                    .nodes
+                    .get(node as usize)
+                    .is_none_or(|s| s.epoch != epoch)
+                {
+                    return;
+                }
+                (node, Input::Command(c))
+            }
             Ev::ToNode(node, input) => (node, input),
             Ev::Arrive(f, msg) => {
-                let Some(m) = &medium else { continue };
+                let Some(m) = &self.medium else { return };
                 let fate = match m.judge(&f) {
-                    Fate::Delivered if dead[f.to as usize] => Fate::Lost(Reason::NodeDown),
+                    Fate::Delivered if self.nodes[f.to as usize].dead => {
+                        Fate::Lost(Reason::NodeDown)
+                    }
                     fate => fate,
                 };
-                messages.push(MessageRecord {
+                self.messages.push(MessageRecord {
                     t_send: f.t_start,
                     t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
                     from: f.from,
@@ -199,71 +367,225 @@ pub fn run_des(
                     },
                 });
                 if fate != Fate::Delivered {
-                    continue;
+                    return;
                 }
                 (f.to, Input::Peer(msg))
             }
         };
-        let (node, input) = node_input;
-        if dead[node as usize] {
-            continue;
+        self.deliver(node, input);
+    }
+
+    /// Hand `input` to `node` (held while it is paused), then route what it
+    /// says.
+    fn deliver(&mut self, node: u32, input: Input) {
+        let Some(slot) = self.nodes.get_mut(node as usize) else {
+            return;
+        };
+        if slot.dead {
+            return;
         }
-        let late = nodes[node as usize].counters().late;
-        let from_channel = matches!(input, Input::Peer(_)) && medium.is_some();
-        nodes[node as usize].handle(input, &mut outputs);
+        if slot.paused {
+            slot.held.push(input);
+            return;
+        }
+        let late = slot.core.counters().late;
+        let from_channel = matches!(input, Input::Peer(_)) && self.medium.is_some();
+        slot.core.handle(input, &mut self.outputs);
         if from_channel
-            && nodes[node as usize].counters().late > late
-            && let Some(last) = messages.last_mut()
+            && slot.core.counters().late > late
+            && let Some(last) = self.messages.last_mut()
         {
             // Delivered after its wait was over: discarded by the node.
             last.t_recv = None;
             last.lost = Some(Reason::Late);
         }
+        self.route(node);
+    }
+
+    /// Route the outputs of `node`.
+    fn route(&mut self, node: u32) {
+        let now = self.now;
         let mut reports = Vec::new();
-        for o in outputs.drain(..) {
+        let (factor, epoch) = {
+            let s = &self.nodes[node as usize];
+            (s.clock_factor, s.epoch)
+        };
+        for o in std::mem::take(&mut self.outputs) {
             match o {
-                Output::Peer { to, msg } => match (&mut medium, &plan.channel) {
+                Output::Peer { to, msg } => match (&mut self.medium, &self.plan.channel) {
                     (Some(m), Some(c)) => {
                         let bits = c.cfg.frame_bits(msg.values());
                         let f = m.send(now.as_secs_f64(), node, to, bits);
-                        queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
+                        self.queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
                     }
-                    _ => queue.push(now, Ev::ToNode(to, Input::Peer(msg))),
+                    _ => self.ideal_send(node, to, msg),
                 },
-                Output::Broadcast(msg) => match (&mut medium, &plan.channel) {
+                Output::Broadcast(msg) => match (&mut self.medium, &self.plan.channel) {
                     (Some(m), Some(c)) => {
                         // One transmission, heard by every other node; the
                         // sender's loopback copy is not on the channel.
-                        let others: Vec<u32> =
-                            (0..nodes.len() as u32).filter(|&j| j != node).collect();
+                        let others: Vec<u32> = (0..self.nodes.len() as u32)
+                            .filter(|&j| j != node)
+                            .collect();
                         let bits = c.cfg.frame_bits(msg.values());
                         for f in m.broadcast(now.as_secs_f64(), node, &others, bits) {
-                            queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
+                            self.queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
                         }
-                        queue.push(now, Ev::ToNode(node, Input::Peer(msg)));
+                        self.queue.push(now, Ev::ToNode(node, Input::Peer(msg)));
                     }
                     _ => {
-                        for j in 0..nodes.len() as u32 {
-                            queue.push(now, Ev::ToNode(j, Input::Peer(msg)));
+                        for j in 0..self.nodes.len() as u32 {
+                            if j == node {
+                                self.queue.push(now, Ev::ToNode(j, Input::Peer(msg)));
+                            } else {
+                                self.ideal_send(node, j, msg);
+                            }
                         }
                     }
                 },
                 Output::Report(r) => reports.push(Event::Report(r)),
-                Output::Timer { after_s, then } => {
-                    queue.push(now + wait(after_s), Ev::ToNode(node, Input::Command(then)))
+                Output::Timer { after_s, then } => self
+                    .queue
+                    .push(now + wait(after_s * factor), Ev::Timer(node, epoch, then)),
+                Output::Checkpoint { u, theta, .. } => {
+                    self.nodes[node as usize].checkpoint = Some((u, theta));
                 }
             }
         }
         if !reports.is_empty() {
-            coord.handle(now, reports, &mut actions);
+            self.coord.handle(now, reports, &mut self.actions);
         }
-    };
-    let mut rec = coord.into_record(result.is_err());
-    rec.wall_seconds = start.elapsed().as_secs_f64();
-    if medium.is_some() {
-        rec.messages = messages;
-        rec.emulated_seconds = Some(now.as_secs_f64());
-        rec.events = Some(handled);
     }
-    (rec, result)
+
+    /// A message on the ideal channel: at once, unless a link fault blocks,
+    /// drops (seeded draw) or delays it.
+    fn ideal_send(&mut self, from: u32, to: u32, msg: PeerMsg) {
+        let now = self.now;
+        if self.links.is_empty() {
+            self.queue.push(now, Ev::ToNode(to, Input::Peer(msg)));
+            return;
+        }
+        let k = self.numbers.entry((from, to)).or_insert(0);
+        let number = *k;
+        *k += 1;
+        if self.links.blocked(from, to) {
+            return;
+        }
+        let p = self.links.loss(from, to);
+        if p > 0.0 && fault_draw(self.plan.seed, from, to, number) < p {
+            return;
+        }
+        let d = self.links.delay(from, to);
+        self.queue
+            .push(now + wait(d), Ev::ToNode(to, Input::Peer(msg)));
+    }
+
+    fn record(&mut self, id: usize, detected: bool) {
+        let t = self.now.as_secs_f64();
+        self.applied[id] = Some(self.faults.len());
+        self.faults.push(FaultRecord {
+            fault: self.plan.faults[id].clone(),
+            t_s: t,
+            sample: self.coord.sample(),
+            detected_s: detected.then_some(t),
+        });
+    }
+
+    /// Node `node` dies; the coordinator is told at once.
+    fn kill(&mut self, node: u32, how: &str) {
+        let slot = &mut self.nodes[node as usize];
+        if slot.dead {
+            return;
+        }
+        slot.dead = true;
+        slot.paused = false;
+        slot.held.clear();
+        self.coord.handle(
+            self.now,
+            [Event::NodeDied {
+                node,
+                how: how.into(),
+            }],
+            &mut self.actions,
+        );
+    }
+
+    fn fault_start(&mut self, id: usize) {
+        let kind = self.plan.faults[id].kind.clone();
+        match kind {
+            FaultKind::Pause { node } => {
+                self.record(id, false);
+                if !self.nodes[node as usize].dead {
+                    self.nodes[node as usize].paused = true;
+                }
+            }
+            FaultKind::Crash { node } => {
+                self.record(id, true);
+                self.kill(node, "crashed (fault)");
+            }
+            FaultKind::Restart {
+                node, checkpoint, ..
+            } => {
+                self.record(id, true);
+                self.kill(node, "restarted (fault)");
+                let slot = &mut self.nodes[node as usize];
+                let cfg = self.plan.nodes[node as usize].clone();
+                slot.core = match (checkpoint, slot.checkpoint) {
+                    (true, Some((u, theta))) => NodeCore::restore(cfg, u, theta),
+                    _ => NodeCore::new(cfg),
+                };
+                slot.dead = false;
+                slot.rate = None;
+                slot.tick_due = false;
+                slot.epoch += 1;
+                self.coord
+                    .handle(self.now, [Event::NodeUp { node }], &mut self.actions);
+            }
+            FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
+                self.record(id, false);
+                self.links.start(id, &kind);
+                if let Some(m) = &mut self.medium {
+                    m.link_faults.start(id, &kind);
+                }
+            }
+            FaultKind::ClockDrift { node, ppm } => {
+                self.record(id, false);
+                self.nodes[node as usize].clock_factor = 1.0 / (1.0 + ppm * 1e-6);
+            }
+        }
+    }
+
+    fn fault_end(&mut self, id: usize) {
+        match self.plan.faults[id].kind {
+            FaultKind::Pause { node } => {
+                let slot = &mut self.nodes[node as usize];
+                if !slot.paused {
+                    return;
+                }
+                slot.paused = false;
+                let held = std::mem::take(&mut slot.held);
+                let tick = std::mem::take(&mut slot.tick_due);
+                for input in held {
+                    self.deliver(node, input);
+                }
+                let slot = &mut self.nodes[node as usize];
+                if tick && !slot.dead {
+                    if let Some(rate) = slot.rate {
+                        let w = slot.core.draw_wait(rate) * slot.clock_factor;
+                        self.queue
+                            .push(self.now + wait(w), Ev::Tick(node, slot.epoch));
+                    }
+                    self.deliver(node, Input::Command(Command::Tick));
+                }
+            }
+            FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
+                self.links.end(id);
+                if let Some(m) = &mut self.medium {
+                    m.link_faults.end(id);
+                }
+            }
+            FaultKind::ClockDrift { node, .. } => self.nodes[node as usize].clock_factor = 1.0,
+            FaultKind::Crash { .. } | FaultKind::Restart { .. } => {}
+        }
+    }
 }

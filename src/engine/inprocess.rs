@@ -115,7 +115,9 @@ impl Network for InProcess {
                     Output::Report(r) => out.push(Event::Report(r)),
                     // Exchange timers belong to realtime clocks, which this
                     // engine does not run (the discrete-event engine does).
-                    Output::Timer { .. } => {}
+                    // Timers and checkpoints belong to lossy channels and
+                    // faults, which run on the discrete-event engine.
+                    Output::Timer { .. } | Output::Checkpoint { .. } => {}
                 }
             }
         }

@@ -205,6 +205,25 @@ pub struct RunRecord {
     /// Processes engine on the acoustic channel: every delivered frame's
     /// realised error, forwarded minus planned end of arrival (emulated ms).
     pub delivery_errors_ms: Vec<f64>,
+    /// Faults (issue 17): every fault applied, in the order applied.
+    pub faults: Vec<FaultRecord>,
+    /// Faults: which nodes were paused at the end of each completed sample
+    /// (empty without faults).
+    pub paused: Vec<Vec<bool>>,
+}
+
+/// A fault as the engine applied it (a row of `faults.csv` before scoring).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultRecord {
+    /// The fault.
+    pub fault: crate::model::fault::Fault,
+    /// When it was applied (emulated s).
+    pub t_s: f64,
+    /// The sample in progress then.
+    pub sample: u32,
+    /// When the coordinator noticed it (a crash, or a pause that outlasted
+    /// the stall timeout), emulated s.
+    pub detected_s: Option<f64>,
 }
 
 /// One frame between two nodes on the acoustic channel (a row of

@@ -190,6 +190,9 @@ pub fn run_node<T: Transport>(
                     }
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
+                // Faults (and so checkpoints) run on the discrete-event
+                // engine so far.
+                Output::Checkpoint { .. } => {}
                 Output::Timer { after_s, then } => {
                     timers.push((after(Instant::now(), wall(after_s)), then))
                 }

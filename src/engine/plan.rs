@@ -65,6 +65,8 @@ pub struct RunPlan {
     pub stall_timeout: Duration,
     /// The acoustic channel between the nodes (`None`: ideal).
     pub channel: Option<ChannelPlan>,
+    /// Faults (issue 17; realtime clock), in emulated seconds.
+    pub faults: Vec<crate::model::fault::Fault>,
 }
 
 /// The acoustic channel of a run ([`crate::model::channel`]).
@@ -127,6 +129,39 @@ impl RunPlan {
         let mut nodes: Vec<NodeConfig> = (0..sc.graph.len())
             .map(|i| node_config(sc, i, node_mode, gammas[i]))
             .collect();
+        if !sc.faults.is_empty() && clock != Clock::Realtime {
+            return Err(EngineError::Unsupported(
+                "faults run on the realtime clock (--clock realtime): a logical clock has no time to schedule them in".into(),
+            ));
+        }
+        let checkpointed: Vec<(u32, u32)> = sc
+            .faults
+            .iter()
+            .filter_map(|f| match f.kind {
+                crate::model::fault::FaultKind::Restart {
+                    node,
+                    checkpoint: true,
+                    every,
+                } => Some((node, every)),
+                _ => None,
+            })
+            .collect();
+        for (node, every) in checkpointed {
+            if let Some(c) = nodes.get_mut(node as usize) {
+                c.checkpoint_every = Some(c.checkpoint_every.map_or(every, |e| e.min(every)));
+            }
+        }
+        // On the ideal channel a fault can swallow a Request (partition, link
+        // loss) or hold it (pause): the initiator gives it up after two mean
+        // wake-up intervals.
+        if !sc.faults.is_empty()
+            && sc.channel.acoustic().is_none()
+            && let Some(rt) = &realtime
+        {
+            for c in &mut nodes {
+                c.exchange_timeout_s = Some(2.0 / rt.wake_rate_hz);
+            }
+        }
         let channel = match sc.channel.acoustic() {
             None => None,
             Some(cfg) => {
@@ -176,6 +211,7 @@ impl RunPlan {
             realtime,
             stall_timeout: DEFAULT_STALL_TIMEOUT,
             channel,
+            faults: sc.faults.clone(),
         })
     }
 
@@ -244,6 +280,7 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConf
         trace_iterations: sc.trace_iterations,
         exchange_timeout_s: None,
         round_timeout_s: None,
+        checkpoint_every: None,
     }
 }
 

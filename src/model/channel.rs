@@ -504,6 +504,9 @@ pub struct Medium {
     sent: u64,
     /// Frames sent per directed link.
     numbers: std::collections::HashMap<(u32, u32), u64>,
+    /// The faults in force on the links (issue 17: partitions, extra loss
+    /// and delay), set by the engine as they start and end.
+    pub link_faults: crate::model::fault::LinkFaults,
 }
 
 impl Medium {
@@ -531,13 +534,16 @@ impl Medium {
             sent: 0,
             pos,
             numbers: std::collections::HashMap::new(),
+            link_faults: Default::default(),
         }
     }
 
     /// One-way delay of the link `i -> j`, seconds.
     pub fn delay(&self, i: u32, j: u32) -> f64 {
         let d = (self.pos[i as usize] - self.pos[j as usize]).norm();
-        d / self.cfg.sound_speed + self.cfg.link(i, j).map_or(0.0, |l| l.extra_delay_s)
+        d / self.cfg.sound_speed
+            + self.cfg.link(i, j).map_or(0.0, |l| l.extra_delay_s)
+            + self.link_faults.delay(i, j)
     }
 
     /// Node `from` sends a frame of `bits` bits to `to` at time `t`: its
@@ -613,7 +619,9 @@ impl Medium {
     /// can overlap its arrival has been sent by then, when sends are made in
     /// time order).
     pub fn judge(&self, f: &Frame) -> Fate {
-        if self.cfg.link(f.from, f.to).is_some_and(|l| l.blocked) {
+        if self.cfg.link(f.from, f.to).is_some_and(|l| l.blocked)
+            || self.link_faults.blocked(f.from, f.to)
+        {
             return Fate::Lost(Reason::Blocked);
         }
         let (a, b) = (f.arrive_start, f.arrive_end);
@@ -633,6 +641,11 @@ impl Medium {
         let d = (self.pos[f.from as usize] - self.pos[to]).norm();
         let p = self.cfg.loss_probability(f.from, f.to, d, f.bits);
         if fate_draw(self.seed, f.from, f.to, f.number) < p {
+            return Fate::Lost(Reason::Loss);
+        }
+        let extra = self.link_faults.loss(f.from, f.to);
+        if extra > 0.0 && crate::model::fault::fault_draw(self.seed, f.from, f.to, f.number) < extra
+        {
             return Fate::Lost(Reason::Loss);
         }
         Fate::Delivered

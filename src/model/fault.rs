@@ -39,6 +39,10 @@ pub struct FaultSpec {
     /// `restart`: `fresh` (the default) or `checkpoint`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub state: Option<String>,
+    /// `restart` from `checkpoint`: the node saves its state every this many
+    /// samples, from the start of the run (default 1, at most 1e6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_every: Option<u32>,
     /// `partition`: two or more disjoint groups of nodes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub groups: Option<Vec<Vec<u32>>>,
@@ -90,6 +94,8 @@ pub enum FaultKind {
         node: u32,
         /// From its last checkpoint (else from `init_u`).
         checkpoint: bool,
+        /// Samples between two checkpoints.
+        every: u32,
     },
     /// Links between groups are blocked.
     Partition {
@@ -153,17 +159,18 @@ impl FaultKind {
     pub fn detail(&self) -> String {
         match self {
             FaultKind::Pause { .. } | FaultKind::Crash { .. } => String::new(),
-            FaultKind::Restart { checkpoint, .. } => {
-                if *checkpoint { "checkpoint" } else { "fresh" }.into()
+            FaultKind::Restart {
+                checkpoint, every, ..
+            } => {
+                if *checkpoint {
+                    format!("checkpoint every {every} samples")
+                } else {
+                    "fresh".into()
+                }
             }
             FaultKind::Partition { groups } => groups
                 .iter()
-                .map(|g| {
-                    g.iter()
-                        .map(u32::to_string)
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                })
+                .map(|g| g.iter().map(u32::to_string).collect::<Vec<_>>().join(" "))
                 .collect::<Vec<_>>()
                 .join(" | "),
             FaultKind::LinkLoss { p, .. } => format!("p={p}"),
@@ -226,6 +233,16 @@ impl FaultSpec {
             },
             "restart" => FaultKind::Restart {
                 node: need(self.node, "node")?,
+                every: match self.checkpoint_every {
+                    None => 1,
+                    Some(k) if (1..=1_000_000).contains(&k) => k,
+                    Some(k) => {
+                        return Err((
+                            "checkpoint_every".into(),
+                            format!("{k} is outside [1, 1000000]"),
+                        ));
+                    }
+                },
                 checkpoint: match self.state.as_deref() {
                     None | Some("fresh") => false,
                     Some("checkpoint") => true,
@@ -248,7 +265,10 @@ impl FaultSpec {
                 let mut seen = vec![false; n];
                 for &v in groups.iter().flatten() {
                     let Some(s) = seen.get_mut(v as usize) else {
-                        return Err(("groups".into(), format!("node {v} does not exist ({n} nodes)")));
+                        return Err((
+                            "groups".into(),
+                            format!("node {v} does not exist ({n} nodes)"),
+                        ));
                     };
                     if *s {
                         return Err(("groups".into(), format!("node {v} is in two groups")));
@@ -293,7 +313,7 @@ impl FaultSpec {
         // Keys this kind does not take.
         let takes: &[&str] = match kind {
             FaultKind::Pause { .. } | FaultKind::Crash { .. } => &["node"],
-            FaultKind::Restart { .. } => &["node", "state"],
+            FaultKind::Restart { .. } => &["node", "state", "checkpoint_every"],
             FaultKind::Partition { .. } => &["groups"],
             FaultKind::LinkLoss { .. } => &["a", "b", "p"],
             FaultKind::Delay { .. } => &["a", "b", "extra_s"],
@@ -302,6 +322,7 @@ impl FaultSpec {
         let given = [
             ("node", self.node.is_some()),
             ("state", self.state.is_some()),
+            ("checkpoint_every", self.checkpoint_every.is_some()),
             ("groups", self.groups.is_some()),
             ("a", self.a.is_some()),
             ("b", self.b.is_some()),
@@ -320,7 +341,10 @@ impl FaultSpec {
             (None, Some(k)) => k as f64 * period_s,
             (None, None) => return Err(("at_s".into(), "give at_s or at_sample".into())),
             (Some(_), Some(_)) => {
-                return Err(("at_sample".into(), "give at_s or at_sample, not both".into()));
+                return Err((
+                    "at_sample".into(),
+                    "give at_s or at_sample, not both".into(),
+                ));
             }
         };
         let dur = match (self.for_s, self.for_samples) {
@@ -332,11 +356,18 @@ impl FaultSpec {
             (None, Some(k)) => Some(k as f64 * period_s),
             (None, None) => None,
             (Some(_), Some(_)) => {
-                return Err(("for_samples".into(), "give for_s or for_samples, not both".into()));
+                return Err((
+                    "for_samples".into(),
+                    "give for_s or for_samples, not both".into(),
+                ));
             }
         };
         if dur.is_some() && !kind.lasts() {
-            let key = if self.for_s.is_some() { "for_s" } else { "for_samples" };
+            let key = if self.for_s.is_some() {
+                "for_s"
+            } else {
+                "for_samples"
+            };
             return Err((key.into(), format!("`{}` is instantaneous", self.kind)));
         }
         Ok(Fault {
@@ -388,6 +419,95 @@ impl FaultSpec {
     }
 }
 
+/// The faults in force on the links at one moment: partitions, extra loss
+/// and extra delay. Undirected: a fault on `a - b` applies both ways.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinkFaults {
+    /// Active partitions (each as its node-to-group map).
+    partitions: Vec<(usize, Vec<Option<usize>>)>,
+    /// Active `link_loss` faults: `(id, a, b, p)`.
+    loss: Vec<(usize, u32, u32, f64)>,
+    /// Active `delay` faults: `(id, a, b, extra_s)`.
+    delay: Vec<(usize, u32, u32, f64)>,
+}
+
+fn same_link(a: u32, b: u32, i: u32, j: u32) -> bool {
+    (a, b) == (i, j) || (a, b) == (j, i)
+}
+
+impl LinkFaults {
+    /// True if no fault is in force on any link.
+    pub fn is_empty(&self) -> bool {
+        self.partitions.is_empty() && self.loss.is_empty() && self.delay.is_empty()
+    }
+
+    /// Fault `id` (a partition, link loss or delay) starts; other kinds are
+    /// ignored.
+    pub fn start(&mut self, id: usize, kind: &FaultKind) {
+        match kind {
+            FaultKind::Partition { groups } => {
+                let n = groups
+                    .iter()
+                    .flatten()
+                    .map(|&v| v as usize + 1)
+                    .max()
+                    .unwrap_or(0);
+                let mut of = vec![None; n];
+                for (g, members) in groups.iter().enumerate() {
+                    for &v in members {
+                        of[v as usize] = Some(g);
+                    }
+                }
+                self.partitions.push((id, of));
+            }
+            FaultKind::LinkLoss { a, b, p } => self.loss.push((id, *a, *b, *p)),
+            FaultKind::Delay { a, b, extra_s } => self.delay.push((id, *a, *b, *extra_s)),
+            _ => {}
+        }
+    }
+
+    /// Fault `id` ends (heals).
+    pub fn end(&mut self, id: usize) {
+        self.partitions.retain(|p| p.0 != id);
+        self.loss.retain(|l| l.0 != id);
+        self.delay.retain(|l| l.0 != id);
+    }
+
+    /// True if a partition separates `i` and `j` (two nodes in different
+    /// groups; a node in no group is cut from none).
+    pub fn blocked(&self, i: u32, j: u32) -> bool {
+        self.partitions.iter().any(|(_, of)| {
+            match (
+                of.get(i as usize).copied().flatten(),
+                of.get(j as usize).copied().flatten(),
+            ) {
+                (Some(x), Some(y)) => x != y,
+                _ => false,
+            }
+        })
+    }
+
+    /// The extra loss probability of the link `i - j` (independent faults
+    /// combine: `1 - prod(1 - p)`).
+    pub fn loss(&self, i: u32, j: u32) -> f64 {
+        1.0 - self
+            .loss
+            .iter()
+            .filter(|l| same_link(l.1, l.2, i, j))
+            .map(|l| 1.0 - l.3)
+            .product::<f64>()
+    }
+
+    /// The extra one-way delay of the link `i - j`, seconds (faults add up).
+    pub fn delay(&self, i: u32, j: u32) -> f64 {
+        self.delay
+            .iter()
+            .filter(|l| same_link(l.1, l.2, i, j))
+            .map(|l| l.3)
+            .sum()
+    }
+}
+
 /// The uniform draw in `[0, 1)` that decides whether frame number `k` on the
 /// directed link `from -> to` is lost to a `link_loss` fault.
 pub fn fault_draw(seed: u64, from: u32, to: u32, k: u64) -> f64 {
@@ -405,7 +525,9 @@ mod tests {
 
     #[test]
     fn a_fault_flag_parses_into_the_scenario_table_and_resolves_in_seconds() {
-        let f = spec("pause:node=3,at_s=20,for_s=10").resolve(6, 5.0).unwrap();
+        let f = spec("pause:node=3,at_s=20,for_s=10")
+            .resolve(6, 5.0)
+            .unwrap();
         assert_eq!(f.kind, FaultKind::Pause { node: 3 });
         assert_eq!((f.at_s, f.until_s), (20.0, Some(30.0)));
         let f = spec("partition:groups=[[0,1,2],[3,4,5]],at_sample=4,for_samples=2")
@@ -413,12 +535,15 @@ mod tests {
             .unwrap();
         assert_eq!((f.at_s, f.until_s), (20.0, Some(30.0)));
         assert_eq!(f.kind.detail(), "0 1 2 | 3 4 5");
-        let f = spec("restart:node=1,state=\"checkpoint\",at_s=3").resolve(6, 5.0).unwrap();
+        let f = spec("restart:node=1,state=\"checkpoint\",at_s=3")
+            .resolve(6, 5.0)
+            .unwrap();
         assert_eq!(
             f.kind,
             FaultKind::Restart {
                 node: 1,
-                checkpoint: true
+                checkpoint: true,
+                every: 1
             }
         );
     }
@@ -432,7 +557,11 @@ mod tests {
             ("pause:node=1", "at_s", "give at_s or at_sample"),
             ("link_loss:a=1,b=1,p=0.5,at_s=1", "b", "two different nodes"),
             ("link_loss:a=0,b=1,p=1.5,at_s=1", "p", "outside"),
-            ("partition:groups=[[0,1],[1,2]],at_s=1", "groups", "two groups"),
+            (
+                "partition:groups=[[0,1],[1,2]],at_s=1",
+                "groups",
+                "two groups",
+            ),
             ("pause:node=1,p=0.5,at_s=1", "p", "does not take it"),
             ("explode:node=1,at_s=1", "kind", "not a fault"),
             ("restart:node=1,state=\"warm\",at_s=1", "state", "fresh"),
@@ -447,11 +576,41 @@ mod tests {
     }
 
     #[test]
+    fn link_faults_block_across_groups_add_delays_and_combine_losses_until_healed() {
+        let mut lf = LinkFaults::default();
+        let part = spec("partition:groups=[[0,1],[2,3]],at_s=0")
+            .resolve(5, 1.0)
+            .unwrap();
+        lf.start(0, &part.kind);
+        assert!(lf.blocked(0, 2) && lf.blocked(3, 1));
+        assert!(!lf.blocked(0, 1) && !lf.blocked(2, 3) && !lf.blocked(4, 0));
+        lf.start(1, &FaultKind::LinkLoss { a: 0, b: 1, p: 0.5 });
+        lf.start(2, &FaultKind::LinkLoss { a: 1, b: 0, p: 0.5 });
+        assert!((lf.loss(0, 1) - 0.75).abs() < 1e-15 && lf.loss(0, 2).abs() < 1e-15);
+        lf.start(
+            3,
+            &FaultKind::Delay {
+                a: 2,
+                b: 3,
+                extra_s: 1.5,
+            },
+        );
+        assert!((lf.delay(3, 2) - 1.5).abs() < 1e-15);
+        for id in 0..4 {
+            lf.end(id);
+        }
+        assert!(lf.is_empty() && !lf.blocked(0, 2));
+    }
+
+    #[test]
     fn fault_draws_are_uniform_and_keyed_by_link_and_number() {
         let n = 20_000;
         let hits = (0..n).filter(|&k| fault_draw(7, 0, 1, k) < 0.25).count();
         let rate = hits as f64 / n as f64;
-        assert!((rate - 0.25).abs() < 3.29 * (0.25 * 0.75 / n as f64).sqrt(), "{rate}");
+        assert!(
+            (rate - 0.25).abs() < 3.29 * (0.25 * 0.75 / n as f64).sqrt(),
+            "{rate}"
+        );
         assert!((fault_draw(7, 0, 1, 5) - fault_draw(7, 1, 0, 5)).abs() > 0.0);
     }
 }

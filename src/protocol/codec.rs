@@ -37,6 +37,8 @@ pub mod kind {
     pub const START_CLOCK: u32 = 11;
     /// Liveness check: `seq` = check number; answered at once with [`PONG`].
     pub const PING: u32 = 12;
+    /// A node is up again (restarted): `aux` = node.
+    pub const NODE_UP: u32 = 13;
     /// Peer: reflected point, `seq`, `data[0..3]`.
     pub const REFLECT: u32 = 20;
     /// Peer: exchange request.
@@ -164,6 +166,9 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
         }
         Control::Command(Command::NodeDown { node }) => {
             out.push(frame(kind::NODE_DOWN, co, 0, *node, 0, &[]))
+        }
+        Control::Command(Command::NodeUp { node }) => {
+            out.push(frame(kind::NODE_UP, co, 0, *node, 0, &[]))
         }
         // Ticks are local to a node; never sent.
         // Node-local: a node's own clock and its own exchange timers.
@@ -398,6 +403,7 @@ impl NodeDecoder {
             }
             SNAPSHOT => c(Command::Snapshot { sample: f.sample }),
             NODE_DOWN => c(Command::NodeDown { node: f.aux }),
+            NODE_UP => c(Command::NodeUp { node: f.aux }),
             STOP => Ok(Some(NodeInput::Control(Control::Stop))),
             PING => Ok(Some(NodeInput::Control(Control::Ping(f.seq)))),
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),

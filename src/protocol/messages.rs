@@ -67,6 +67,11 @@ pub struct NodeConfig {
     /// lasts as long as it takes.
     #[serde(default)]
     pub round_timeout_s: Option<f64>,
+    /// Write a checkpoint of `u` and `theta` ([`Output::Checkpoint`]) when
+    /// every `checkpoint_every`-th sample arrives (issue 17, a node that may
+    /// restart from its checkpoint). `None`: never.
+    #[serde(default)]
+    pub checkpoint_every: Option<u32>,
 }
 
 fn default_kappa() -> usize {
@@ -143,6 +148,11 @@ pub enum Command {
     Snapshot {
         /// Sample index.
         sample: u32,
+    },
+    /// Node `node` is up again (restarted): a neighbour may pick it again.
+    NodeUp {
+        /// The node.
+        node: u32,
     },
     /// Node `node` is gone: never pick it again and abandon any exchange with it.
     NodeDown {
@@ -337,6 +347,16 @@ pub enum Output {
     Broadcast(PeerMsg),
     /// To the coordinator.
     Report(Report),
+    /// Save this checkpoint of the node's state (atomically; the last one
+    /// wins), taken when sample `sample` arrived.
+    Checkpoint {
+        /// The sample.
+        sample: u32,
+        /// `u`.
+        u: Vec3,
+        /// `theta`.
+        theta: Vec3,
+    },
     /// Over a lossy channel: hand the node `then` (a
     /// [`Command::ExchangeTimeout`] or a [`Command::RoundTimeout`]) after
     /// `after_s` seconds.

@@ -100,6 +100,18 @@ pub struct NodeCore {
 }
 
 impl NodeCore {
+    /// A node restarted from its checkpoint ([`Output::Checkpoint`]): `u` and
+    /// `theta` as saved, no measurements yet (the coordinator sends the
+    /// current sample's).
+    pub fn restore(cfg: NodeConfig, u: Vec3, theta: Vec3) -> NodeCore {
+        let mut n = NodeCore::new(cfg);
+        n.u = u;
+        n.theta = theta;
+        // Its first sample must not overwrite the restored state.
+        n.started = true;
+        n
+    }
+
     /// A node in its initial state: `u = theta = init_u`, no measurements yet.
     pub fn new(cfg: NodeConfig) -> NodeCore {
         let rng = stream_rng(cfg.seed, Stream::NodeClock, cfg.id as u64);
@@ -254,6 +266,16 @@ impl NodeCore {
                     self.theta = self.u;
                 }
                 self.started = true;
+                if let Some(m) = self.cfg.checkpoint_every
+                    && m > 0
+                    && sample % m == 0
+                {
+                    out.push(Output::Checkpoint {
+                        sample,
+                        u: self.u,
+                        theta: self.theta,
+                    });
+                }
             }
             Command::SyncRounds {
                 sample,
@@ -311,6 +333,12 @@ impl NodeCore {
                 theta: self.theta,
                 counters: self.counters,
             })),
+            Command::NodeUp { node } => {
+                if self.cfg.neighbours.contains(&node) && !self.alive.contains(&node) {
+                    self.alive.push(node);
+                    self.alive.sort_unstable();
+                }
+            }
             Command::NodeDown { node } => {
                 self.alive.retain(|&w| w != node);
                 if matches!(self.exchange, Some(ex) if ex.partner == node) {

@@ -495,6 +495,8 @@ impl Scenario {
             ch.validate(geometry.receivers.len())
                 .map_err(|(key, reason)| InputError::at(path, key, reason))?;
         }
+        let faults = resolve_faults(&file, geometry.receivers.len())
+            .map_err(|(key, reason)| InputError::at(path, key, reason))?;
         // Baselines, bounds, Monte Carlo.
         check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
             .map_err(|(key, reason)| InputError::at(path, key, reason))?;
@@ -530,6 +532,7 @@ impl Scenario {
             algorithm,
             realtime: file.realtime.clone(),
             channel: file.channel.clone(),
+            faults,
             expect: file.expect.clone(),
             trace_iterations: false,
             baselines: file.baselines.clone(),
@@ -668,4 +671,31 @@ fn build_generated(
             }
         }
     }
+}
+
+/// The `[[faults]]` of `file`, checked against `n` nodes and in emulated
+/// seconds (`at_sample` and `for_samples` count `[realtime]` sample periods):
+/// faults run on the realtime clock, so they need a `[realtime]` table.
+pub(crate) fn resolve_faults(
+    file: &ScenarioFile,
+    n: usize,
+) -> Result<Vec<crate::model::fault::Fault>, (String, String)> {
+    if file.faults.is_empty() {
+        return Ok(Vec::new());
+    }
+    let Some(rt) = &file.realtime else {
+        return Err((
+            "faults".into(),
+            "faults run on the realtime clock: add a [realtime] table (sample_period_ms, wake_rate_hz)"
+                .into(),
+        ));
+    };
+    file.faults
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            f.resolve(n, rt.sample_period_ms / 1000.0)
+                .map_err(|(k, r)| (format!("faults[{i}].{k}"), r))
+        })
+        .collect()
 }

@@ -112,6 +112,8 @@ pub struct Scenario {
     pub realtime: Option<RealtimeCfg>,
     /// The network between the nodes (validated).
     pub channel: crate::model::channel::ChannelCfg,
+    /// Faults, checked and in emulated seconds (`[[faults]]`, then `--fault`).
+    pub faults: Vec<crate::model::fault::Fault>,
     /// Test thresholds.
     pub expect: ExpectCfg,
     /// Record every node's `theta` after every iteration (`iterations.csv`);
@@ -229,6 +231,26 @@ impl Scenario {
         if n.is_some() {
             self.trials = n;
         }
+        Ok(self)
+    }
+
+    /// Add the fault of a `--fault KIND:KEY=VALUE,...` flag
+    /// ([`crate::model::fault::FaultSpec::parse_flag`]); it is checked as a
+    /// `[[faults]]` entry is, and an error names `--fault`.
+    pub fn with_fault_flag(mut self, flag: &str) -> Result<Self, InputError> {
+        let spec = crate::model::fault::FaultSpec::parse_flag(flag)
+            .map_err(|r| cli_error("--fault", format!("`{flag}`: {r}")))?;
+        let Some(rt) = &self.realtime else {
+            return Err(cli_error(
+                "--fault",
+                "faults run on the realtime clock: the scenario needs a [realtime] table",
+            ));
+        };
+        let f = spec
+            .resolve(self.graph.len(), rt.sample_period_ms / 1000.0)
+            .map_err(|(k, r)| cli_error("--fault", format!("`{flag}`: {k}: {r}")))?;
+        self.faults.push(f);
+        self.file.faults.push(spec);
         Ok(self)
     }
 

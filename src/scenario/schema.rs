@@ -33,6 +33,9 @@ pub struct ScenarioFile {
     /// The network between the nodes (`[channel]`; ideal by default).
     #[serde(default, skip_serializing_if = "is_ideal")]
     pub channel: crate::model::channel::ChannelCfg,
+    /// Faults as a schedule (`[[faults]]`, [`crate::model::fault`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub faults: Vec<crate::model::fault::FaultSpec>,
     /// Thresholds the scenario tests assert.
     #[serde(default)]
     pub expect: ExpectCfg,
