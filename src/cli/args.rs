@@ -204,6 +204,14 @@ pub struct RunArgs {
     /// (scenarios/README.md, [[faults]]).
     #[arg(long = "fault", value_name = "KIND:KEY=VALUE,...")]
     pub faults: Vec<String>,
+    /// Random faults drawn from the run seed: a comma-separated list of
+    /// kinds (pause, crash, restart, partition, link_loss, delay,
+    /// clock_drift), one every --nemesis-interval-s emulated seconds.
+    #[arg(long, value_name = "KINDS")]
+    pub nemesis: Option<String>,
+    /// Emulated seconds between two nemesis faults.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    pub nemesis_interval_s: f64,
     /// Number of samples to run (overrides target.samples; with a trace, at
     /// most its length; must exceed algorithm.burn_in).
     #[arg(long)]

@@ -176,6 +176,9 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         for flag in &args.faults {
             sc = sc.with_fault_flag(flag)?;
         }
+        if let Some(kinds) = &args.nemesis {
+            sc = sc.with_nemesis(kinds, args.nemesis_interval_s)?;
+        }
         let sc = sc.with_trace_iterations(args.trace_iterations);
         sc.check_size_cli()?;
         out.push(sc);
@@ -381,8 +384,9 @@ fn run_single(
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let acoustic = sc.channel.acoustic().is_some();
-    // The acoustic channel runs on the discrete-event engine by default.
-    let engine = args.engine().unwrap_or(if acoustic {
+    // The acoustic channel and faults run on the discrete-event engine by
+    // default.
+    let engine = args.engine().unwrap_or(if acoustic || sc.has_faults() {
         EngineKind::Inprocess
     } else {
         EngineKind::Processes
@@ -393,6 +397,22 @@ fn run_single(
             std::path::Path::new("<command line>"),
             "--poll-us",
             "polling applies to node processes: it needs --engine processes",
+        )
+        .into());
+    }
+    if sc.has_faults() && engine != EngineKind::Inprocess {
+        return Err(crate::model::error::InputError::at(
+            &sc.path,
+            "faults",
+            "faults run on --engine inprocess (the discrete-event engine) so far",
+        )
+        .into());
+    }
+    if sc.has_faults() && clock != Clock::Realtime {
+        return Err(crate::model::error::InputError::at(
+            &sc.path,
+            "faults",
+            "faults run on the realtime clock (--clock realtime, or algorithm.clock = \"realtime\")",
         )
         .into());
     }

@@ -482,11 +482,19 @@ impl Des<'_> {
 
     fn record(&mut self, id: usize, detected: bool) {
         let t = self.now.as_secs_f64();
+        // Sample k's measurements arrive at k periods: a fault at that time
+        // belongs to sample k, whatever the order of the events at it.
+        let sample = match self.plan.realtime {
+            Some(rt) if !rt.sample_period.is_zero() => {
+                (t / rt.sample_period.as_secs_f64() + 1e-9).floor() as u32
+            }
+            _ => self.coord.sample(),
+        };
         self.applied[id] = Some(self.faults.len());
         self.faults.push(FaultRecord {
             fault: self.plan.faults[id].clone(),
             t_s: t,
-            sample: self.coord.sample(),
+            sample,
             detected_s: detected.then_some(t),
         });
     }

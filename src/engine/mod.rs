@@ -420,6 +420,15 @@ pub fn run(
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
+    if !plan.faults.is_empty() && kind != EngineKind::Inprocess {
+        return (
+            RunRecord::empty(plan.n()),
+            Err(EngineError::Unsupported(format!(
+                "faults run on the discrete-event engine (--engine inprocess) so far, not {}",
+                kind.as_str()
+            ))),
+        );
+    }
     if plan.channel.is_some() && kind == EngineKind::Threads {
         return (
             RunRecord::empty(plan.n()),

@@ -129,13 +129,18 @@ impl RunPlan {
         let mut nodes: Vec<NodeConfig> = (0..sc.graph.len())
             .map(|i| node_config(sc, i, node_mode, gammas[i]))
             .collect();
-        if !sc.faults.is_empty() && clock != Clock::Realtime {
+        // The scheduled faults, then the nemesis's, drawn from the run seed.
+        let mut faults = sc.faults.clone();
+        if let (Some(nem), Some(rt)) = (&sc.nemesis, &realtime) {
+            let horizon = sc.samples as f64 * rt.sample_period.as_secs_f64();
+            faults.extend(nem.draw(sc.seed, horizon, sc.graph.len(), sc.graph.edges()));
+        }
+        if (!sc.faults.is_empty() || sc.nemesis.is_some()) && clock != Clock::Realtime {
             return Err(EngineError::Unsupported(
                 "faults run on the realtime clock (--clock realtime): a logical clock has no time to schedule them in".into(),
             ));
         }
-        let checkpointed: Vec<(u32, u32)> = sc
-            .faults
+        let checkpointed: Vec<(u32, u32)> = faults
             .iter()
             .filter_map(|f| match f.kind {
                 crate::model::fault::FaultKind::Restart {
@@ -154,7 +159,7 @@ impl RunPlan {
         // On the ideal channel a fault can swallow a Request (partition, link
         // loss) or hold it (pause): the initiator gives it up after two mean
         // wake-up intervals.
-        if !sc.faults.is_empty()
+        if !faults.is_empty()
             && sc.channel.acoustic().is_none()
             && let Some(rt) = &realtime
         {
@@ -211,7 +216,7 @@ impl RunPlan {
             realtime,
             stall_timeout: DEFAULT_STALL_TIMEOUT,
             channel,
-            faults: sc.faults.clone(),
+            faults,
         })
     }
 

@@ -508,6 +508,145 @@ impl LinkFaults {
     }
 }
 
+/// `[nemesis]` / `--nemesis`: random faults, drawn from the run seed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NemesisCfg {
+    /// Kinds to draw from (any of `pause`, `crash`, `restart`, `partition`,
+    /// `link_loss`, `delay`, `clock_drift`).
+    pub kinds: Vec<String>,
+    /// Emulated seconds between two faults, in (0, 1e9]; the first comes
+    /// after one interval.
+    pub interval_s: f64,
+}
+
+impl NemesisCfg {
+    /// Checks the kinds and the interval: `Err((key, reason))`.
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        const KINDS: [&str; 7] = [
+            "pause",
+            "crash",
+            "restart",
+            "partition",
+            "link_loss",
+            "delay",
+            "clock_drift",
+        ];
+        if self.kinds.is_empty() {
+            return Err((
+                "nemesis.kinds".into(),
+                "name at least one fault kind".into(),
+            ));
+        }
+        if let Some(k) = self.kinds.iter().find(|k| !KINDS.contains(&k.as_str())) {
+            return Err((
+                "nemesis.kinds".into(),
+                format!("`{k}` is not a fault ({})", KINDS.join(", ")),
+            ));
+        }
+        in_range("nemesis.interval_s", self.interval_s, 1e-9, 1e9)
+    }
+
+    /// The faults of a run of `horizon_s` emulated seconds over `n` nodes
+    /// joined by `edges`, drawn from the run seed (stream
+    /// [`Stream::Faults`], index 0): every `interval_s`, a kind drawn
+    /// uniformly from `kinds`, lasting half an interval where it lasts:
+    /// `pause`, `restart` (from a checkpoint) and `clock_drift` (+-10 %) of a
+    /// random node; `crash` of a random node, restarted fresh half an
+    /// interval later (a bounce); `partition` into a random half and the rest;
+    /// `link_loss` (p = 0.5) and `delay` (a tenth of an interval) on a random
+    /// edge.
+    pub fn draw(
+        &self,
+        seed: u64,
+        horizon_s: f64,
+        n: usize,
+        edges: &[(usize, usize)],
+    ) -> Vec<Fault> {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(derive_seed(seed, Stream::Faults, 0));
+        let mut out = Vec::new();
+        if n == 0 {
+            return out;
+        }
+        let half = self.interval_s / 2.0;
+        let mut t = self.interval_s;
+        while t < horizon_s && out.len() < 100_000 {
+            let kind = &self.kinds[rng.random_range(0..self.kinds.len())];
+            let node = rng.random_range(0..n) as u32;
+            let edge = (!edges.is_empty())
+                .then(|| edges[rng.random_range(0..edges.len())])
+                .map(|(a, b)| (a as u32, b as u32));
+            let lasting = |kind: FaultKind| Fault {
+                kind,
+                at_s: t,
+                until_s: Some(t + half),
+            };
+            match kind.as_str() {
+                "pause" => out.push(lasting(FaultKind::Pause { node })),
+                "crash" => {
+                    out.push(Fault {
+                        kind: FaultKind::Crash { node },
+                        at_s: t,
+                        until_s: None,
+                    });
+                    out.push(Fault {
+                        kind: FaultKind::Restart {
+                            node,
+                            checkpoint: false,
+                            every: 1,
+                        },
+                        at_s: t + half,
+                        until_s: None,
+                    });
+                }
+                "restart" => out.push(Fault {
+                    kind: FaultKind::Restart {
+                        node,
+                        checkpoint: true,
+                        every: 1,
+                    },
+                    at_s: t,
+                    until_s: None,
+                }),
+                "partition" => {
+                    let mut order: Vec<u32> = (0..n as u32).collect();
+                    for i in (1..order.len()).rev() {
+                        order.swap(i, rng.random_range(0..=i));
+                    }
+                    let cut = (n / 2).max(1);
+                    let (a, b) = order.split_at(cut);
+                    if !b.is_empty() {
+                        out.push(lasting(FaultKind::Partition {
+                            groups: vec![a.to_vec(), b.to_vec()],
+                        }));
+                    }
+                }
+                "link_loss" => {
+                    if let Some((a, b)) = edge {
+                        out.push(lasting(FaultKind::LinkLoss { a, b, p: 0.5 }));
+                    }
+                }
+                "delay" => {
+                    if let Some((a, b)) = edge {
+                        out.push(lasting(FaultKind::Delay {
+                            a,
+                            b,
+                            extra_s: self.interval_s / 10.0,
+                        }));
+                    }
+                }
+                _ => {
+                    let ppm = if rng.random_bool(0.5) { 1e5 } else { -1e5 };
+                    out.push(lasting(FaultKind::ClockDrift { node, ppm }));
+                }
+            }
+            t += self.interval_s;
+        }
+        out
+    }
+}
+
 /// The uniform draw in `[0, 1)` that decides whether frame number `k` on the
 /// directed link `from -> to` is lost to a `link_loss` fault.
 pub fn fault_draw(seed: u64, from: u32, to: u32, k: u64) -> f64 {
@@ -600,6 +739,34 @@ mod tests {
             lf.end(id);
         }
         assert!(lf.is_empty() && !lf.blocked(0, 2));
+    }
+
+    #[test]
+    fn the_nemesis_draws_the_same_faults_from_the_same_seed_and_others_from_another() {
+        let nem = NemesisCfg {
+            kinds: vec!["pause".into(), "crash".into(), "partition".into()],
+            interval_s: 1.0,
+        };
+        nem.validate().unwrap();
+        let edges = [(0, 1), (1, 2), (2, 3)];
+        let a = nem.draw(5, 20.5, 4, &edges);
+        assert_eq!(a, nem.draw(5, 20.5, 4, &edges));
+        assert_ne!(a, nem.draw(6, 20.5, 4, &edges));
+        // One fault a second (a crash comes with its restart).
+        let starts: Vec<f64> = a
+            .iter()
+            .filter(|f| !matches!(f.kind, FaultKind::Restart { .. }))
+            .map(|f| f.at_s)
+            .collect();
+        assert_eq!(starts.len(), 20);
+        for f in &a {
+            assert!(f.kind.nodes().iter().all(|&v| v < 4), "{f:?}");
+        }
+        let bad = NemesisCfg {
+            kinds: vec!["flood".into()],
+            interval_s: 1.0,
+        };
+        assert_eq!(bad.validate().unwrap_err().0, "nemesis.kinds");
     }
 
     #[test]

@@ -126,6 +126,13 @@ pub fn evaluate(
         startup_seconds: record.startup_seconds,
         realtime: realtime_stats(record, opts),
         channel: channel_stats(record, opts.clock, sc.algorithm.mode),
+        faults: fault_outcomes(
+            record,
+            scored.tracks[0].error.as_deref(),
+            sc.realtime
+                .as_ref()
+                .map_or(1.0, |rt| rt.sample_period_ms / 1000.0),
+        ),
         deaths: record
             .deaths
             .iter()
@@ -211,6 +218,60 @@ pub fn unknown_metric<'a>(name: &str, keys: impl Iterator<Item = &'a String>) ->
                 .join(", ")
         )
     }
+}
+
+/// How much worse than before a fault the error may be and still count as
+/// recovered.
+pub const RECOVERY_FACTOR: f64 = 1.5;
+
+/// Each applied fault's outcome on the error of `theta_bar` (`errors`, per
+/// sample), with samples `period_s` emulated seconds long: the mean error of
+/// the five samples before it, the peak from its start to its end, and the
+/// samples from its end until the error is back within [`RECOVERY_FACTOR`]
+/// of that mean.
+pub fn fault_outcomes(
+    rec: &RunRecord,
+    errors: Option<&[Option<f64>]>,
+    period_s: f64,
+) -> Vec<FaultOutcome> {
+    let errs = errors.unwrap_or(&[]);
+    rec.faults
+        .iter()
+        .map(|f| {
+            let s0 = f.sample as usize;
+            let end = match f.fault.until_s {
+                Some(u) => ((u / period_s).ceil() as usize).max(s0),
+                None => s0,
+            };
+            let before: Vec<f64> = errs[s0.saturating_sub(5).min(errs.len())..s0.min(errs.len())]
+                .iter()
+                .flatten()
+                .copied()
+                .collect();
+            let error_before =
+                (!before.is_empty()).then(|| before.iter().sum::<f64>() / before.len() as f64);
+            let during = errs
+                .get(s0.min(errs.len())..(end + 1).min(errs.len()))
+                .unwrap_or(&[]);
+            let peak_error = during.iter().flatten().copied().reduce(f64::max);
+            let back = error_before.and_then(|lvl| {
+                (end..errs.len()).find(|&k| errs[k].is_some_and(|e| e <= RECOVERY_FACTOR * lvl))
+            });
+            FaultOutcome {
+                kind: f.fault.kind.name().into(),
+                nodes: f.fault.kind.nodes(),
+                detail: f.fault.kind.detail(),
+                t_s: f.t_s,
+                until_s: f.fault.until_s,
+                sample: f.sample,
+                detected_s: f.detected_s,
+                error_before,
+                peak_error,
+                recovery_samples: back.map(|k| (k - end) as u32),
+                recovered_s: back.map(|k| (k + 1) as f64 * period_s),
+            }
+        })
+        .collect()
 }
 
 /// The acoustic channel's statistics from the run's messages.

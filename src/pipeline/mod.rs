@@ -66,13 +66,13 @@ pub struct RunOptions {
 }
 
 /// The clock a scenario runs on when the caller does not choose one: its
-/// `algorithm.clock`, else realtime on the acoustic channel (the only clock it
-/// runs on so far), else logical.
+/// `algorithm.clock`, else realtime on the acoustic channel or with faults
+/// (which need it), else logical.
 pub fn default_clock(sc: &Scenario) -> Clock {
     match sc.algorithm.clock {
         Some(crate::scenario::ClockCfg::Realtime) => Clock::Realtime,
         Some(crate::scenario::ClockCfg::Logical) => Clock::Logical,
-        None if sc.channel.acoustic().is_some() => Clock::Realtime,
+        None if sc.channel.acoustic().is_some() || sc.has_faults() => Clock::Realtime,
         None => Clock::Logical,
     }
 }

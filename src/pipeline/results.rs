@@ -107,6 +107,36 @@ pub struct LinkStats {
     pub delivery_ratio: f64,
 }
 
+/// What one fault did to the track (`metrics.json` `faults`, `faults.csv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FaultOutcome {
+    /// `pause`, `crash`, `restart`, `partition`, `link_loss`, `delay` or
+    /// `clock_drift`.
+    pub kind: String,
+    /// The nodes it concerns.
+    pub nodes: Vec<u32>,
+    /// Its parameters in words.
+    pub detail: String,
+    /// When it was applied (emulated s).
+    pub t_s: f64,
+    /// When it ended (lasting faults), emulated s.
+    pub until_s: Option<f64>,
+    /// The sample in progress when it was applied.
+    pub sample: u32,
+    /// When the coordinator noticed it (a crash or restart at once; a pause
+    /// when it outlasted the stall timeout), emulated s.
+    pub detected_s: Option<f64>,
+    /// The mean error of `theta_bar` over the five samples before it (m).
+    pub error_before: Option<f64>,
+    /// The largest error from its start to its end (m).
+    pub peak_error: Option<f64>,
+    /// Samples from its end (its start if instantaneous) until the error is
+    /// back within 1.5x of `error_before`; `None`: not within the run.
+    pub recovery_samples: Option<u32>,
+    /// When that happened (the end of that sample's period), emulated s.
+    pub recovered_s: Option<f64>,
+}
+
 /// A node that died during the run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Death {
@@ -182,6 +212,10 @@ pub struct RunMetrics {
     pub channel: Option<ChannelStats>,
     /// Nodes that died (the gap: they are left out of `theta_bar` from then on).
     pub deaths: Vec<Death>,
+    /// Faults applied (issue 17), with their detection, recovery and peak
+    /// error; absent without faults.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub faults: Vec<FaultOutcome>,
     /// Per-node counters.
     pub nodes: Vec<NodeCounters>,
     /// Certified bounds on `theta_bar` (`[bounds]`), by bound name.

@@ -1,5 +1,5 @@
 //! The results directory of one run: `run.json`, the CSVs (`track.csv`,
-//! `nodes.csv`, `schedule.csv`, `iterations.csv`, `messages.csv`,
+//! `nodes.csv`, `schedule.csv`, `iterations.csv`, `messages.csv`, `faults.csv`,
 //! `measurements.csv`, `truth.csv`) and `metrics.json`.
 
 use super::*;
@@ -31,25 +31,71 @@ impl Outcome {
             record.run_id.as_deref(),
         )?;
         write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
+        // With faults, a `paused` column (before `seed`); without, the file
+        // is as it always was.
+        let faults = sc.has_faults();
+        let mut header = vec!["sample", "node", "x", "y", "d", "alive"];
+        if faults {
+            header.push("paused");
+        }
+        header.push("seed");
         write_csv(
             &dir.join("nodes.csv"),
-            &["sample", "node", "x", "y", "d", "alive", "seed"],
+            &header,
             record.thetas.iter().enumerate().flat_map(|(k, ts)| {
                 let alive = record.alive.get(k);
+                let paused = record.paused.get(k);
                 ts.iter().enumerate().map(move |(i, t)| {
                     let up = alive.and_then(|m| m.get(i)).copied().unwrap_or(true);
-                    vec![
+                    let mut row = vec![
                         k.to_string(),
                         i.to_string(),
                         num(t[0]),
                         num(t[1]),
                         num(t[2]),
                         up.to_string(),
-                        sc.seed.to_string(),
-                    ]
+                    ];
+                    if faults {
+                        let p = paused.and_then(|m| m.get(i)).copied().unwrap_or(false);
+                        row.push(p.to_string());
+                    }
+                    row.push(sc.seed.to_string());
+                    row
                 })
             }),
         )?;
+        if faults {
+            let opt = |v: Option<f64>| v.map(num).unwrap_or_default();
+            write_csv(
+                &dir.join("faults.csv"),
+                &[
+                    "t_s",
+                    "sample",
+                    "kind",
+                    "nodes",
+                    "detail",
+                    "detected_s",
+                    "recovered_s",
+                    "seed",
+                ],
+                m.faults.iter().map(|f| {
+                    vec![
+                        num(f.t_s),
+                        f.sample.to_string(),
+                        f.kind.clone(),
+                        f.nodes
+                            .iter()
+                            .map(u32::to_string)
+                            .collect::<Vec<_>>()
+                            .join(" "),
+                        f.detail.clone(),
+                        opt(f.detected_s),
+                        opt(f.recovered_s),
+                        sc.seed.to_string(),
+                    ]
+                }),
+            )?;
+        }
         if !record.schedule.is_empty() {
             write_csv(
                 &dir.join("schedule.csv"),

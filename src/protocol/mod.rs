@@ -718,6 +718,7 @@ mod tests {
             trace_iterations: false,
             exchange_timeout_s: None,
             round_timeout_s: None,
+            checkpoint_every: None,
         }
     }
 

@@ -533,6 +533,7 @@ impl Scenario {
             realtime: file.realtime.clone(),
             channel: file.channel.clone(),
             faults,
+            nemesis: file.nemesis.clone(),
             expect: file.expect.clone(),
             trace_iterations: false,
             baselines: file.baselines.clone(),
@@ -680,6 +681,16 @@ pub(crate) fn resolve_faults(
     file: &ScenarioFile,
     n: usize,
 ) -> Result<Vec<crate::model::fault::Fault>, (String, String)> {
+    if let Some(nem) = &file.nemesis {
+        nem.validate()?;
+        if file.realtime.is_none() {
+            return Err((
+                "nemesis".into(),
+                "faults run on the realtime clock: add a [realtime] table (sample_period_ms, wake_rate_hz)"
+                    .into(),
+            ));
+        }
+    }
     if file.faults.is_empty() {
         return Ok(Vec::new());
     }

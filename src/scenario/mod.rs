@@ -114,6 +114,9 @@ pub struct Scenario {
     pub channel: crate::model::channel::ChannelCfg,
     /// Faults, checked and in emulated seconds (`[[faults]]`, then `--fault`).
     pub faults: Vec<crate::model::fault::Fault>,
+    /// Random faults (`[nemesis]` or `--nemesis`), drawn by the plan from the
+    /// run seed.
+    pub nemesis: Option<crate::model::fault::NemesisCfg>,
     /// Test thresholds.
     pub expect: ExpectCfg,
     /// Record every node's `theta` after every iteration (`iterations.csv`);
@@ -251,6 +254,36 @@ impl Scenario {
             .map_err(|(k, r)| cli_error("--fault", format!("`{flag}`: {k}: {r}")))?;
         self.faults.push(f);
         self.file.faults.push(spec);
+        Ok(self)
+    }
+
+    /// True if the run has faults (`[[faults]]`, `--fault`, a nemesis).
+    pub fn has_faults(&self) -> bool {
+        !self.faults.is_empty() || self.nemesis.is_some()
+    }
+
+    /// Draw random faults (`--nemesis KINDS --nemesis-interval-s S`); an
+    /// error names the flag.
+    pub fn with_nemesis(mut self, kinds: &str, interval_s: f64) -> Result<Self, InputError> {
+        let cfg = crate::model::fault::NemesisCfg {
+            kinds: kinds.split(',').map(|k| k.trim().to_string()).collect(),
+            interval_s,
+        };
+        cfg.validate().map_err(|(k, r)| {
+            let flag = if k.ends_with("interval_s") {
+                "--nemesis-interval-s"
+            } else {
+                "--nemesis"
+            };
+            cli_error(flag, r)
+        })?;
+        if self.realtime.is_none() {
+            return Err(cli_error(
+                "--nemesis",
+                "faults run on the realtime clock: the scenario needs a [realtime] table",
+            ));
+        }
+        self.nemesis = Some(cfg);
         Ok(self)
     }
 

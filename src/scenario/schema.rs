@@ -36,6 +36,9 @@ pub struct ScenarioFile {
     /// Faults as a schedule (`[[faults]]`, [`crate::model::fault`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<crate::model::fault::FaultSpec>,
+    /// Random faults drawn from the run seed (`[nemesis]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nemesis: Option<crate::model::fault::NemesisCfg>,
     /// Thresholds the scenario tests assert.
     #[serde(default)]
     pub expect: ExpectCfg,
