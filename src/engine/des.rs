@@ -70,22 +70,26 @@ enum Ev {
     FaultEnd(usize),
 }
 
-/// The event queue: `(time, sequence) -> event`, so events at one time keep
-/// the order in which they were scheduled.
+/// The event queue: `(time, class, sequence) -> event`, so events at one
+/// time keep the order in which they were scheduled, except that a fault
+/// comes after everything else at its time (a fault at the start of sample
+/// `k` comes after the snapshot that ends sample `k - 1` and the
+/// measurements of sample `k`, however those were scheduled).
 #[derive(Default)]
 struct Queue {
-    events: BTreeMap<(Duration, u64), Ev>,
+    events: BTreeMap<(Duration, u8, u64), Ev>,
     next: u64,
 }
 
 impl Queue {
     fn push(&mut self, at: Duration, ev: Ev) {
-        self.events.insert((at, self.next), ev);
+        let class = u8::from(matches!(ev, Ev::FaultStart(_) | Ev::FaultEnd(_)));
+        self.events.insert((at, class, self.next), ev);
         self.next += 1;
     }
 
     fn pop(&mut self) -> Option<(Duration, Ev)> {
-        self.events.pop_first().map(|((t, _), ev)| (t, ev))
+        self.events.pop_first().map(|((t, _, _), ev)| (t, ev))
     }
 }
 

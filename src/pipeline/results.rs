@@ -297,6 +297,25 @@ impl RunMetrics {
                 f.insert("channel.delay_mean_s".into(), d);
             }
         }
+        // Faults: `faults.I.KEY` for the I-th fault applied.
+        for (i, o) in self.faults.iter().enumerate() {
+            let mut put = |k: &str, v: Option<f64>| {
+                if let Some(v) = v {
+                    f.insert(format!("faults.{i}.{k}"), v);
+                }
+            };
+            put("t_s", Some(o.t_s));
+            put("detected_s", o.detected_s);
+            put("peak_error", o.peak_error);
+            put("error_before", o.error_before);
+            put("recovery_samples", o.recovery_samples.map(f64::from));
+            put("recovered_s", o.recovered_s);
+        }
+        if !self.faults.is_empty() {
+            f.insert("faults.count".into(), self.faults.len() as f64);
+            let recovered = self.faults.iter().filter(|o| o.recovery_samples.is_some());
+            f.insert("faults.recovered".into(), recovered.count() as f64);
+        }
         f
     }
 }
