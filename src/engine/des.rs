@@ -114,6 +114,8 @@ struct Slot {
     epoch: u32,
     /// Paused: inputs held until it resumes, and whether its clock fired.
     paused: bool,
+    /// Paused at some time since the last sample completed.
+    was_paused: bool,
     held: Vec<Input>,
     tick_due: bool,
     /// Waits and timers are multiplied by this (clock drift).
@@ -166,6 +168,7 @@ pub fn run_des(
                 dead: false,
                 epoch: 0,
                 paused: false,
+                was_paused: false,
                 held: Vec::new(),
                 tick_due: false,
                 clock_factor: 1.0,
@@ -282,7 +285,12 @@ impl Des<'_> {
                     iterations,
                 } => {
                     if !self.plan.faults.is_empty() {
-                        let mask: Vec<bool> = self.nodes.iter().map(|s| s.paused).collect();
+                        // Paused at any time during the sample.
+                        let mask: Vec<bool> = self
+                            .nodes
+                            .iter_mut()
+                            .map(|s| std::mem::replace(&mut s.was_paused, s.paused))
+                            .collect();
                         self.paused_masks.resize(samples, mask);
                     }
                     progress(samples, iterations)
@@ -527,8 +535,10 @@ impl Des<'_> {
         match kind {
             FaultKind::Pause { node } => {
                 self.record(id, false);
-                if !self.nodes[node as usize].dead {
-                    self.nodes[node as usize].paused = true;
+                let slot = &mut self.nodes[node as usize];
+                if !slot.dead {
+                    slot.paused = true;
+                    slot.was_paused = true;
                 }
             }
             FaultKind::Crash { node } => {

@@ -1144,6 +1144,55 @@ mod tests {
         );
     }
 
+    /// Issue 17: a node that checkpoints writes `u` and `theta` when every
+    /// `checkpoint_every`-th sample arrives; restored from a checkpoint it
+    /// resumes exactly at it (its next sample does not reset it); a fresh
+    /// node starts at `init_u`. NodeUp puts a neighbour back in its list.
+    #[test]
+    fn a_node_restarted_from_its_checkpoint_resumes_exactly_at_its_saved_state() {
+        let mut cfg = config(LocalSolver::Gtrs, 1);
+        cfg.mode = NodeMode::Realtime;
+        cfg.checkpoint_every = Some(2);
+        cfg.first_fix = true;
+        let mut node = NodeCore::new(cfg.clone());
+        let mut o = Vec::new();
+        node.handle(sample(0), &mut o);
+        node.handle(Input::Command(Command::Tick), &mut o);
+        let ck = |o: &[Output]| {
+            o.iter()
+                .filter_map(|x| match x {
+                    Output::Checkpoint { sample, u, theta } => Some((*sample, *u, *theta)),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(ck(&o).len(), 1, "sample 0 is checkpointed");
+        o.clear();
+        node.handle(sample(1), &mut o);
+        assert!(ck(&o).is_empty(), "sample 1 is not");
+        node.u = Vec3::new(3.0, -4.0, 5.0);
+        node.theta = Vec3::new(1.0, 2.0, 3.0);
+        node.handle(sample(2), &mut o);
+        let saved = ck(&o);
+        assert_eq!(saved, vec![(2, node.u, node.theta)]);
+        let (_, u, theta) = saved[0];
+        let mut back = NodeCore::restore(cfg.clone(), u, theta);
+        let mut o = Vec::new();
+        back.handle(sample(3), &mut o);
+        assert_eq!(
+            (back.u, back.theta),
+            (u, theta),
+            "first_fix does not reset it"
+        );
+        let fresh = NodeCore::new(cfg.clone());
+        assert_eq!((fresh.u, fresh.theta), (cfg.init_u, cfg.init_u));
+        back.handle(Input::Command(Command::NodeDown { node: 2 }), &mut o);
+        assert_eq!(back.live_neighbours(), &[0]);
+        back.handle(Input::Command(Command::NodeUp { node: 2 }), &mut o);
+        back.handle(Input::Command(Command::NodeUp { node: 7 }), &mut o);
+        assert_eq!(back.live_neighbours(), &[0, 2], "7 is no neighbour");
+    }
+
     #[test]
     fn the_node_config_json_carries_the_solver_and_kappa_and_defaults_kappa_to_one() {
         let cfg = config(LocalSolver::GtrsL0, 2);

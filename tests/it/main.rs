@@ -6,6 +6,7 @@ mod bad_input;
 mod baselines;
 mod bounds_ref;
 mod engine;
+mod faults;
 mod golden;
 mod interrupt;
 mod layers;

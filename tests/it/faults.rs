@@ -1,0 +1,233 @@
+//! Faults as a schedule (issue 17) on the discrete-event engine: each kind
+//! through `scenarios/mourya2017-spiral-faults.toml`, which every-scenario
+//! test also runs; here the properties the issue names.
+
+use crate::util::{TempDir, read_rows, run_file, scenario};
+use sonarnet::pipeline::{self, RunOptions};
+use sonarnet::scenario::Scenario;
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// A variant of `scenarios/mourya2017-spiral-faults.toml`.
+fn variant(name: &str) -> Scenario {
+    Scenario::load_all(&scenario("mourya2017-spiral-faults.toml"))
+        .expect("loads")
+        .into_iter()
+        .find(|s| s.variant.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no variant {name}"))
+}
+
+fn run(sc: &Scenario, dir: &std::path::Path, stall: Option<Duration>) -> pipeline::Outcome {
+    let mut opts = RunOptions {
+        command_line: vec!["test".into()],
+        ..RunOptions::inprocess()
+            .with_out_dir(dir)
+            .with_clock(pipeline::default_clock(sc))
+    };
+    if let Some(s) = stall {
+        opts.stall_timeout = s;
+    }
+    sc.run_and_write(&opts).expect("writes")
+}
+
+/// `nodes.csv` as sample -> node -> (x, y).
+fn positions(dir: &std::path::Path) -> BTreeMap<usize, BTreeMap<usize, (f64, f64)>> {
+    let mut out: BTreeMap<usize, BTreeMap<usize, (f64, f64)>> = BTreeMap::new();
+    for r in read_rows(&dir.join("nodes.csv")) {
+        let (k, i): (usize, usize) = (r[0].parse().unwrap(), r[1].parse().unwrap());
+        out.entry(k)
+            .or_default()
+            .insert(i, (r[2].parse().unwrap(), r[3].parse().unwrap()));
+    }
+    out
+}
+
+/// The largest distance between a node of `a` and a node of `b` at sample `k`.
+fn spread(
+    p: &BTreeMap<usize, BTreeMap<usize, (f64, f64)>>,
+    k: usize,
+    a: &[usize],
+    b: &[usize],
+) -> f64 {
+    let mut m = 0.0f64;
+    for &i in a {
+        for &j in b {
+            let (x, y) = (p[&k][&i], p[&k][&j]);
+            m = m.max((x.0 - y.0).hypot(x.1 - y.1));
+        }
+    }
+    m
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = v.collect();
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+/// A partition of the spiral graph into two connected halves, {0, 1, 2} and
+/// {3, 4, 5}, for samples 30-49: each half keeps its own consensus (the
+/// nodes of a half stay closer to each other than to the other half), and
+/// within 3 samples of the heal the two halves agree again as closely as
+/// before the partition (README, Faults).
+#[test]
+fn a_partitioned_network_keeps_two_consensuses_and_agrees_again_after_the_heal() {
+    let tmp = TempDir::new("faults-partition");
+    let out = run(&variant("partition"), tmp.path(), None);
+    assert!(out.error.is_none(), "{:?}", out.error);
+    let p = positions(tmp.path());
+    let (a, b) = ([0, 1, 2], [3, 4, 5]);
+    let before = mean((20..30).map(|k| spread(&p, k, &a, &b)));
+    let during_across = mean((31..50).map(|k| spread(&p, k, &a, &b)));
+    let during_within = mean((31..50).map(|k| spread(&p, k, &a, &a).max(spread(&p, k, &b, &b))));
+    assert!(
+        during_across > 2.0 * during_within,
+        "across {during_across:.2} m, within {during_within:.2} m"
+    );
+    let after = mean((53..63).map(|k| spread(&p, k, &a, &b)));
+    assert!(
+        after < 1.5 * before,
+        "after the heal {after:.2} m, before the partition {before:.2} m"
+    );
+    let f = &out.metrics.faults[0];
+    assert_eq!((f.kind.as_str(), f.sample), ("partition", 30));
+}
+
+/// A pause shorter than the stall timeout changes only the timing: the node
+/// is never reported, every sample is scored, and nodes.csv flags it paused
+/// during the sample it stalled. Longer than the stall timeout, the node is
+/// reported (left out as dead), and the fault's detection time is the
+/// snapshot deadline that noticed it.
+#[test]
+fn a_short_pause_only_delays_and_a_long_one_gets_the_node_reported() {
+    let tmp = TempDir::new("faults-pause");
+    let short = tmp.path().join("short");
+    let out = run(&variant("pause"), &short, None);
+    assert!(out.error.is_none() && out.metrics.deaths.is_empty());
+    assert_eq!(out.metrics.samples_completed, 100);
+    let rows = read_rows(&short.join("nodes.csv"));
+    let paused: Vec<usize> = rows
+        .iter()
+        .filter(|r| r[6] == "true")
+        .map(|r| r[0].parse().unwrap())
+        .collect();
+    assert!(rows.iter().all(|r| r[5] == "true"), "every node alive");
+    // Sample 30's snapshot waits for node 2 until it resumes (0.8 s); the
+    // samples due meanwhile follow at once, with node 2 running.
+    assert_eq!(paused, vec![30], "node 2 paused during sample 30");
+    assert!(out.metrics.faults[0].detected_s.is_none());
+    // The same pause, 20 samples (0.4 s) long, with a 0.1 s stall timeout.
+    let long = tmp.path().join("long");
+    let mut sc = variant("pause");
+    sc.faults[0].until_s = Some(1.0);
+    let out = run(&sc, &long, Some(Duration::from_millis(100)));
+    assert!(out.error.is_none(), "{:?}", out.error);
+    assert_eq!(out.metrics.deaths.len(), 1, "{:?}", out.metrics.deaths);
+    assert_eq!(out.metrics.deaths[0].node, 2);
+    let detected = out.metrics.faults[0].detected_s.expect("detected");
+    assert!(
+        detected > 0.6 && detected <= 0.6 + 0.02 + 0.1 + 1e-9,
+        "detected at {detected} s"
+    );
+}
+
+/// The random nemesis draws its faults from the run seed: the same seed
+/// gives the same faults.csv and the same outputs, another seed other
+/// faults.
+#[test]
+fn the_nemesis_with_one_seed_gives_the_same_faults_and_outputs() {
+    let tmp = TempDir::new("faults-nemesis");
+    let sc = variant("nemesis");
+    let (a, b, c) = (
+        tmp.path().join("a"),
+        tmp.path().join("b"),
+        tmp.path().join("c"),
+    );
+    run(&sc, &a, None);
+    run(&sc, &b, None);
+    run(&sc.clone().with_seed(7), &c, None);
+    for f in ["faults.csv", "nodes.csv", "track.csv"] {
+        let (x, y) = (
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+        );
+        assert!(x == y, "{f} differs between two runs of one seed");
+    }
+    let fa = read_rows(&a.join("faults.csv"));
+    assert!(fa.len() > 5, "{} faults", fa.len());
+    let fc = read_rows(&c.join("faults.csv"));
+    let cols = |rows: &[Vec<String>]| rows.iter().map(|r| r[2..5].to_vec()).collect::<Vec<_>>();
+    assert_ne!(cols(&fa), cols(&fc), "seed 7 drew the same faults");
+}
+
+/// A crash that cuts the network (node 3 joins the leaves 4 and 5 to the
+/// rest) cannot be recovered: the run says why, ends `failed`, and keeps
+/// what it scored, faults.csv included.
+#[test]
+fn a_crash_that_cuts_the_network_fails_the_run_with_its_partial_results() {
+    let tmp = TempDir::new("faults-cut");
+    let o = run_file(
+        &scenario("mourya2017-spiral-faults.toml"),
+        tmp.path(),
+        &["--variant", "crash", "--fault", "crash:node=3,at_sample=40"],
+        Duration::from_secs(120),
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("node 3") && err.contains("disconnected"),
+        "{err}"
+    );
+    let m = crate::util::metrics(tmp.path());
+    assert_eq!(m["status"], "failed");
+    assert_eq!(m["samples_completed"], 40);
+    assert_eq!(read_rows(&tmp.path().join("faults.csv")).len(), 2);
+}
+
+/// A bad fault is refused before anything runs, naming the flag or the key,
+/// and faults refuse the engines that do not run them yet.
+#[test]
+fn a_bad_fault_is_refused_naming_the_flag_or_the_key() {
+    let tmp = TempDir::new("faults-bad");
+    let file = scenario("mourya2017-spiral-faults.toml");
+    for (args, needle) in [
+        (
+            &["--variant", "crash", "--fault", "pause:node=9,at_s=1"][..],
+            "--fault",
+        ),
+        (
+            &["--variant", "crash", "--fault", "pause:at_s=1"][..],
+            "node",
+        ),
+        (
+            &["--variant", "crash", "--nemesis", "flood"][..],
+            "--nemesis",
+        ),
+        (
+            &["--variant", "crash", "--engine", "processes"][..],
+            "faults",
+        ),
+        (&["--variant", "crash", "--clock", "logical"][..], "faults"),
+    ] {
+        let o = run_file(&file, &tmp.path().join("x"), args, Duration::from_secs(60));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    let text = std::fs::read_to_string(&file).unwrap().replace(
+        "{ kind = \"crash\", node = 4,",
+        "{ kind = \"crash\", node = 40,",
+    );
+    let bad = tmp.write("bad.toml", &text);
+    let o = run_file(
+        &bad,
+        &tmp.path().join("y"),
+        &["--variant", "crash"],
+        Duration::from_secs(60),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("faults[0].node") && err.contains("does not exist"),
+        "{err}"
+    );
+}
