@@ -263,6 +263,7 @@ pub fn fault_outcomes(
                 detail: f.fault.kind.detail(),
                 t_s: f.t_s,
                 until_s: f.fault.until_s,
+                until_sample: end as u32,
                 sample: f.sample,
                 detected_s: f.detected_s,
                 error_before,

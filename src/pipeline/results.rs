@@ -121,6 +121,10 @@ pub struct FaultOutcome {
     pub t_s: f64,
     /// When it ended (lasting faults), emulated s.
     pub until_s: Option<f64>,
+    /// The sample in progress when it ended (its start sample if
+    /// instantaneous): recovery counts from there.
+    #[serde(default)]
+    pub until_sample: u32,
     /// The sample in progress when it was applied.
     pub sample: u32,
     /// When the coordinator noticed it (a crash or restart at once; a pause

@@ -208,6 +208,19 @@ pub struct VLine {
     pub shade_left: bool,
 }
 
+/// A shaded stretch of the x axis with a caption (a fault, issue 17).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Span {
+    /// Start.
+    pub x0: f64,
+    /// End.
+    pub x1: f64,
+    /// Caption at the top, at the start.
+    pub caption: String,
+    /// Fill colour (drawn translucent).
+    pub color: Rgb,
+}
+
 /// One chart of a figure.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Panel {
@@ -231,6 +244,8 @@ pub struct Panel {
     pub discs: Vec<Disc>,
     /// Vertical lines.
     pub vlines: Vec<VLine>,
+    /// Shaded stretches, drawn under everything.
+    pub spans: Vec<Span>,
     /// Series, in drawing order.
     pub series: Vec<Series>,
     /// Labels.
@@ -255,6 +270,7 @@ impl Panel {
             bands: Vec::new(),
             discs: Vec::new(),
             vlines: Vec::new(),
+            spans: Vec::new(),
             series: Vec::new(),
             labels: Vec::new(),
             note: None,

@@ -217,6 +217,25 @@ where
 {
     let (y0, y1) = p.y_range;
     // Shaded regions first.
+    for s in &p.spans {
+        let (a, b) = (s.x0.max(p.x_range.0), s.x1.min(p.x_range.1));
+        if b > a {
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(a, y0), (b, y1)],
+                rgb(s.color).mix(0.14).filled(),
+            )))?;
+        }
+        if (p.x_range.0..=p.x_range.1).contains(&s.x0) {
+            chart.draw_series(std::iter::once(
+                EmptyElement::at((s.x0, y1))
+                    + Text::new(
+                        s.caption.clone(),
+                        (4, 22),
+                        (FONT, 14).into_font().color(&rgb(s.color)),
+                    ),
+            ))?;
+        }
+    }
     for v in &p.vlines {
         if v.shade_left && v.x > p.x_range.0 {
             chart.draw_series(std::iter::once(Rectangle::new(

@@ -40,7 +40,7 @@ pub fn caption(name: &str) -> &'static str {
             "True track (black, dots at samples), distributed estimate θ̄ = mean of the node estimates (blue), centralised ML reference (orange, dashed) and any baselines. Transmitters (red triangles), receivers (squares) and network links drawn to scale, as in seed 002 Fig. 2b. Where bounds are present, the certified error discs around θ̄ are drawn at every n-th sample."
         }
         "error" => {
-            "Position error ‖x_k − x_k*‖ per sample for every track, with the Cramér-Rao bound √tr(J⁻¹) at the true position (grey, dashed). The shaded region is the burn-in, excluded from rmse_after_burn_in. Monte Carlo runs: mean across trials with a 5th–95th percentile band."
+            "Position error ‖x_k − x_k*‖ per sample for every track, with the Cramér-Rao bound √tr(J⁻¹) at the true position (grey, dashed). The grey region is the burn-in, excluded from rmse_after_burn_in; red regions are the faults of the run (faults.csv). Monte Carlo runs: mean across trials with a 5th–95th percentile band."
         }
         "consensus" => {
             "Each node's estimate θ_v (thin lines), their mean θ̄ and the true position, x and y coordinates against the sample (or against the iteration when the run traced iterations), as seed 002 Fig. 2a; bottom: the consensus disagreement maxᵥ‖θᵥ − θ̄‖."

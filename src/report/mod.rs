@@ -58,6 +58,7 @@ pub fn report_html(d: &RunData, figs: &[(Figure, String)]) -> String {
     });
     s.push_str(&track_metrics_html(d));
     s.push_str(&monte_carlo_html(d));
+    s.push_str(&faults_html(d));
     s.push_str(&bounds_html(d));
     s.push_str(&run_metrics_html(d));
     s.push_str(&nodes_html(d));

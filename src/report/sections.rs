@@ -252,6 +252,30 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
 
 /// A table of objects with the union of their keys as columns.
 /// Columns that are `null` in every row are left out.
+/// The faults of the run (`metrics.json` `faults`): one row each, with its
+/// detection, recovery and peak error.
+pub(super) fn faults_html(d: &RunData) -> String {
+    let Some(m) = &d.metrics else {
+        return String::new();
+    };
+    if m.faults.is_empty() {
+        return String::new();
+    }
+    let rows: Vec<(String, Map<String, Value>)> = m
+        .faults
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| match serde_json::to_value(f) {
+            Ok(Value::Object(o)) => Some((format!("{i}"), o)),
+            _ => None,
+        })
+        .collect();
+    format!(
+        "<h3>Faults</h3>\n<p>Recovery: samples from the end of a fault (its start if instantaneous) until the error of θ̄ is back within 1.5x its mean over the five samples before it.</p>\n{}",
+        objects_table("faults", "#", &rows)
+    )
+}
+
 pub(super) fn objects_table(
     id: &str,
     first: &str,

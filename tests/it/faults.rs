@@ -231,3 +231,45 @@ fn a_bad_fault_is_refused_naming_the_flag_or_the_key() {
         "{err}"
     );
 }
+
+/// Every applied fault is shaded on `error.svg` (and on `messages.svg` on
+/// the acoustic channel) and listed in the HTML report.
+#[test]
+fn faults_are_shaded_on_the_error_plot_and_listed_in_the_report() {
+    let tmp = TempDir::new("faults-report");
+    let o = run_file(
+        &scenario("mourya2017-spiral-faults.toml"),
+        tmp.path(),
+        &["--variant", "partition", "--report"],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(tmp.path().join("error.svg")).unwrap();
+    assert!(svg.contains("partition 0 1 2 | 3 4 5"), "no fault caption");
+    let html = std::fs::read_to_string(tmp.path().join("report.html")).unwrap();
+    assert!(html.contains("<table id=\"faults\">") && html.contains("recovery_samples"));
+    // On the acoustic channel, messages.svg is shaded too.
+    let ac = tmp.path().join("ac");
+    let o = run_file(
+        &scenario("mourya2017-spiral-acoustic.toml"),
+        &ac,
+        &[
+            "--variant",
+            "modem",
+            "--fault",
+            "partition:groups=[[0,1,2],[3,4,5]],at_s=10,for_s=30",
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(ac.join("messages.svg")).unwrap();
+    assert!(
+        svg.contains("partition 0 1 2 | 3 4 5"),
+        "no fault on messages.svg"
+    );
+    let rows = read_rows(&ac.join("messages.csv"));
+    assert!(
+        rows.iter().any(|r| r[7] == "blocked"),
+        "no frame blocked by the partition"
+    );
+}

@@ -147,6 +147,9 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
             swatch: Swatch::Line(Style::line(LOST, 1).dashed()),
         });
     }
+    super::fault_spans(data, &mut panel, &mut legend, |f| {
+        (f.t_s, f.until_s.unwrap_or(f.t_s))
+    });
     panel.x_range = (t0, t_end.max(t0 + 1e-3));
     panel.y_range = (-0.6, n_nodes as f64 - 0.4);
     panel.caption = Some(format!(

@@ -85,6 +85,42 @@ pub(super) fn finish_series_panel(panel: &mut Panel, log: bool, zero_based: bool
     }
 }
 
+/// The colour of the fault shading.
+pub(super) const FAULT_COLOR: Rgb = Rgb(214, 39, 40);
+
+/// Shade every fault of `metrics.json` on `panel`, from `range(fault)`:
+/// lasting faults as a span, instantaneous ones (crash, restart) as a thin
+/// one, each captioned with its kind and nodes.
+pub(super) fn fault_spans(
+    data: &RunData,
+    panel: &mut Panel,
+    legend: &mut Vec<LegendItem>,
+    range: impl Fn(&crate::pipeline::FaultOutcome) -> (f64, f64),
+) {
+    let Some(m) = &data.metrics else { return };
+    for f in &m.faults {
+        let (x0, x1) = range(f);
+        let nodes: Vec<String> = f.nodes.iter().map(u32::to_string).collect();
+        let what = if f.kind == "partition" {
+            f.detail.clone()
+        } else {
+            nodes.join(",")
+        };
+        panel.spans.push(super::super::Span {
+            x0,
+            x1: if x1 > x0 { x1 } else { x0 + 0.3 },
+            caption: format!("{} {what}", f.kind),
+            color: FAULT_COLOR,
+        });
+    }
+    if !m.faults.is_empty() {
+        legend.push(LegendItem {
+            label: "fault (faults.csv)".into(),
+            swatch: Swatch::Area(FAULT_COLOR),
+        });
+    }
+}
+
 pub(super) fn burn_in_line(data: &RunData, panel: &mut Panel, legend: &mut Vec<LegendItem>) {
     if let Some(b) = data.info.burn_in.filter(|b| *b > 0) {
         panel.vlines.push(VLine {
@@ -170,6 +206,9 @@ pub fn error_figure(data: &RunData) -> Figure {
         }
     }
     burn_in_line(data, &mut panel, &mut legend);
+    fault_spans(data, &mut panel, &mut legend, |f| {
+        (f.sample as f64, f.until_sample.max(f.sample) as f64)
+    });
     let log = wants_log(panel.points().into_iter().map(|p| p.1));
     if log {
         panel.y_label = "position error (m, log scale)".into();
