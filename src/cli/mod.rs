@@ -400,13 +400,39 @@ fn run_single(
         )
         .into());
     }
-    if sc.has_faults() && engine != EngineKind::Inprocess {
+    if sc.has_faults() && engine == EngineKind::Threads {
         return Err(crate::model::error::InputError::at(
             &sc.path,
             "faults",
-            "faults run on --engine inprocess (the discrete-event engine) so far",
+            "faults run on --engine inprocess or processes, not threads",
         )
         .into());
+    }
+    if engine == EngineKind::Processes {
+        // Node processes take pause and crash anywhere, link faults on the
+        // acoustic channel; a nemesis may draw any kind.
+        let why = sc
+            .faults
+            .iter()
+            .find_map(|f| crate::engine::process_faults::unsupported(f, acoustic))
+            .or_else(|| {
+                sc.nemesis.as_ref().and_then(|n| {
+                    n.kinds
+                        .iter()
+                        .find(|k| {
+                            let link = matches!(k.as_str(), "partition" | "link_loss" | "delay");
+                            !(k.as_str() == "pause" || (link && acoustic))
+                        })
+                        .map(|k| {
+                            format!(
+                                "a nemesis drawing {k} faults runs on --engine inprocess so far"
+                            )
+                        })
+                })
+            });
+        if let Some(why) = why {
+            return Err(crate::model::error::InputError::at(&sc.path, "faults", why).into());
+        }
     }
     if sc.has_faults() && clock != Clock::Realtime {
         return Err(crate::model::error::InputError::at(

@@ -18,6 +18,7 @@ pub mod interrupt;
 pub mod node;
 pub mod plan;
 pub mod preflight;
+pub mod process_faults;
 pub mod processes;
 pub mod threads;
 pub mod water;
@@ -161,6 +162,8 @@ pub trait Network {
     /// The coordinator gave up on `node` ([`Action::Abandon`]): make sure it
     /// is gone (a node process is killed and reaped). Nothing by default.
     fn abandon(&mut self, _node: u32) {}
+    /// A sample is complete ([`Action::Progress`]). Nothing by default.
+    fn sample_done(&mut self) {}
 }
 
 /// What a run produced, complete or not.
@@ -312,6 +315,7 @@ pub fn drive(
                     samples,
                     iterations,
                 } => {
+                    net.sample_done();
                     progress(samples, iterations);
                     Ok(())
                 }
@@ -420,13 +424,21 @@ pub fn run(
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    if !plan.faults.is_empty() && kind != EngineKind::Inprocess {
+    let why_not = match kind {
+        EngineKind::Inprocess => None,
+        EngineKind::Threads => plan
+            .faults
+            .first()
+            .map(|_| "faults run on --engine inprocess or processes, not threads".to_string()),
+        EngineKind::Processes => plan
+            .faults
+            .iter()
+            .find_map(|f| process_faults::unsupported(f, plan.channel.is_some())),
+    };
+    if let Some(why) = why_not {
         return (
             RunRecord::empty(plan.n()),
-            Err(EngineError::Unsupported(format!(
-                "faults run on the discrete-event engine (--engine inprocess) so far, not {}",
-                kind.as_str()
-            ))),
+            Err(EngineError::Unsupported(why)),
         );
     }
     if plan.channel.is_some() && kind == EngineKind::Threads {

@@ -17,6 +17,7 @@
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
+use super::process_faults::{FaultSchedule, FaultStep};
 use super::water::{ChannelClock, Water};
 use super::{Clock, EngineError, Event, Network, RunPlan, RunRecord};
 use crate::estimators::gossip::Mode;
@@ -174,6 +175,11 @@ pub struct Processes {
     /// where nodes send to each other directly).
     water: Option<Water>,
     delivered: Vec<(u32, crate::protocol::PeerMsg)>,
+    /// The run's faults, their wall-clock origin and emulated seconds per
+    /// wall second ([`Processes::arm_faults`]).
+    faults: Option<(FaultSchedule, Instant, f64)>,
+    /// Per completed sample, the nodes paused during it (with faults).
+    paused_masks: Vec<Vec<bool>>,
 }
 
 fn status_text(s: &ExitStatus) -> String {
@@ -240,6 +246,8 @@ impl Processes {
             stopped: false,
             water,
             delivered: Vec::new(),
+            faults: None,
+            paused_masks: Vec::new(),
         };
         for cfg in configs {
             let id = cfg.id;
@@ -389,6 +397,98 @@ impl Processes {
             }
         }
         Ok(out)
+    }
+
+    /// Apply `plan`'s faults from now on (the run's emulated time 0).
+    pub fn arm_faults(&mut self, plan: &RunPlan) {
+        if plan.faults.is_empty() {
+            return;
+        }
+        let period = plan
+            .realtime
+            .map_or(0.0, |rt| rt.sample_period.as_secs_f64());
+        let scale = plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale);
+        let sched = FaultSchedule::new(&plan.faults, self.children.len(), period);
+        self.faults = Some((sched, Instant::now(), scale));
+    }
+
+    /// The emulated seconds of the fault clock now.
+    fn fault_now(&self) -> Option<f64> {
+        self.faults
+            .as_ref()
+            .map(|(_, t0, scale)| t0.elapsed().as_secs_f64() * scale)
+    }
+
+    /// Carry out every fault event that is due, with real signals.
+    fn apply_faults(&mut self) {
+        let Some(now) = self.fault_now() else { return };
+        let Some((sched, _, _)) = self.faults.as_mut() else {
+            return;
+        };
+        for step in sched.due(now) {
+            let signal = |c: &Option<Child>, sig: i32| {
+                if let Some(child) = c {
+                    // SAFETY: kill(2) on the pid of a child we own and have
+                    // not reaped (it is `Some` until reaped).
+                    unsafe {
+                        libc::kill(child.id() as i32, sig);
+                    }
+                }
+            };
+            match step {
+                FaultStep::Stop(n) => {
+                    if let Some(c) = self.children.get(n as usize) {
+                        signal(c, libc::SIGSTOP);
+                    }
+                }
+                FaultStep::Cont(n) => {
+                    if let Some(c) = self.children.get(n as usize) {
+                        signal(c, libc::SIGCONT);
+                    }
+                }
+                FaultStep::Kill(n) => {
+                    if let Some(Some(child)) = self.children.get_mut(n as usize) {
+                        let _ = child.kill();
+                    }
+                }
+                FaultStep::LinkStart(id, kind) => {
+                    if let Some(w) = &mut self.water {
+                        w.link_fault_start(id, &kind);
+                    }
+                }
+                FaultStep::LinkEnd(id) => {
+                    if let Some(w) = &mut self.water {
+                        w.link_fault_end(id);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Node `node` was noticed dead or abandoned: a fault that did it is
+    /// detected now.
+    fn fault_noticed(&mut self, node: u32) {
+        if let Some(now) = self.fault_now()
+            && let Some((sched, _, _)) = self.faults.as_mut()
+        {
+            sched.noticed(node, now);
+        }
+    }
+
+    /// The applied faults.
+    pub fn take_faults(&mut self) -> Vec<super::FaultRecord> {
+        self.faults
+            .take()
+            .map(|(s, _, _)| s.records)
+            .unwrap_or_default()
+    }
+
+    /// A sample completed: the nodes paused during it (empty without faults).
+    pub fn sample_paused(&mut self) -> Vec<bool> {
+        self.faults
+            .as_mut()
+            .map(|(s, _, _)| s.sample_mask())
+            .unwrap_or_default()
     }
 
     /// Forward every frame of the water whose judgement is due (delivered
@@ -560,6 +660,11 @@ impl Network for Processes {
             if let Some(due) = self.water.as_ref().and_then(Water::next_due) {
                 slice = slice.min(due);
             }
+            if let (Some(now), Some((sched, _, scale))) = (self.fault_now(), self.faults.as_ref())
+                && let Some(wait) = sched.next_in(now)
+            {
+                slice = slice.min(Duration::from_secs_f64((wait / scale).min(0.05)));
+            }
             for x in self.receive(slice)? {
                 match x {
                     CoordinatorInput::Report(r) => out.push(Event::Report(r)),
@@ -571,10 +676,12 @@ impl Network for Processes {
                 }
             }
             self.pump()?;
+            self.apply_faults();
             while let Some((node, how)) = self.check_children() {
                 if let Some(w) = &mut self.water {
                     w.set_dead(node);
                 }
+                self.fault_noticed(node);
                 out.push(Event::NodeDied { node, how });
             }
             if !out.is_empty() || deadline.is_some_and(|d| Instant::now() >= d) {
@@ -589,8 +696,16 @@ impl Network for Processes {
 
     /// SIGKILL and reap the node's process (it is stopped or wedged); it is
     /// dead from now on, and its death is not reported again.
+    fn sample_done(&mut self) {
+        if self.faults.is_some() {
+            let m = self.sample_paused();
+            self.paused_masks.push(m);
+        }
+    }
+
     fn abandon(&mut self, node: u32) {
         let i = node as usize;
+        self.fault_noticed(node);
         if let Some(Some(child)) = self.children.get_mut(i) {
             let _ = child.kill();
             let _ = child.wait();
@@ -716,7 +831,12 @@ pub fn run_processes(
     // The run's emulated time 0 is the start of the drive, as in the
     // discrete-event engine.
     let offset_s = procs.water.as_ref().map_or(0.0, |w| w.clock().now_s());
+    procs.arm_faults(plan);
     let (mut rec, res) = super::drive(plan, real, &mut procs, progress);
+    if !plan.faults.is_empty() {
+        rec.faults = procs.take_faults();
+        rec.paused = std::mem::take(&mut procs.paused_masks);
+    }
     if let Some((messages, errors)) = procs.take_water(offset_s) {
         rec.emulated_seconds =
             Some(rec.wall_seconds * plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale));

@@ -208,6 +208,16 @@ impl Water {
         }
     }
 
+    /// Fault `id` (a partition, link loss or delay) starts on the links.
+    pub fn link_fault_start(&mut self, id: usize, kind: &crate::model::fault::FaultKind) {
+        self.medium.link_faults.start(id, kind);
+    }
+
+    /// Fault `id` ends.
+    pub fn link_fault_end(&mut self, id: usize) {
+        self.medium.link_faults.end(id);
+    }
+
     /// Node `node` is dead (or left out): frames to it are lost as `node_down`.
     pub fn set_dead(&mut self, node: u32) {
         if let Some(d) = self.dead.get_mut(node as usize) {

@@ -184,7 +184,8 @@ fn a_crash_that_cuts_the_network_fails_the_run_with_its_partial_results() {
 }
 
 /// A bad fault is refused before anything runs, naming the flag or the key,
-/// and faults refuse the engines that do not run them yet.
+/// and faults refuse the engines that do not run them yet (a partition on
+/// the ideal channel on node processes, any fault on threads).
 #[test]
 fn a_bad_fault_is_refused_naming_the_flag_or_the_key() {
     let tmp = TempDir::new("faults-bad");
@@ -203,9 +204,10 @@ fn a_bad_fault_is_refused_naming_the_flag_or_the_key() {
             "--nemesis",
         ),
         (
-            &["--variant", "crash", "--engine", "processes"][..],
+            &["--variant", "partition", "--engine", "processes"][..],
             "faults",
         ),
+        (&["--variant", "crash", "--engine", "threads"][..], "faults"),
         (&["--variant", "crash", "--clock", "logical"][..], "faults"),
     ] {
         let o = run_file(&file, &tmp.path().join("x"), args, Duration::from_secs(60));
@@ -272,4 +274,65 @@ fn faults_are_shaded_on_the_error_plot_and_listed_in_the_report() {
         rows.iter().any(|r| r[7] == "blocked"),
         "no frame blocked by the partition"
     );
+}
+
+/// On node processes a pause is SIGSTOP and SIGCONT and a crash SIGKILL
+/// (issue 17 item 3): a paused node that outlasts the stall timeout is
+/// reported, a crashed one is detected when the coordinator reaps it (its
+/// `detected_s` is after the kill), both runs write faults.csv, and neither
+/// leaves a process or a shared-memory file behind.
+#[test]
+fn node_processes_take_real_signals_for_pause_and_crash_and_leave_nothing_behind() {
+    let _cpu = crate::util::cpu_exclusive();
+    let tmp = TempDir::new("faults-processes");
+    let file = scenario("mourya2017-spiral-faults.toml");
+    let crash = tmp.path().join("crash");
+    let o = run_file(
+        &file,
+        &crash,
+        &["--variant", "crash", "--engine", "processes"],
+        Duration::from_secs(300),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    crate::util::assert_nothing_left(&crate::util::run_id_of(&crash));
+    let m = crate::util::metrics(&crash);
+    let f = &m["faults"][0];
+    assert_eq!(f["kind"], "crash");
+    let (t, d) = (
+        f["t_s"].as_f64().unwrap(),
+        f["detected_s"].as_f64().unwrap(),
+    );
+    println!("crash at {t} s detected at {d} s");
+    assert!(d >= t, "detected before the kill: {d} < {t}");
+    assert_eq!(m["deaths"][0]["node"], 4);
+    // A pause of 10 samples (0.2 s) with a 0.1 s stall timeout: reported.
+    let pause = tmp.path().join("pause");
+    let o = run_file(
+        &file,
+        &pause,
+        &[
+            "--variant",
+            "pause",
+            "--engine",
+            "processes",
+            "--stall-timeout",
+            "0.1",
+        ],
+        Duration::from_secs(300),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    crate::util::assert_nothing_left(&crate::util::run_id_of(&pause));
+    let m = crate::util::metrics(&pause);
+    assert_eq!(m["deaths"][0]["node"], 2, "{}", m["deaths"]);
+    assert!(m["faults"][0]["detected_s"].as_f64().is_some());
+    assert_eq!(read_rows(&pause.join("faults.csv")).len(), 1);
+    // What node processes cannot do yet is refused before anything starts.
+    let o = run_file(
+        &file,
+        &tmp.path().join("restart"),
+        &["--variant", "restart", "--engine", "processes"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("restart"));
 }
