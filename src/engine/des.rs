@@ -37,7 +37,7 @@ use super::{
     Action, Coordinator, EngineError, Event, FaultRecord, MessageRecord, Progress, RunPlan,
     RunRecord,
 };
-use crate::model::channel::{Fate, Frame, Medium, Reason};
+use crate::model::channel::{Frame, Medium, Reason};
 use crate::model::fault::{FaultKind, LinkFaults, fault_draw};
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
@@ -360,25 +360,10 @@ impl Des<'_> {
             Ev::ToNode(node, input) => (node, input),
             Ev::Arrive(f, msg) => {
                 let Some(m) = &self.medium else { return };
-                let fate = match m.judge(&f) {
-                    Fate::Delivered if self.nodes[f.to as usize].dead => {
-                        Fate::Lost(Reason::NodeDown)
-                    }
-                    fate => fate,
-                };
-                self.messages.push(MessageRecord {
-                    t_send: f.t_start,
-                    t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
-                    from: f.from,
-                    to: f.to,
-                    kind: msg.kind(),
-                    bits: f.bits,
-                    lost: match fate {
-                        Fate::Delivered => None,
-                        Fate::Lost(r) => Some(r),
-                    },
-                });
-                if fate != Fate::Delivered {
+                let rec = MessageRecord::judge(m, &f, &msg, self.nodes[f.to as usize].dead);
+                let delivered = rec.lost.is_none();
+                self.messages.push(rec);
+                if !delivered {
                     return;
                 }
                 (f.to, Input::Peer(msg))

@@ -250,6 +250,35 @@ pub struct MessageRecord {
     pub lost: Option<crate::model::channel::Reason>,
 }
 
+impl MessageRecord {
+    /// Judge frame `f` carrying `msg` on `medium` (a frame to a dead node is
+    /// lost as `node_down`): its record. One judgement for every engine.
+    pub fn judge(
+        medium: &crate::model::channel::Medium,
+        f: &crate::model::channel::Frame,
+        msg: &crate::protocol::PeerMsg,
+        to_dead: bool,
+    ) -> MessageRecord {
+        use crate::model::channel::{Fate, Reason};
+        let fate = match medium.judge(f) {
+            Fate::Delivered if to_dead => Fate::Lost(Reason::NodeDown),
+            fate => fate,
+        };
+        MessageRecord {
+            t_send: f.t_start,
+            t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
+            from: f.from,
+            to: f.to,
+            kind: msg.kind(),
+            bits: f.bits,
+            lost: match fate {
+                Fate::Delivered => None,
+                Fate::Lost(r) => Some(r),
+            },
+        }
+    }
+}
+
 impl RunRecord {
     /// The nodes counted in `theta_bar` at sample `k`.
     pub fn alive_thetas(&self, k: usize) -> Vec<crate::model::geometry::Vec3> {

@@ -23,7 +23,7 @@
 //! returned.
 
 use super::{ChannelPlan, MessageRecord};
-use crate::model::channel::{Fate, Frame, Medium, Reason};
+use crate::model::channel::{Frame, Medium, Reason};
 use crate::protocol::PeerMsg;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -169,23 +169,10 @@ impl Water {
                 break;
             }
             let (f, msg) = entry.remove();
-            let fate = match self.medium.judge(&f) {
-                Fate::Delivered if self.dead[f.to as usize] => Fate::Lost(Reason::NodeDown),
-                fate => fate,
-            };
-            self.records.push(MessageRecord {
-                t_send: f.t_start,
-                t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
-                from: f.from,
-                to: f.to,
-                kind: msg.kind(),
-                bits: f.bits,
-                lost: match fate {
-                    Fate::Delivered => None,
-                    Fate::Lost(r) => Some(r),
-                },
-            });
-            if fate == Fate::Delivered {
+            let rec = MessageRecord::judge(&self.medium, &f, &msg, self.dead[f.to as usize]);
+            let delivered = rec.lost.is_none();
+            self.records.push(rec);
+            if delivered {
                 self.errors_ms.push((now_s - f.arrive_end) * 1e3);
                 out.push((f.to, msg));
             }
