@@ -272,6 +272,7 @@ impl Des<'_> {
                         let w = slot.core.draw_wait(rate) * slot.clock_factor;
                         self.queue.push(now + wait(w), Ev::Tick(node, slot.epoch));
                     }
+                    Control::ClockFactor(_) => {}
                     Control::Ping(seq) => self
                         .queue
                         .push(now, Ev::ToCoordinator(Event::Pong { node, seq })),

@@ -60,7 +60,7 @@ impl Network for InProcess {
     fn send(&mut self, node: u32, msg: &Control) -> Result<(), EngineError> {
         match msg {
             Control::Command(cmd) => self.queue.push_back((node, Input::Command(cmd.clone()))),
-            Control::StartClock(_) => {
+            Control::StartClock(_) | Control::ClockFactor(_) => {
                 return Err(EngineError::Unsupported(
                     "the in-process engine runs logical clocks only".into(),
                 ));

@@ -67,10 +67,15 @@ pub fn run_node<T: Transport>(
     }
 
     let mut core = NodeCore::new(node);
-    // Emulated seconds as wall seconds.
-    let wall = |emulated: f64| match opts.channel {
-        Some(c) => emulated / c.time_scale,
-        None => emulated,
+    // Emulated seconds as wall seconds, times the clock's drift (a
+    // `clock_drift` fault, [`Control::ClockFactor`]).
+    let drift = std::cell::Cell::new(1.0f64);
+    let wall = |emulated: f64| {
+        let w = match opts.channel {
+            Some(c) => emulated / c.time_scale,
+            None => emulated,
+        };
+        w * drift.get()
     };
     let mut decoder = NodeDecoder::default();
     let mut frames: Vec<Frame> = Vec::new();
@@ -130,6 +135,11 @@ pub fn run_node<T: Transport>(
                 Some(NodeInput::Control(Control::StartClock(rate))) => {
                     let wait = core.draw_wait(rate);
                     clock = Some((rate, after(Instant::now(), wall(wait))));
+                }
+                Some(NodeInput::Control(Control::ClockFactor(f))) => {
+                    if f.is_finite() && f > 0.0 {
+                        drift.set(f);
+                    }
                 }
                 Some(NodeInput::Control(Control::Ping(seq))) => {
                     // Answered by the loop, not the protocol core: a node that

@@ -4,7 +4,8 @@
 //! with real signals: `pause` is SIGSTOP then SIGCONT, `crash` is SIGKILL
 //! (the coordinator learns of it as of any death, when it reaps the child);
 //! `partition`, `link_loss` and `delay` act on the acoustic channel's water.
-//! `restart`, `clock_drift`, and link faults on the ideal channel (where the
+//! `clock_drift` is a [`crate::protocol::codec::Control::ClockFactor`] to the
+//! node. `restart`, and link faults on the ideal channel (where the
 //! nodes talk to each other directly) run on the discrete-event engine only
 //! so far ([`unsupported`]).
 
@@ -24,13 +25,15 @@ pub enum FaultStep {
     LinkStart(usize, FaultKind),
     /// Fault `0` ends on the links.
     LinkEnd(usize),
+    /// The node's clock runs with this factor on its waits and timers.
+    Drift(u32, f64),
 }
 
 /// Why the processes engine cannot apply `f` (on the acoustic channel when
 /// `acoustic`), if it cannot.
 pub fn unsupported(f: &Fault, acoustic: bool) -> Option<String> {
     match f.kind {
-        FaultKind::Pause { .. } | FaultKind::Crash { .. } => None,
+        FaultKind::Pause { .. } | FaultKind::Crash { .. } | FaultKind::ClockDrift { .. } => None,
         FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. }
             if acoustic =>
         {
@@ -42,7 +45,7 @@ pub fn unsupported(f: &Fault, acoustic: bool) -> Option<String> {
                 f.kind.name()
             ))
         }
-        FaultKind::Restart { .. } | FaultKind::ClockDrift { .. } => Some(format!(
+        FaultKind::Restart { .. } => Some(format!(
             "a {} fault runs on --engine inprocess so far",
             f.kind.name()
         )),
@@ -133,6 +136,12 @@ impl FaultSchedule {
                     out.push(FaultStep::Cont(node));
                 }
                 (FaultKind::Crash { node }, true) => out.push(FaultStep::Kill(node)),
+                (FaultKind::ClockDrift { node, ppm }, true) => {
+                    out.push(FaultStep::Drift(node, 1.0 / (1.0 + ppm * 1e-6)))
+                }
+                (FaultKind::ClockDrift { node, .. }, false) => {
+                    out.push(FaultStep::Drift(node, 1.0))
+                }
                 (
                     k @ (FaultKind::Partition { .. }
                     | FaultKind::LinkLoss { .. }

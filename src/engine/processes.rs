@@ -461,6 +461,10 @@ impl Processes {
                         w.link_fault_end(id);
                     }
                 }
+                FaultStep::Drift(n, factor) => {
+                    let _ = self.control(n, &Control::ClockFactor(factor));
+                    let _ = self.flush_all();
+                }
             }
         }
     }

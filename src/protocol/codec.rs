@@ -35,6 +35,8 @@ pub mod kind {
     pub const STOP: u32 = 10;
     /// Start free-running (realtime): `data[0]` = wake rate (Hz).
     pub const START_CLOCK: u32 = 11;
+    /// Clock drift: `data[0]` = the factor of the node's waits and timers.
+    pub const CLOCK_FACTOR: u32 = 14;
     /// Liveness check: `seq` = check number; answered at once with [`PONG`].
     pub const PING: u32 = 12;
     /// A node is up again (restarted): `aux` = node.
@@ -97,6 +99,9 @@ pub enum Control {
     Command(Command),
     /// Realtime: start the node's Poisson clock at this rate (Hz).
     StartClock(f64),
+    /// A `clock_drift` fault (issue 17): multiply the node's waits and
+    /// timers by this factor from now on (1: no drift).
+    ClockFactor(f64),
     /// Exit cleanly.
     Stop,
     /// The coordinator's liveness check number `seq`: the node's event loop
@@ -176,6 +181,7 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
             Command::Tick | Command::ExchangeTimeout { .. } | Command::RoundTimeout { .. },
         ) => {}
         Control::StartClock(rate) => out.push(frame(kind::START_CLOCK, co, 0, 0, 0, &[*rate])),
+        Control::ClockFactor(f) => out.push(frame(kind::CLOCK_FACTOR, co, 0, 0, 0, &[*f])),
         Control::Stop => out.push(frame(kind::STOP, co, 0, 0, 0, &[])),
         Control::Ping(seq) => out.push(frame(kind::PING, co, 0, 0, *seq, &[])),
     }
@@ -407,6 +413,7 @@ impl NodeDecoder {
             STOP => Ok(Some(NodeInput::Control(Control::Stop))),
             PING => Ok(Some(NodeInput::Control(Control::Ping(f.seq)))),
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
+            CLOCK_FACTOR => Ok(Some(NodeInput::Control(Control::ClockFactor(f.data[0])))),
             REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
                 Ok(decode_peer(f).map(NodeInput::Peer))
             }
