@@ -136,11 +136,10 @@ pub fn run_node<T: Transport>(
                     let wait = core.draw_wait(rate);
                     clock = Some((rate, after(Instant::now(), wall(wait))));
                 }
-                Some(NodeInput::Control(Control::ClockFactor(f))) => {
-                    if f.is_finite() && f > 0.0 {
-                        drift.set(f);
-                    }
+                Some(NodeInput::Control(Control::ClockFactor(f))) if f.is_finite() && f > 0.0 => {
+                    drift.set(f)
                 }
+                Some(NodeInput::Control(Control::ClockFactor(_))) => {}
                 Some(NodeInput::Control(Control::Ping(seq))) => {
                     // Answered by the loop, not the protocol core: a node that
                     // waits for a neighbour is alive, and says so at once
