@@ -238,8 +238,9 @@ impl Default for AcousticCfg {
     }
 }
 
-/// `Err((key, reason))` unless `lo <= v <= hi` (and finite).
-fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
+/// `Err((key, reason))` unless `lo <= v <= hi` (and finite): the range check
+/// of every channel and fault key.
+pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
     if v.is_finite() && v >= lo && v <= hi {
         Ok(())
     } else {

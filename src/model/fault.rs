@@ -21,6 +21,7 @@
 //! `link_loss`, `delay`, `clock_drift`) ends after `for_s` seconds or
 //! `for_samples` samples, or never if neither is given.
 
+use crate::model::channel::in_range;
 use crate::model::rng::{Stream, derive_seed, splitmix64};
 use serde::{Deserialize, Serialize};
 
@@ -194,15 +195,6 @@ pub struct Fault {
     pub at_s: f64,
     /// When it ends (`None`: it does not, or it is instantaneous).
     pub until_s: Option<f64>,
-}
-
-/// `Err((key, reason))` unless `lo <= v <= hi` (and finite).
-fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
-    if v.is_finite() && v >= lo && v <= hi {
-        Ok(())
-    } else {
-        Err((key.into(), format!("{v} is outside [{lo}, {hi}]")))
-    }
 }
 
 impl FaultSpec {
