@@ -316,19 +316,32 @@ fn with_watchdog<T: Send + 'static>(
         .unwrap_or_else(|_| panic!("watchdog: {what} did not finish within {limit:?}"))
 }
 
+/// The spiral of 15 samples in `mode`: its realization, its in-process
+/// record on the logical clock, and its plan.
+fn spiral15(
+    mode: Mode,
+) -> (
+    sonarnet::model::synth::Realization,
+    sonarnet::engine::RunRecord,
+    RunPlan,
+) {
+    let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+        .unwrap()
+        .with_samples(15)
+        .unwrap()
+        .with_mode(mode)
+        .unwrap();
+    let real = sc.realize();
+    let (want, res) = crate::util::record(&sc, &real);
+    res.unwrap();
+    let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+    (real, want, plan)
+}
+
 #[test]
 fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
     for mode in [Mode::Async, Mode::Sync] {
-        let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
-            .unwrap()
-            .with_samples(15)
-            .unwrap()
-            .with_mode(mode)
-            .unwrap();
-        let real = sc.realize();
-        let (want, res) = crate::util::record(&sc, &real);
-        res.unwrap();
-        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let (real, want, plan) = spiral15(mode);
         let real2 = real.clone();
         let (got, res) = with_watchdog(
             "threads run",
@@ -358,16 +371,7 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
 #[test]
 fn the_discrete_event_engine_on_a_logical_clock_gives_the_in_process_numbers() {
     for mode in [Mode::Async, Mode::Sync] {
-        let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
-            .unwrap()
-            .with_samples(15)
-            .unwrap()
-            .with_mode(mode)
-            .unwrap();
-        let real = sc.realize();
-        let (want, res) = crate::util::record(&sc, &real);
-        res.unwrap();
-        let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
+        let (real, want, plan) = spiral15(mode);
         let (got, res) = sonarnet::engine::des::run_des(&plan, &real, &mut |_, _| {});
         res.unwrap_or_else(|e| panic!("{mode:?}: {e}"));
         assert_eq!(got.thetas.len(), 15, "{mode:?}");
