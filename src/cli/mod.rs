@@ -409,26 +409,15 @@ fn run_single(
         .into());
     }
     if engine == EngineKind::Processes {
-        // Node processes take pause and crash anywhere, link faults on the
-        // acoustic channel; a nemesis may draw any kind.
+        // Node processes take some kinds only (process_faults::unsupported).
         let why = sc
             .faults
             .iter()
             .find_map(|f| crate::engine::process_faults::unsupported(f, acoustic))
             .or_else(|| {
-                sc.nemesis.as_ref().and_then(|n| {
-                    n.kinds
-                        .iter()
-                        .find(|k| {
-                            let link = matches!(k.as_str(), "partition" | "link_loss" | "delay");
-                            !(k.as_str() == "pause" || (link && acoustic))
-                        })
-                        .map(|k| {
-                            format!(
-                                "a nemesis drawing {k} faults runs on --engine inprocess so far"
-                            )
-                        })
-                })
+                sc.nemesis
+                    .as_ref()
+                    .and_then(|n| crate::engine::process_faults::unsupported_nemesis(n, acoustic))
             });
         if let Some(why) = why {
             return Err(crate::model::error::InputError::at(&sc.path, "faults", why).into());

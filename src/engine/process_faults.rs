@@ -32,24 +32,36 @@ pub enum FaultStep {
 /// Why the processes engine cannot apply `f` (on the acoustic channel when
 /// `acoustic`), if it cannot.
 pub fn unsupported(f: &Fault, acoustic: bool) -> Option<String> {
-    match f.kind {
-        FaultKind::Pause { .. } | FaultKind::Crash { .. } | FaultKind::ClockDrift { .. } => None,
-        FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. }
-            if acoustic =>
-        {
-            None
-        }
-        FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
-            Some(format!(
-                "a {} fault on the ideal channel runs on --engine inprocess so far (on node processes it needs the acoustic channel)",
-                f.kind.name()
-            ))
-        }
-        FaultKind::Restart { .. } => Some(format!(
-            "a {} fault runs on --engine inprocess so far",
-            f.kind.name()
+    unsupported_kind(f.kind.name(), acoustic)
+}
+
+/// Why the processes engine cannot apply faults of kind `kind` (a
+/// [`FaultKind::name`]), if it cannot.
+pub fn unsupported_kind(kind: &str, acoustic: bool) -> Option<String> {
+    match kind {
+        "pause" | "crash" | "clock_drift" => None,
+        "partition" | "link_loss" | "delay" if acoustic => None,
+        "partition" | "link_loss" | "delay" => Some(format!(
+            "a {kind} fault on the ideal channel runs on --engine inprocess so far (on node processes it needs the acoustic channel)"
         )),
+        _ => Some(format!("a {kind} fault runs on --engine inprocess so far")),
     }
+}
+
+/// Why the processes engine cannot run the nemesis `n`, if it cannot: a
+/// kind it draws, or one that comes with it (a nemesis crash is followed by
+/// a restart, [`crate::model::fault::NemesisCfg::draw`]).
+pub fn unsupported_nemesis(n: &crate::model::fault::NemesisCfg, acoustic: bool) -> Option<String> {
+    n.kinds.iter().find_map(|k| {
+        let with: &[&str] = if k == "crash" {
+            &["crash", "restart"]
+        } else {
+            &[k.as_str()]
+        };
+        with.iter()
+            .find_map(|w| unsupported_kind(w, acoustic))
+            .map(|why| format!("the nemesis draws {k}: {why}"))
+    })
 }
 
 /// The faults of one run on node processes.
@@ -203,6 +215,19 @@ mod tests {
         assert!(unsupported(&faults[2], false).unwrap().contains("restart"));
         let link = f("link_loss:a=0,b=1,p=0.5,at_s=1");
         assert!(unsupported(&link, false).is_some() && unsupported(&link, true).is_none());
+        let nem = |k: &[&str]| crate::model::fault::NemesisCfg {
+            kinds: k.iter().map(|s| s.to_string()).collect(),
+            interval_s: 1.0,
+        };
+        assert!(unsupported_nemesis(&nem(&["pause", "clock_drift"]), false).is_none());
+        // A nemesis crash comes with a restart, which processes cannot do yet.
+        assert!(
+            unsupported_nemesis(&nem(&["crash"]), false)
+                .unwrap()
+                .contains("restart")
+        );
+        assert!(unsupported_nemesis(&nem(&["partition"]), false).is_some());
+        assert!(unsupported_nemesis(&nem(&["partition"]), true).is_none());
         let mut s = FaultSchedule::new(&faults, 3, 0.5);
         assert_eq!(s.next_in(0.0), Some(1.0));
         assert!(s.due(0.9).is_empty());

@@ -41,7 +41,7 @@
 //! whatever else happens meanwhile.
 
 use crate::model::geometry::Vec2;
-use crate::model::rng::{Stream, derive_seed, splitmix64};
+use crate::model::rng::{Stream, link_draw};
 use serde::{Deserialize, Serialize};
 
 /// Thorp's absorption coefficient `a(f)` in dB/km, `f` in kHz.
@@ -407,8 +407,7 @@ impl AcousticCfg {
 /// The uniform draw in `[0, 1)` that decides the random loss of frame number
 /// `k` on the directed link `from -> to` of a run with seed `seed`.
 pub fn fate_draw(seed: u64, from: u32, to: u32, k: u64) -> f64 {
-    let key = splitmix64((u64::from(from) << 32) | u64::from(to)) ^ k;
-    (derive_seed(seed, Stream::Channel, key) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    link_draw(seed, Stream::Channel, from, to, k)
 }
 
 /// Why a frame was lost.

@@ -22,7 +22,7 @@
 //! `for_samples` samples, or never if neither is given.
 
 use crate::model::channel::in_range;
-use crate::model::rng::{Stream, derive_seed, splitmix64};
+use crate::model::rng::{Stream, link_draw};
 use serde::{Deserialize, Serialize};
 
 /// One `[[faults]]` entry or `--fault` flag, as written. Every key but
@@ -555,8 +555,8 @@ impl NemesisCfg {
         n: usize,
         edges: &[(usize, usize)],
     ) -> Vec<Fault> {
-        use rand::{RngExt, SeedableRng};
-        let mut rng = rand::rngs::StdRng::seed_from_u64(derive_seed(seed, Stream::Faults, 0));
+        use rand::RngExt;
+        let mut rng = crate::model::rng::stream_rng(seed, Stream::Faults, 0);
         let mut out = Vec::new();
         if n == 0 {
             return out;
@@ -642,8 +642,7 @@ impl NemesisCfg {
 /// The uniform draw in `[0, 1)` that decides whether frame number `k` on the
 /// directed link `from -> to` is lost to a `link_loss` fault.
 pub fn fault_draw(seed: u64, from: u32, to: u32, k: u64) -> f64 {
-    let key = splitmix64((u64::from(from) << 32) | u64::from(to)) ^ k;
-    (derive_seed(seed, Stream::Faults, key) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    link_draw(seed, Stream::Faults, from, to, k)
 }
 
 #[cfg(test)]

@@ -52,6 +52,15 @@ pub fn derive_seed(seed: u64, stream: Stream, index: u64) -> u64 {
     splitmix64(splitmix64(splitmix64(seed) ^ (stream as u64)) ^ index)
 }
 
+/// The uniform draw in `[0, 1)` of stream `stream` for item number `k` on
+/// the directed link `from -> to` of a run with seed `seed`: the same item
+/// gets the same draw wherever it is decided, whatever else happened
+/// meanwhile (channel fates, fault losses).
+pub fn link_draw(seed: u64, stream: Stream, from: u32, to: u32, k: u64) -> f64 {
+    let key = splitmix64((u64::from(from) << 32) | u64::from(to)) ^ k;
+    (derive_seed(seed, stream, key) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
 /// A generator for one stream of a run.
 pub fn stream_rng(seed: u64, stream: Stream, index: u64) -> SonarRng {
     SonarRng::seed_from_u64(derive_seed(seed, stream, index))
