@@ -100,6 +100,8 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
         term: &term,
         coordinator_alive: &alive,
         channel: launch.channel,
+        checkpoint: launch.checkpoint.clone(),
+        resume: launch.resume,
     };
     let result = run_node(&mut tx, launch.node, &opts);
     drop(tx);

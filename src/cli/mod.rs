@@ -338,6 +338,7 @@ fn run_monte_carlo_command(
         poll_us: 0,
         verbose: false,
         stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
+        write_checkpoints: false,
     };
     check_out(&opts.out_dir)?;
     let bar = opts.progress.then(|| {
@@ -408,21 +409,6 @@ fn run_single(
         )
         .into());
     }
-    if engine == EngineKind::Processes {
-        // Node processes take some kinds only (process_faults::unsupported).
-        let why = sc
-            .faults
-            .iter()
-            .find_map(|f| crate::engine::process_faults::unsupported(f, acoustic))
-            .or_else(|| {
-                sc.nemesis
-                    .as_ref()
-                    .and_then(|n| crate::engine::process_faults::unsupported_nemesis(n, acoustic))
-            });
-        if let Some(why) = why {
-            return Err(crate::model::error::InputError::at(&sc.path, "faults", why).into());
-        }
-    }
     if sc.has_faults() && clock != Clock::Realtime {
         return Err(crate::model::error::InputError::at(
             &sc.path,
@@ -491,6 +477,7 @@ fn run_single(
         poll_us: args.poll_us,
         verbose: args.verbose,
         stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
+        write_checkpoints: true,
     };
     check_out(&opts.out_dir)?;
     pipeline::preflight(sc, &opts)?;

@@ -38,12 +38,12 @@ use super::{
     RunRecord,
 };
 use crate::model::channel::{Frame, Medium, Reason};
-use crate::model::fault::{FaultKind, LinkFaults, fault_draw};
+use crate::model::fault::{FaultKind, IdealLinks};
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
 use crate::protocol::{Command, Input, NodeCore, Output, PeerMsg};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
@@ -99,8 +99,10 @@ fn wait(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs).map_or(DAY, |d| d.min(DAY))
 }
 
-/// An absolute emulated time in seconds as a virtual time.
-fn at(secs: f64) -> Duration {
+/// An absolute emulated time in seconds as a virtual time (nanoseconds:
+/// the processes engine records its fault times through it too, so that
+/// both engines write the same `t_s`).
+pub(crate) fn at(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX)
 }
 
@@ -135,9 +137,7 @@ struct Des<'a> {
     now: Duration,
     medium: Option<Medium>,
     /// Link faults on the ideal channel (the medium has its own).
-    links: LinkFaults,
-    /// Ideal channel: frames sent per directed link (the fault draws' key).
-    numbers: HashMap<(u32, u32), u64>,
+    links: IdealLinks,
     messages: Vec<MessageRecord>,
     faults: Vec<FaultRecord>,
     /// Index into `faults` of each fault of the plan, once applied.
@@ -184,8 +184,7 @@ pub fn run_des(
             .channel
             .as_ref()
             .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links)),
-        links: LinkFaults::default(),
-        numbers: HashMap::new(),
+        links: IdealLinks::default(),
         messages: Vec::new(),
         faults: Vec::new(),
         applied: vec![None; plan.faults.len()],
@@ -459,23 +458,10 @@ impl Des<'_> {
     /// drops (seeded draw) or delays it.
     fn ideal_send(&mut self, from: u32, to: u32, msg: PeerMsg) {
         let now = self.now;
-        if self.links.is_empty() {
-            self.queue.push(now, Ev::ToNode(to, Input::Peer(msg)));
-            return;
+        if let Some(d) = self.links.send(self.plan.seed, from, to) {
+            self.queue
+                .push(now + wait(d), Ev::ToNode(to, Input::Peer(msg)));
         }
-        let k = self.numbers.entry((from, to)).or_insert(0);
-        let number = *k;
-        *k += 1;
-        if self.links.blocked(from, to) {
-            return;
-        }
-        let p = self.links.loss(from, to);
-        if p > 0.0 && fault_draw(self.plan.seed, from, to, number) < p {
-            return;
-        }
-        let d = self.links.delay(from, to);
-        self.queue
-            .push(now + wait(d), Ev::ToNode(to, Input::Peer(msg)));
     }
 
     fn record(&mut self, id: usize, detected: bool) {
@@ -551,7 +537,7 @@ impl Des<'_> {
             }
             FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
                 self.record(id, false);
-                self.links.start(id, &kind);
+                self.links.faults.start(id, &kind);
                 if let Some(m) = &mut self.medium {
                     m.link_faults.start(id, &kind);
                 }
@@ -587,7 +573,7 @@ impl Des<'_> {
                 }
             }
             FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
-                self.links.end(id);
+                self.links.faults.end(id);
                 if let Some(m) = &mut self.medium {
                     m.link_faults.end(id);
                 }

@@ -11,6 +11,7 @@
 //! All of them run the same coordinator and the same node core; [`run`] is
 //! the one entry point.
 
+pub mod checkpoint;
 pub mod coordinator;
 pub mod des;
 pub mod inprocess;
@@ -459,10 +460,7 @@ pub fn run(
             .faults
             .first()
             .map(|_| "faults run on --engine inprocess or processes, not threads".to_string()),
-        EngineKind::Processes => plan
-            .faults
-            .iter()
-            .find_map(|f| process_faults::unsupported(f, plan.channel.is_some())),
+        EngineKind::Processes => None,
     };
     if let Some(why) = why_not {
         return (

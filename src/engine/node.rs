@@ -6,6 +6,7 @@
 //! [`Transport::recv`] (no busy-spinning) for at most [`IDLE_CHECK`] before it
 //! looks at `term` and asks whether its coordinator is still there.
 
+use super::checkpoint::Checkpoint;
 use crate::protocol::codec::{self, Control, NodeDecoder, NodeInput, Timing};
 use crate::protocol::{Command, Input, NodeConfig, NodeCore, Output, Report};
 use crate::transport::wire::Frame;
@@ -31,6 +32,12 @@ pub struct NodeLoop<'a> {
     /// and the node's clock waits and timers are emulated seconds. `None`
     /// (the ideal channel): frames go straight to the peers, in wall time.
     pub channel: Option<super::water::ChannelClock>,
+    /// The node's checkpoint file ([`super::checkpoint`]): written at every
+    /// [`Output::Checkpoint`]. `None`: checkpoints are not kept.
+    pub checkpoint: Option<std::path::PathBuf>,
+    /// Start from the checkpoint file, if there is one (a restart with
+    /// `state = "checkpoint"`); else from `init_u`.
+    pub resume: bool,
 }
 
 /// Why a node stopped other than by STOP or `term`.
@@ -66,7 +73,7 @@ pub fn run_node<T: Transport>(
         eprintln!("[node {id}] up, neighbours {:?}", node.neighbours);
     }
 
-    let mut core = NodeCore::new(node);
+    let mut core = start_core(node, opts);
     // Emulated seconds as wall seconds, times the clock's drift (a
     // `clock_drift` fault, [`Control::ClockFactor`]).
     let drift = std::cell::Cell::new(1.0f64);
@@ -199,9 +206,18 @@ pub fn run_node<T: Transport>(
                     }
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
-                // Faults (and so checkpoints) run on the discrete-event
-                // engine so far.
-                Output::Checkpoint { .. } => {}
+                Output::Checkpoint { sample, u, theta } => {
+                    if let Some(path) = &opts.checkpoint {
+                        // A failed write keeps the previous checkpoint (the
+                        // write is atomic); the node goes on, and says so.
+                        if let Err(e) = Checkpoint::new(id, sample, &u, &theta).write(path) {
+                            eprintln!(
+                                "[node {id}] warning: checkpoint of sample {sample} not written to {}: {e}",
+                                path.display()
+                            );
+                        }
+                    }
+                }
                 Output::Timer { after_s, then } => {
                     timers.push((after(Instant::now(), wall(after_s)), then))
                 }
@@ -241,6 +257,33 @@ pub fn run_node<T: Transport>(
     }
 }
 
+/// The node's core: restored from its checkpoint file when `opts.resume`
+/// and the file exists, else in its initial state. A checkpoint that cannot
+/// be read is reported, and the node starts fresh.
+fn start_core(node: NodeConfig, opts: &NodeLoop<'_>) -> NodeCore {
+    let id = node.id;
+    let Some(path) = opts.checkpoint.as_ref().filter(|_| opts.resume) else {
+        return NodeCore::new(node);
+    };
+    match Checkpoint::read(path, id) {
+        Ok(Some(ck)) => {
+            if opts.verbose {
+                eprintln!(
+                    "[node {id}] resumes from its checkpoint of sample {}",
+                    ck.sample
+                );
+            }
+            let (u, theta) = ck.state();
+            NodeCore::restore(node, u, theta)
+        }
+        Ok(None) => NodeCore::new(node),
+        Err(e) => {
+            eprintln!("[node {id}] warning: starts fresh: checkpoint unreadable: {e}");
+            NodeCore::new(node)
+        }
+    }
+}
+
 /// `from` plus `secs` seconds of a drawn wait, clamped to `[0, 1 day]` so
 /// that no rate (or a NaN) can make the clock arithmetic panic.
 fn after(from: Instant, secs: f64) -> Instant {
@@ -267,6 +310,128 @@ fn log_command(id: u32, c: &Command) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::geometry::{Vec2, Vec3};
+    use crate::model::measure::{NodeMeasurements, Sigmas};
+    use crate::protocol::codec::{CoordinatorInput, ReportDecoder};
+    use crate::transport::{MemNetwork, RunTopology};
+
+    fn lone_node(checkpoint_every: Option<u32>) -> NodeConfig {
+        NodeConfig {
+            id: 0,
+            n_nodes: 1,
+            anchor: Vec2::new(1.0, 2.0),
+            transmitters: vec![Vec2::new(0.0, 0.0)],
+            neighbours: vec![],
+            omega: 1.0,
+            gamma: 1e-3,
+            solver: crate::estimators::prox::LocalSolver::Gtrs,
+            kappa: 1,
+            init_u: Vec3::new(5.0, 6.0, 7.0),
+            first_fix: false,
+            noise_weights: false,
+            seed: 7,
+            mode: crate::protocol::NodeMode::Realtime,
+            trace_iterations: false,
+            exchange_timeout_s: None,
+            round_timeout_s: None,
+            checkpoint_every,
+        }
+    }
+
+    /// Run a lone node program over the in-memory transport with
+    /// `checkpoint` and `resume`; send it sample `sample` then a snapshot
+    /// request, and return the `theta` it reports.
+    fn snapshot_after_start(cfg: NodeConfig, checkpoint: &std::path::Path, resume: bool) -> Vec3 {
+        let topo = RunTopology::new("ck", vec![vec![]], 16).unwrap();
+        let net = MemNetwork::new(&topo);
+        let mut coord = net.endpoint(Endpoint::Coordinator).unwrap();
+        let mut node_tx = net.endpoint(Endpoint::Node(0)).unwrap();
+        let path = checkpoint.to_path_buf();
+        let node = std::thread::spawn(move || {
+            let term = AtomicBool::new(false);
+            let alive = || true;
+            let opts = NodeLoop {
+                verbose: false,
+                term: &term,
+                coordinator_alive: &alive,
+                channel: None,
+                checkpoint: Some(path),
+                resume,
+            };
+            run_node(&mut node_tx, cfg, &opts)
+        });
+        let mut frames = Vec::new();
+        for c in [
+            Command::Sample {
+                sample: 4,
+                meas: NodeMeasurements {
+                    bistatic: vec![(0, 10.0)],
+                    doa: Some(0.3),
+                    range: None,
+                },
+                sigmas: Sigmas {
+                    range: 1.0,
+                    doa: 0.1,
+                },
+            },
+            Command::Snapshot { sample: 4 },
+        ] {
+            codec::encode_control(&Control::Command(c), &mut frames);
+        }
+        for f in &frames {
+            coord.send(Endpoint::Node(0), f).unwrap();
+        }
+        coord.flush().unwrap();
+        let mut dec = ReportDecoder::default();
+        let mut got = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let theta = loop {
+            assert!(Instant::now() < deadline, "no snapshot within 30 s");
+            got.clear();
+            coord
+                .recv(&mut got, Some(Duration::from_millis(100)))
+                .unwrap();
+            let snap = got.iter().find_map(|f| match dec.feed(f).unwrap() {
+                Some(CoordinatorInput::Report(Report::Snapshot { theta, .. })) => Some(theta),
+                _ => None,
+            });
+            if let Some(t) = snap {
+                break t;
+            }
+        };
+        frames.clear();
+        codec::encode_control(&Control::Stop, &mut frames);
+        coord.send(Endpoint::Node(0), &frames[0]).unwrap();
+        coord.flush().unwrap();
+        node.join().unwrap().unwrap();
+        theta
+    }
+
+    /// Issue 17: a node program that checkpoints writes its file when the
+    /// sample arrives; started again with `resume`, it reports exactly the
+    /// saved `theta` (not `init_u`); without `resume`, or with no file, it
+    /// starts at `init_u`.
+    #[test]
+    fn a_node_program_resumed_from_its_checkpoint_file_reports_exactly_the_saved_state() {
+        let dir = std::env::temp_dir().join(format!("sonarnet-node-ck-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = super::super::checkpoint::path(&dir, 0);
+        let init = Vec3::new(5.0, 6.0, 7.0);
+        assert_eq!(snapshot_after_start(lone_node(None), &path, true), init);
+        assert!(!path.exists(), "no checkpoint without checkpoint_every");
+        let saved = Vec3::new(0.1 + 0.2, -1.0 / 3.0, 123.456_789);
+        Checkpoint::new(0, 3, &Vec3::zeros(), &saved)
+            .write(&path)
+            .unwrap();
+        let theta = snapshot_after_start(lone_node(Some(1)), &path, true);
+        assert_eq!(theta.map(f64::to_bits), saved.map(f64::to_bits));
+        // The arrival of sample 4 wrote the restored state.
+        let ck = Checkpoint::read(&path, 0).unwrap().unwrap();
+        assert_eq!(ck.sample, 4);
+        assert_eq!(ck.state().1.map(f64::to_bits), saved.map(f64::to_bits));
+        assert_eq!(snapshot_after_start(lone_node(Some(1)), &path, false), init);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn a_drawn_wait_of_any_size_gives_a_clock_time_without_panicking() {

@@ -3,11 +3,12 @@
 //! engine ([`super::processes`]) asks for the due faults and carries them out
 //! with real signals: `pause` is SIGSTOP then SIGCONT, `crash` is SIGKILL
 //! (the coordinator learns of it as of any death, when it reaps the child);
-//! `partition`, `link_loss` and `delay` act on the acoustic channel's water.
-//! `clock_drift` is a [`crate::protocol::codec::Control::ClockFactor`] to the
-//! node. `restart`, and link faults on the ideal channel (where the
-//! nodes talk to each other directly) run on the discrete-event engine only
-//! so far ([`unsupported`]).
+//! `restart` kills the node if it is alive and starts a new process for it,
+//! fresh or from its checkpoint file ([`super::checkpoint`]), which rejoins
+//! when it reports READY. `partition`, `link_loss` and `delay` act on the
+//! water ([`super::water`]): the acoustic channel's, or on the ideal
+//! channel a relay through the coordinator. `clock_drift` is a
+//! [`crate::protocol::codec::Control::ClockFactor`] to the node.
 
 use super::FaultRecord;
 use crate::model::fault::{Fault, FaultKind};
@@ -27,41 +28,9 @@ pub enum FaultStep {
     LinkEnd(usize),
     /// The node's clock runs with this factor on its waits and timers.
     Drift(u32, f64),
-}
-
-/// Why the processes engine cannot apply `f` (on the acoustic channel when
-/// `acoustic`), if it cannot.
-pub fn unsupported(f: &Fault, acoustic: bool) -> Option<String> {
-    unsupported_kind(f.kind.name(), acoustic)
-}
-
-/// Why the processes engine cannot apply faults of kind `kind` (a
-/// [`FaultKind::name`]), if it cannot.
-pub fn unsupported_kind(kind: &str, acoustic: bool) -> Option<String> {
-    match kind {
-        "pause" | "crash" | "clock_drift" => None,
-        "partition" | "link_loss" | "delay" if acoustic => None,
-        "partition" | "link_loss" | "delay" => Some(format!(
-            "a {kind} fault on the ideal channel runs on --engine inprocess so far (on node processes it needs the acoustic channel)"
-        )),
-        _ => Some(format!("a {kind} fault runs on --engine inprocess so far")),
-    }
-}
-
-/// Why the processes engine cannot run the nemesis `n`, if it cannot: a
-/// kind it draws, or one that comes with it (a nemesis crash is followed by
-/// a restart, [`crate::model::fault::NemesisCfg::draw`]).
-pub fn unsupported_nemesis(n: &crate::model::fault::NemesisCfg, acoustic: bool) -> Option<String> {
-    n.kinds.iter().find_map(|k| {
-        let with: &[&str] = if k == "crash" {
-            &["crash", "restart"]
-        } else {
-            &[k.as_str()]
-        };
-        with.iter()
-            .find_map(|w| unsupported_kind(w, acoustic))
-            .map(|why| format!("the nemesis draws {k}: {why}"))
-    })
+    /// Kill the node if it is alive, and start it again (`true`: from its
+    /// checkpoint).
+    Restart(u32, bool),
 }
 
 /// The faults of one run on node processes.
@@ -120,6 +89,8 @@ impl FaultSchedule {
             self.next += 1;
             let kind = self.faults[id].kind.clone();
             if start {
+                // In nanoseconds, as the discrete-event engine records it.
+                let t = super::des::at(t).as_secs_f64();
                 let sample = if self.period_s > 0.0 {
                     (t / self.period_s + 1e-9).floor() as u32
                 } else {
@@ -130,7 +101,8 @@ impl FaultSchedule {
                     fault: self.faults[id].clone(),
                     t_s: t,
                     sample,
-                    detected_s: None,
+                    // The coordinator restarts the node itself: it knows at once.
+                    detected_s: matches!(kind, FaultKind::Restart { .. }).then_some(t),
                 });
             }
             match (kind, start) {
@@ -148,6 +120,12 @@ impl FaultSchedule {
                     out.push(FaultStep::Cont(node));
                 }
                 (FaultKind::Crash { node }, true) => out.push(FaultStep::Kill(node)),
+                (
+                    FaultKind::Restart {
+                        node, checkpoint, ..
+                    },
+                    true,
+                ) => out.push(FaultStep::Restart(node, checkpoint)),
                 (FaultKind::ClockDrift { node, ppm }, true) => {
                     out.push(FaultStep::Drift(node, 1.0 / (1.0 + ppm * 1e-6)))
                 }
@@ -204,30 +182,13 @@ mod tests {
     use crate::model::fault::FaultSpec;
 
     #[test]
-    fn the_schedule_stops_continues_and_kills_on_time_and_records_each_fault() {
+    fn the_schedule_stops_continues_kills_and_restarts_on_time_and_records_each_fault() {
         let f = |s: &str| FaultSpec::parse_flag(s).unwrap().resolve(3, 0.5).unwrap();
         let faults = [
             f("pause:node=1,at_s=1,for_s=2"),
             f("crash:node=2,at_sample=4"),
             f("restart:node=0,at_s=9"),
         ];
-        assert!(unsupported(&faults[0], false).is_none());
-        assert!(unsupported(&faults[2], false).unwrap().contains("restart"));
-        let link = f("link_loss:a=0,b=1,p=0.5,at_s=1");
-        assert!(unsupported(&link, false).is_some() && unsupported(&link, true).is_none());
-        let nem = |k: &[&str]| crate::model::fault::NemesisCfg {
-            kinds: k.iter().map(|s| s.to_string()).collect(),
-            interval_s: 1.0,
-        };
-        assert!(unsupported_nemesis(&nem(&["pause", "clock_drift"]), false).is_none());
-        // A nemesis crash comes with a restart, which processes cannot do yet.
-        assert!(
-            unsupported_nemesis(&nem(&["crash"]), false)
-                .unwrap()
-                .contains("restart")
-        );
-        assert!(unsupported_nemesis(&nem(&["partition"]), false).is_some());
-        assert!(unsupported_nemesis(&nem(&["partition"]), true).is_none());
         let mut s = FaultSchedule::new(&faults, 3, 0.5);
         assert_eq!(s.next_in(0.0), Some(1.0));
         assert!(s.due(0.9).is_empty());
@@ -245,5 +206,9 @@ mod tests {
             "paused during it"
         );
         assert_eq!(s.sample_mask(), vec![false; 3]);
+        // The coordinator restarts the node itself: detected at once.
+        assert_eq!(s.due(9.0), vec![FaultStep::Restart(0, false)]);
+        assert_eq!(s.records[2].detected_s, Some(9.0));
+        assert_eq!(s.next_in(9.0), None);
     }
 }

@@ -26,7 +26,7 @@ use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
 use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, IoxTransport, Transport, TransportError};
-use std::process::{Child, Command as Proc, ExitStatus, Stdio};
+use std::process::{Child, ExitStatus};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -62,6 +62,20 @@ pub struct Processes {
     faults: Option<(FaultSchedule, Instant, f64)>,
     /// Per completed sample, the nodes paused during it (with faults).
     paused_masks: Vec<Vec<bool>>,
+    /// The node program, and what every node is told at start (node 0's
+    /// configuration), to start a node again (a `restart` fault).
+    program: NodeProgram,
+    launch0: NodeLaunch,
+    configs: Vec<NodeConfig>,
+    /// Where the nodes' checkpoint files go, and whether that directory is
+    /// a temporary one of this run (removed at the end).
+    checkpoints: Option<(std::path::PathBuf, bool)>,
+    /// Per node: restarted, its READY not yet seen.
+    restarting: Vec<bool>,
+    /// Events for the coordinator not yet handed over.
+    events: Vec<Event>,
+    /// Per node: frames held while it is paused ([`Processes::send_to_node`]).
+    held: Vec<Vec<Frame>>,
 }
 
 fn status_text(s: &ExitStatus) -> String {
@@ -78,7 +92,8 @@ impl Processes {
     /// Create the run's services (namespace `run_id`, from
     /// [`unique_run_id`](crate::transport::unique_run_id)) and spawn one node
     /// process per receiver; returns once every node reported READY.
-    /// With `water`, the nodes gossip through it (the acoustic channel).
+    /// With `water`, the nodes gossip through it (the acoustic channel, or
+    /// the ideal channel's relay under link faults).
     pub fn spawn(
         run_id: String,
         configs: Vec<NodeConfig>,
@@ -109,6 +124,8 @@ impl Processes {
             verbose: opts.verbose,
             poll_us: opts.poll_us,
             channel: water.as_ref().map(Water::clock),
+            checkpoint: None,
+            resume: false,
         };
         let topo = launch0.run_topology().map_err(EngineError::Transport)?;
         let tx = IoxTransport::coordinator(&topo).map_err(EngineError::Transport)?;
@@ -124,54 +141,23 @@ impl Processes {
             timing: vec![Timing::default(); n],
             startup_seconds: 0.0,
             verbose: opts.verbose,
-            run_id,
+            run_id: run_id.clone(),
             stopped: false,
             water,
             delivered: Vec::new(),
             faults: None,
             paused_masks: Vec::new(),
+            program: prog.clone(),
+            launch0,
+            checkpoints: checkpoint_dir(&configs, &run_id, opts)?,
+            configs: configs.clone(),
+            restarting: vec![false; n],
+            events: Vec::new(),
+            held: vec![Vec::new(); n],
         };
-        for cfg in configs {
-            let id = cfg.id;
-            let launch = NodeLaunch {
-                node: cfg,
-                ..launch0.clone()
-            };
-            let json = serde_json::to_string(&launch).map_err(|e| EngineError::Launch {
-                node: id,
-                reason: e.to_string(),
-            })?;
-            let mut cmd = Proc::new(&prog.program);
-            cmd.args(&prog.args)
-                .arg("--launch")
-                .arg(json)
-                .stdin(Stdio::null())
-                .stdout(Stdio::null())
-                .stderr(Stdio::inherit());
-            {
-                use std::os::unix::process::CommandExt;
-                cmd.process_group(0);
-                // SAFETY: prctl is async-signal-safe; nothing else runs in the child
-                // between fork and exec.
-                unsafe {
-                    cmd.pre_exec(|| {
-                        if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
-                            return Err(std::io::Error::last_os_error());
-                        }
-                        Ok(())
-                    });
-                }
-            }
-            match cmd.spawn() {
-                Ok(child) => p.children.push(Some(child)),
-                Err(e) => {
-                    return Err(EngineError::Spawn {
-                        node: id,
-                        program: prog.program.clone(),
-                        reason: e.to_string(),
-                    });
-                }
-            }
+        for cfg in &configs {
+            let launch = p.launch_of(cfg, false);
+            p.children.push(Some(spawn_child(prog, &launch)?));
         }
         p.log(format_args!(
             "spawned {n} node processes (run {})",
@@ -206,6 +192,21 @@ impl Processes {
         Ok(p)
     }
 
+    /// What node `cfg.id` is told at start (`resume`: a restart from its
+    /// checkpoint).
+    fn launch_of(&self, cfg: &NodeConfig, resume: bool) -> NodeLaunch {
+        NodeLaunch {
+            node: cfg.clone(),
+            checkpoint: self
+                .checkpoints
+                .as_ref()
+                .filter(|_| cfg.checkpoint_every.is_some())
+                .map(|(dir, _)| super::checkpoint::path(dir, cfg.id)),
+            resume,
+            ..self.launch0.clone()
+        }
+    }
+
     fn log(&self, args: std::fmt::Arguments<'_>) {
         if self.verbose {
             eprintln!("[coordinator] {args}");
@@ -215,14 +216,23 @@ impl Processes {
     /// Check every child; returns the first newly dead node and how it died.
     pub fn check_children(&mut self) -> Option<(u32, String)> {
         for (i, c) in self.children.iter_mut().enumerate() {
-            if self.dead[i] {
+            if self.dead[i] && !self.restarting[i] {
                 continue;
             }
             if let Some(child) = c
                 && let Ok(Some(status)) = child.try_wait()
             {
-                self.dead[i] = true;
                 *c = None;
+                if self.restarting[i] {
+                    // It is dead to the coordinator already.
+                    self.restarting[i] = false;
+                    eprintln!(
+                        "warning: restarted node {i} exited before it was ready ({})",
+                        status_text(&status)
+                    );
+                    continue;
+                }
+                self.dead[i] = true;
                 return Some((i as u32, status_text(&status)));
             }
         }
@@ -291,23 +301,68 @@ impl Processes {
         if self.delivered.is_empty() {
             return Ok(());
         }
-        let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
-        for (to, msg) in self.delivered.drain(..) {
+        let delivered = std::mem::take(&mut self.delivered);
+        for &(to, msg) in &delivered {
             if self.dead.get(to as usize).copied().unwrap_or(true) {
                 continue;
             }
-            match tx.send(Endpoint::Node(to), &codec::encode_peer(&msg)) {
-                Err(TransportError::PeerGone { .. }) => {}
+            self.send_to_node(to, &[codec::encode_peer(&msg)])?;
+        }
+        self.delivered = delivered;
+        self.delivered.clear();
+        self.flush_all()
+    }
+
+    /// Whether node `node` is paused now (SIGSTOP, a `pause` fault).
+    fn is_paused(&self, node: u32) -> bool {
+        self.faults
+            .as_ref()
+            .is_some_and(|(s, _, _)| s.paused.get(node as usize).copied().unwrap_or(false))
+    }
+
+    /// Send `frames` to node `node`, or hold them while it is paused (a
+    /// stopped process drains nothing: its inbox would fill and the sender
+    /// wait), to be sent when it continues ([`Processes::release`]), as the
+    /// discrete-event engine holds a paused node's inputs. A node that has
+    /// exited is skipped: the next child check reports its death.
+    fn send_to_node(&mut self, node: u32, frames: &[Frame]) -> Result<(), EngineError> {
+        if self.is_paused(node) {
+            if let Some(h) = self.held.get_mut(node as usize) {
+                h.extend_from_slice(frames);
+            }
+            return Ok(());
+        }
+        let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
+        for f in frames {
+            match tx.send(Endpoint::Node(node), f) {
+                Err(TransportError::PeerGone { .. }) => return Ok(()),
                 r => r.map_err(EngineError::Transport)?,
             }
         }
-        tx.flush().map_err(EngineError::Transport)
+        Ok(())
+    }
+
+    /// Node `node` continues: send what was held for it.
+    fn release(&mut self, node: u32) -> Result<(), EngineError> {
+        let held = self
+            .held
+            .get_mut(node as usize)
+            .map(std::mem::take)
+            .unwrap_or_default();
+        if !held.is_empty() && !self.dead.get(node as usize).copied().unwrap_or(true) {
+            self.send_to_node(node, &held)?;
+            self.flush_all()?;
+        }
+        Ok(())
     }
 
     /// The water's records and delivery errors, times moved `offset_s`
     /// earlier (`None` on the ideal channel).
     fn take_water(&mut self, offset_s: f64) -> Option<(Vec<super::MessageRecord>, Vec<f64>)> {
-        self.water.take().map(|w| w.into_records(offset_s))
+        self.water
+            .take()
+            .filter(Water::is_acoustic)
+            .map(|w| w.into_records(offset_s))
     }
 
     /// Send a control message to one node.
@@ -315,18 +370,12 @@ impl Processes {
         if self.stopped || self.dead.get(node as usize).copied().unwrap_or(true) {
             return Ok(());
         }
-        self.encoded.clear();
-        codec::encode_control(c, &mut self.encoded);
-        let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
-        for f in &self.encoded {
-            match tx.send(Endpoint::Node(node), f) {
-                // The node exited between two child checks: the next check
-                // reports its death with its exit status.
-                Err(TransportError::PeerGone { .. }) => return Ok(()),
-                r => r.map_err(EngineError::Transport)?,
-            }
-        }
-        Ok(())
+        let mut encoded = std::mem::take(&mut self.encoded);
+        encoded.clear();
+        codec::encode_control(c, &mut encoded);
+        let r = self.send_to_node(node, &encoded);
+        self.encoded = encoded;
+        r
     }
 
     /// Peak resident set size (`VmHWM`, KiB) of every live node process.
@@ -363,8 +412,30 @@ impl Processes {
         }
         let n = self.children.len();
         for i in 0..n {
+            // A node paused at the end continues, to hear the stop.
+            if self.is_paused(i as u32) {
+                if let Some(Some(child)) = self.children.get(i) {
+                    // SAFETY: kill(2) on the pid of a child we own and have
+                    // not reaped.
+                    unsafe {
+                        libc::kill(child.id() as i32, libc::SIGCONT);
+                    }
+                }
+                if let Some((s, _, _)) = self.faults.as_mut() {
+                    s.paused[i] = false;
+                }
+                let _ = self.release(i as u32);
+            }
             if !self.dead[i] && self.children[i].is_some() {
                 let _ = self.control(i as u32, &Control::Stop);
+            }
+            // A restarted node not ready yet cannot be told to stop.
+            if self.restarting[i]
+                && let Some(mut child) = self.children[i].take()
+            {
+                let _ = child.kill();
+                let _ = child.wait();
+                self.restarting[i] = false;
             }
         }
         self.stopped = true;
@@ -422,6 +493,9 @@ impl Drop for Processes {
         if self.dead.iter().any(|&d| d) {
             let _ = crate::transport::cleanup_stale_resources();
         }
+        if let Some((dir, true)) = &self.checkpoints {
+            let _ = std::fs::remove_dir_all(dir);
+        }
     }
 }
 
@@ -459,14 +533,15 @@ impl Network for Processes {
                 match x {
                     CoordinatorInput::Report(r) => out.push(Event::Report(r)),
                     CoordinatorInput::Pong { node, seq } => out.push(Event::Pong { node, seq }),
-                    CoordinatorInput::Ready { .. }
-                    | CoordinatorInput::Timing { .. }
+                    CoordinatorInput::Ready { node } => self.ready(node),
+                    CoordinatorInput::Timing { .. }
                     | CoordinatorInput::Channel { .. }
                     | CoordinatorInput::Late { .. } => {}
                 }
             }
             self.pump()?;
             self.apply_faults();
+            out.append(&mut self.events);
             while let Some((node, how)) = self.check_children() {
                 if let Some(w) = &mut self.water {
                     w.set_dead(node);
@@ -597,10 +672,25 @@ pub fn run_processes(
     // The run id is chosen first, so that a run that fails to start still
     // records the namespace it used.
     let run_id = crate::transport::unique_run_id();
-    let water = plan.channel.as_ref().map(|c| {
-        let clock = ChannelClock::start(c.cfg.time_scale);
-        Water::new(c, plan.seed, clock)
-    });
+    // The acoustic channel's water; on the ideal channel, a relay through
+    // the coordinator when link faults are scheduled (the nodes cannot
+    // apply them to each other) or pauses (a stopped node drains nothing:
+    // the coordinator holds its frames, where a peer would wait on its full
+    // inbox).
+    let water = match &plan.channel {
+        Some(c) => Some(Water::new(
+            c,
+            plan.seed,
+            ChannelClock::start(c.cfg.time_scale),
+        )),
+        None if plan.faults.iter().any(|f| {
+            f.kind.on_links() || matches!(f.kind, crate::model::fault::FaultKind::Pause { .. })
+        }) =>
+        {
+            Some(Water::ideal(plan.n(), plan.seed, ChannelClock::start(1.0)))
+        }
+        None => None,
+    };
     let spawned = Processes::spawn(
         run_id.clone(),
         configs,

@@ -57,6 +57,8 @@ impl Threads {
                     term: &term,
                     coordinator_alive: &alive,
                     channel: None,
+                    checkpoint: None,
+                    resume: false,
                 };
                 run_node(&mut node_tx, cfg, &opts)
             })));

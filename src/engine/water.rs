@@ -19,11 +19,19 @@
 //! so each delivery's realised error (forwarded minus planned arrival end,
 //! emulated ms) is kept ([`Water::into_records`]).
 //!
+//! On the ideal channel a run with link faults (partitions, link loss,
+//! extra delay) relays its gossip the same way ([`Water::ideal`], issue 17):
+//! the coordinator applies [`IdealLinks`], the ideal channel's one
+//! judgement, shared with the discrete-event engine, and forwards a frame at
+//! once or after its fault's delay. Only the acoustic water keeps records
+//! (`messages.csv`), as in the discrete-event engine.
+//!
 //! [`Water`] is I/O-free: times are passed in, and what to forward is
 //! returned.
 
 use super::{ChannelPlan, MessageRecord};
 use crate::model::channel::{Frame, Medium, Reason};
+use crate::model::fault::IdealLinks;
 use crate::protocol::PeerMsg;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -82,14 +90,31 @@ impl ChannelClock {
     }
 }
 
+/// What carries the frames.
+#[derive(Debug)]
+enum Carrier {
+    /// The acoustic channel.
+    Acoustic(Box<Medium>),
+    /// The ideal channel under link faults, on a run with this seed.
+    Ideal(IdealLinks, u64),
+}
+
+/// A frame on its way.
+#[derive(Debug)]
+enum Held {
+    /// On the acoustic medium: judged when its arrival ends.
+    Frame(Frame, PeerMsg),
+    /// On the ideal channel, already judged to arrive: for its addressee.
+    Ideal(u32, PeerMsg),
+}
+
 /// The water between the node processes of one run.
 #[derive(Debug)]
 pub struct Water {
-    medium: Medium,
-    plan: ChannelPlan,
+    carrier: Carrier,
     clock: ChannelClock,
     /// Frames on their way, by (judgement time in emulated ns, order).
-    pending: BTreeMap<(u64, u64), (Frame, PeerMsg)>,
+    pending: BTreeMap<(u64, u64), Held>,
     next: u64,
     dead: Vec<bool>,
     records: Vec<MessageRecord>,
@@ -110,8 +135,12 @@ impl Water {
             .cfg
             .transmission_s(plan.cfg.frame_bits(PeerMsg::MAX_VALUES));
         Water {
-            medium: Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links),
-            plan: plan.clone(),
+            carrier: Carrier::Acoustic(Box::new(Medium::new(
+                plan.cfg.clone(),
+                seed,
+                plan.positions.clone(),
+                &plan.links,
+            ))),
             clock,
             pending: BTreeMap::new(),
             next: 0,
@@ -121,6 +150,31 @@ impl Water {
             // Nothing judged from now on can overlap what ended this long ago
             // (plus the grace, at any scale).
             horizon_s: 2.0 * air + 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64(),
+        }
+    }
+
+    /// The relay of a run of `n` nodes with seed `seed` on the ideal channel
+    /// under link faults, on `clock` (wall time: `time_scale` 1).
+    pub fn ideal(n: usize, seed: u64, clock: ChannelClock) -> Water {
+        Water {
+            carrier: Carrier::Ideal(IdealLinks::default(), seed),
+            clock,
+            pending: BTreeMap::new(),
+            next: 0,
+            dead: vec![false; n],
+            records: Vec::new(),
+            errors_ms: Vec::new(),
+            horizon_s: 0.0,
+        }
+    }
+
+    /// How long after its arrival a frame is judged: [`JUDGE_GRACE`] on the
+    /// acoustic channel; none on the ideal one, where a frame's fate is
+    /// decided when it is sent.
+    fn grace(&self) -> Duration {
+        match self.carrier {
+            Carrier::Acoustic(_) => JUDGE_GRACE,
+            Carrier::Ideal(..) => Duration::ZERO,
         }
     }
 
@@ -137,17 +191,33 @@ impl Water {
         if from >= n || (to >= n && to != crate::protocol::codec::TO_ALL) || !t_send.is_finite() {
             return;
         }
-        let bits = self.plan.cfg.frame_bits(msg.values());
-        let frames = if to == crate::protocol::codec::TO_ALL {
-            let others: Vec<u32> = (0..n).filter(|&j| j != from).collect();
-            self.medium.broadcast(t_send, from, &others, bits)
+        let to: Vec<u32> = if to == crate::protocol::codec::TO_ALL {
+            (0..n).filter(|&j| j != from).collect()
         } else {
-            vec![self.medium.send(t_send, from, to, bits)]
+            vec![to]
         };
-        for f in frames {
-            self.pending
-                .insert((key(f.arrive_end), self.next), (f, msg));
-            self.next += 1;
+        match &mut self.carrier {
+            Carrier::Acoustic(medium) => {
+                let bits = medium.cfg().frame_bits(msg.values());
+                let frames = match to.as_slice() {
+                    [one] => vec![medium.send(t_send, from, *one, bits)],
+                    all => medium.broadcast(t_send, from, all, bits),
+                };
+                for f in frames {
+                    self.pending
+                        .insert((key(f.arrive_end), self.next), Held::Frame(f, msg));
+                    self.next += 1;
+                }
+            }
+            Carrier::Ideal(links, seed) => {
+                for j in to {
+                    if let Some(d) = links.send(*seed, from, j) {
+                        self.pending
+                            .insert((key(t_send + d), self.next), Held::Ideal(j, msg));
+                        self.next += 1;
+                    }
+                }
+            }
         }
     }
 
@@ -156,20 +226,31 @@ impl Water {
     pub fn next_due(&self) -> Option<Duration> {
         let (&(ns, _), _) = self.pending.first_key_value()?;
         let wait_s = ns as f64 * 1e-9 - self.clock.now_s();
-        Some(self.clock.wall(wait_s.max(0.0)) + JUDGE_GRACE)
+        Some(self.clock.wall(wait_s.max(0.0)) + self.grace())
     }
 
     /// Judges every frame whose arrival ended at least [`JUDGE_GRACE`] before
     /// `now_s` (emulated), records it, and appends the delivered ones to
     /// `out` as `(addressee, message)`.
     pub fn judge_due(&mut self, now_s: f64, out: &mut Vec<(u32, PeerMsg)>) {
-        let grace_s = self.clock.time_scale * JUDGE_GRACE.as_secs_f64();
+        let grace_s = self.clock.time_scale * self.grace().as_secs_f64();
         while let Some(entry) = self.pending.first_entry() {
             if entry.key().0 as f64 * 1e-9 + grace_s > now_s {
                 break;
             }
-            let (f, msg) = entry.remove();
-            let rec = MessageRecord::judge(&self.medium, &f, &msg, self.dead[f.to as usize]);
+            let (f, msg) = match entry.remove() {
+                Held::Frame(f, msg) => (f, msg),
+                Held::Ideal(to, msg) => {
+                    if !self.dead[to as usize] {
+                        out.push((to, msg));
+                    }
+                    continue;
+                }
+            };
+            let Carrier::Acoustic(medium) = &mut self.carrier else {
+                continue;
+            };
+            let rec = MessageRecord::judge(medium, &f, &msg, self.dead[f.to as usize]);
             let delivered = rec.lost.is_none();
             self.records.push(rec);
             if delivered {
@@ -177,7 +258,9 @@ impl Water {
                 out.push((f.to, msg));
             }
         }
-        self.medium.forget_before(now_s - self.horizon_s);
+        if let Carrier::Acoustic(medium) = &mut self.carrier {
+            medium.forget_before(now_s - self.horizon_s);
+        }
     }
 
     /// Node `node` discarded a frame `kind` from `from` as late: its record
@@ -197,12 +280,30 @@ impl Water {
 
     /// Fault `id` (a partition, link loss or delay) starts on the links.
     pub fn link_fault_start(&mut self, id: usize, kind: &crate::model::fault::FaultKind) {
-        self.medium.link_faults.start(id, kind);
+        match &mut self.carrier {
+            Carrier::Acoustic(m) => m.link_faults.start(id, kind),
+            Carrier::Ideal(l, _) => l.faults.start(id, kind),
+        }
     }
 
     /// Fault `id` ends.
     pub fn link_fault_end(&mut self, id: usize) {
-        self.medium.link_faults.end(id);
+        match &mut self.carrier {
+            Carrier::Acoustic(m) => m.link_faults.end(id),
+            Carrier::Ideal(l, _) => l.faults.end(id),
+        }
+    }
+
+    /// Node `node` is up again (restarted): frames to it are delivered.
+    pub fn set_alive(&mut self, node: u32) {
+        if let Some(d) = self.dead.get_mut(node as usize) {
+            *d = false;
+        }
+    }
+
+    /// Whether this is the acoustic channel (which keeps records).
+    pub fn is_acoustic(&self) -> bool {
+        matches!(self.carrier, Carrier::Acoustic(_))
     }
 
     /// Node `node` is dead (or left out): frames to it are lost as `node_down`.
@@ -286,6 +387,56 @@ mod tests {
         assert_eq!(recs[1].lost, Some(Reason::NodeDown));
         assert_eq!(errs.len(), 1);
         assert!((errs[0] - 10.0).abs() < 1e-6, "{errs:?}");
+    }
+
+    /// On the ideal channel the relay forwards a frame at once with no
+    /// fault in force, drops it across a partition, holds it for a delay
+    /// fault, drops frames to a dead node, and keeps no records.
+    #[test]
+    fn the_ideal_relay_applies_link_faults_and_keeps_no_records() {
+        use crate::model::fault::FaultKind;
+        let clock = ChannelClock {
+            time_scale: 1.0,
+            epoch_ns: 0,
+        };
+        let mut w = Water::ideal(3, 7, clock);
+        assert!(!w.is_acoustic());
+        let mut out = Vec::new();
+        w.submit(reflect(0, 1), 1, 1.0);
+        w.judge_due(1.0, &mut out);
+        assert_eq!(out, vec![(1, reflect(0, 1))], "at once");
+        w.link_fault_start(
+            0,
+            &FaultKind::Partition {
+                groups: vec![vec![0], vec![1, 2]],
+            },
+        );
+        w.link_fault_start(
+            1,
+            &FaultKind::Delay {
+                a: 1,
+                b: 2,
+                extra_s: 0.5,
+            },
+        );
+        w.submit(reflect(0, 2), 1, 2.0);
+        w.submit(reflect(1, 3), 2, 2.0);
+        w.judge_due(2.4, &mut out);
+        assert_eq!(out.len(), 1, "blocked, and the delayed one not yet due");
+        w.judge_due(2.5, &mut out);
+        assert_eq!(out[1], (2, reflect(1, 3)));
+        w.link_fault_end(0);
+        w.link_fault_end(1);
+        w.set_dead(1);
+        w.submit(reflect(0, 4), 1, 3.0);
+        w.judge_due(3.0, &mut out);
+        assert_eq!(out.len(), 2, "the dead node gets nothing");
+        w.set_alive(1);
+        w.submit(reflect(0, 5), 1, 3.0);
+        w.judge_due(3.0, &mut out);
+        assert_eq!(out[2], (1, reflect(0, 5)));
+        let (recs, errs) = w.into_records(0.0);
+        assert!(recs.is_empty() && errs.is_empty());
     }
 
     #[test]

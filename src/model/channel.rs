@@ -554,6 +554,11 @@ impl Medium {
         self.frame(id, from, to, bits, t, start, end)
     }
 
+    /// The channel's configuration.
+    pub fn cfg(&self) -> &AcousticCfg {
+        &self.cfg
+    }
+
     /// Node `from` sends one frame of `bits` bits to every node of `to` at
     /// time `t` (one transmission, as the sync root's Average): one [`Frame`]
     /// per addressee, in the order given, each judged on its own.

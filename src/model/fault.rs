@@ -180,6 +180,14 @@ impl FaultKind {
         }
     }
 
+    /// Whether it acts on links (a partition, link loss or delay).
+    pub fn on_links(&self) -> bool {
+        matches!(
+            self,
+            FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. }
+        )
+    }
+
     /// Whether it lasts (has an end).
     fn lasts(&self) -> bool {
         !matches!(self, FaultKind::Crash { .. } | FaultKind::Restart { .. })
@@ -398,11 +406,18 @@ impl FaultSpec {
             let (k, v) = p
                 .split_once('=')
                 .ok_or_else(|| format!("`{p}` is not KEY=VALUE"))?;
-            let doc = format!("v = {}", v.trim());
-            let value: toml::Table = doc
-                .parse()
-                .map_err(|_| format!("`{}`: `{}` is not a value", k.trim(), v.trim()))?;
-            let value = value.get("v").cloned().unwrap_or(toml::Value::Integer(0));
+            let v = v.trim();
+            let doc = format!("v = {v}");
+            // A bare word is a string (`state=checkpoint`), as a shell user
+            // would type it; anything else is a TOML value.
+            let bare = !v.is_empty()
+                && v.chars()
+                    .all(|c| c.is_ascii_alphabetic() || c == '_' || c == '-');
+            let value = match doc.parse::<toml::Table>() {
+                Ok(t) => t.get("v").cloned().unwrap_or(toml::Value::Integer(0)),
+                Err(_) if bare => toml::Value::String(v.into()),
+                Err(_) => return Err(format!("`{}`: `{v}` is not a value", k.trim())),
+            };
             table.insert(k.trim().into(), value);
         }
         toml::Value::Table(table)
@@ -497,6 +512,41 @@ impl LinkFaults {
             .filter(|l| same_link(l.1, l.2, i, j))
             .map(|l| l.3)
             .sum()
+    }
+}
+
+/// The ideal channel under link faults: a frame arrives at once unless a
+/// partition blocks it, a `link_loss` draw ([`fault_draw`]) drops it, or a
+/// `delay` holds it. The one judgement of the ideal channel for every engine
+/// (the discrete-event engine, and the coordinator's relay on node
+/// processes, [`crate::engine::water`]).
+#[derive(Debug, Clone, Default)]
+pub struct IdealLinks {
+    /// The faults in force, set by the engine as they start and end.
+    pub faults: LinkFaults,
+    /// Frames sent per directed link while a fault was in force.
+    numbers: std::collections::HashMap<(u32, u32), u64>,
+}
+
+impl IdealLinks {
+    /// The fate of a frame `from -> to` sent now, on a run with seed `seed`:
+    /// `Some(extra delay, s)` if it arrives, `None` if it is lost. Frames
+    /// are numbered per link only while some fault is in force.
+    pub fn send(&mut self, seed: u64, from: u32, to: u32) -> Option<f64> {
+        if self.faults.is_empty() {
+            return Some(0.0);
+        }
+        let k = self.numbers.entry((from, to)).or_insert(0);
+        let number = *k;
+        *k += 1;
+        if self.faults.blocked(from, to) {
+            return None;
+        }
+        let p = self.faults.loss(from, to);
+        if p > 0.0 && fault_draw(seed, from, to, number) < p {
+            return None;
+        }
+        Some(self.faults.delay(from, to))
     }
 }
 
@@ -676,6 +726,12 @@ mod tests {
                 every: 1
             }
         );
+        // A bare word is a string, as typed in a shell.
+        let bare = spec("restart:node=1,state=checkpoint,at_s=3")
+            .resolve(6, 5.0)
+            .unwrap();
+        assert_eq!(bare.kind, f.kind);
+        assert!(FaultSpec::parse_flag("pause:node=1,at_s=1.2.3").is_err());
     }
 
     #[test]

@@ -63,6 +63,11 @@ pub struct RunOptions {
     /// The liveness watchdog ([`RunPlan::stall_timeout`](crate::engine::RunPlan::stall_timeout),
     /// `--stall-timeout`). Recorded in `run.json`.
     pub stall_timeout: std::time::Duration,
+    /// Node processes that checkpoint (a `restart` fault with `state =
+    /// "checkpoint"`) write their files to `out_dir/checkpoints/`, where
+    /// they stay with the results. Off: a temporary directory, removed at
+    /// the end (runs that are not written, Monte Carlo trials).
+    pub write_checkpoints: bool,
 }
 
 /// The clock a scenario runs on when the caller does not choose one: its
@@ -92,6 +97,7 @@ impl RunOptions {
             poll_us: 0,
             verbose: false,
             stall_timeout: crate::engine::plan::DEFAULT_STALL_TIMEOUT,
+            write_checkpoints: false,
         }
     }
 
@@ -174,6 +180,10 @@ impl Scenario {
             path: opts.out_dir.clone(),
             source: std::io::Error::other(reason),
         })?;
+        let opts = &RunOptions {
+            write_checkpoints: true,
+            ..opts.clone()
+        };
         let out = self.run(opts);
         out.write(self, opts)?;
         Ok(out)
@@ -256,6 +266,9 @@ pub fn execute(
     let popts = crate::engine::processes::ProcessOptions {
         poll_us: opts.poll_us,
         verbose: opts.verbose,
+        checkpoint_dir: opts
+            .write_checkpoints
+            .then(|| opts.out_dir.join("checkpoints")),
         ..Default::default()
     };
     let plan = crate::engine::RunPlan::new(sc, opts.clock)

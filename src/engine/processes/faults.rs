@@ -50,6 +50,11 @@ impl Processes {
                     if let Some(c) = self.children.get(n as usize) {
                         signal(c, libc::SIGCONT);
                     }
+                    if let Err(e) = self.release(n) {
+                        eprintln!(
+                            "warning: node {n} continued, but what was held for it could not be sent: {e}"
+                        );
+                    }
                 }
                 FaultStep::Kill(n) => {
                     if let Some(Some(child)) = self.children.get_mut(n as usize) {
@@ -66,6 +71,7 @@ impl Processes {
                         w.link_fault_end(id);
                     }
                 }
+                FaultStep::Restart(n, checkpoint) => self.restart(n, checkpoint),
                 FaultStep::Drift(n, factor) => {
                     let _ = self.control(n, &Control::ClockFactor(factor));
                     let _ = self.flush_all();
@@ -74,9 +80,82 @@ impl Processes {
         }
     }
 
+    /// A `restart` fault: SIGKILL and reap node `node` if it is alive (the
+    /// coordinator is told it died), remove what the dead process left in
+    /// shared memory, and start a new process for it (from its checkpoint
+    /// file when `checkpoint`). It rejoins when it reports READY
+    /// ([`Processes::ready`]). A node that cannot be started stays dead, and
+    /// the run says why.
+    fn restart(&mut self, node: u32, checkpoint: bool) {
+        let i = node as usize;
+        if i >= self.children.len() {
+            return;
+        }
+        if let Some(mut child) = self.children[i].take() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+        // A paused node that restarts is not paused any more.
+        if let Some((s, _, _)) = self.faults.as_mut() {
+            s.paused[i] = false;
+        }
+        self.held[i].clear();
+        if !self.dead[i] {
+            self.dead[i] = true;
+            if let Some(w) = &mut self.water {
+                w.set_dead(node);
+            }
+            self.events.push(Event::NodeDied {
+                node,
+                how: "restarted (fault)".into(),
+            });
+        }
+        // The dead incarnation's ports go, so that the new one fits in the
+        // services' limits; live processes are left alone.
+        if let Err(e) = crate::transport::cleanup_run(&self.run_id) {
+            eprintln!("warning: node {node} restart: cleaning up its old ports: {e}");
+        }
+        let launch = self.launch_of(&self.configs[i], checkpoint);
+        match spawn_child(&self.program, &launch) {
+            Ok(child) => {
+                self.children[i] = Some(child);
+                self.restarting[i] = true;
+                Processes::log(
+                    self,
+                    format_args!(
+                        "node {node} restarted ({})",
+                        if checkpoint {
+                            "from its checkpoint"
+                        } else {
+                            "fresh"
+                        }
+                    ),
+                );
+            }
+            Err(e) => eprintln!("warning: node {node} could not be restarted: {e}"),
+        }
+    }
+
+    /// Node `node` reported READY: a restarted node is up again.
+    pub(super) fn ready(&mut self, node: u32) {
+        let i = node as usize;
+        if !self.restarting.get(i).copied().unwrap_or(false) {
+            return;
+        }
+        self.restarting[i] = false;
+        self.dead[i] = false;
+        if let Some(w) = &mut self.water {
+            w.set_alive(node);
+        }
+        self.events.push(Event::NodeUp { node });
+    }
+
     /// Node `node` was noticed dead or abandoned: a fault that did it is
     /// detected now.
     pub(super) fn fault_noticed(&mut self, node: u32) {
+        if let Some(h) = self.held.get_mut(node as usize) {
+            h.clear();
+        }
         if let Some(now) = self.fault_now()
             && let Some((sched, _, _)) = self.faults.as_mut()
         {

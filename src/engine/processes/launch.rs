@@ -36,6 +36,13 @@ pub struct NodeLaunch {
     /// coordinator's water ([`crate::engine::water`]). `None`: the ideal channel.
     #[serde(default)]
     pub channel: Option<ChannelClock>,
+    /// The node's checkpoint file ([`crate::engine::checkpoint`]), when it
+    /// writes checkpoints (a `restart` fault with `state = "checkpoint"`).
+    #[serde(default)]
+    pub checkpoint: Option<PathBuf>,
+    /// Resume from the checkpoint file (a restarted node).
+    #[serde(default)]
+    pub resume: bool,
 }
 
 impl NodeLaunch {
@@ -116,6 +123,10 @@ pub struct ProcessOptions {
     /// blocking (`--poll-us`; 0, the default, blocks at once). The coordinator
     /// always blocks.
     pub poll_us: u64,
+    /// Where nodes that checkpoint write their files (`checkpoints/` of
+    /// the results directory). `None`: a temporary directory, removed when
+    /// the run ends.
+    pub checkpoint_dir: Option<PathBuf>,
 }
 
 impl Default for ProcessOptions {
@@ -125,6 +136,75 @@ impl Default for ProcessOptions {
             verbose: false,
             startup_timeout: Duration::from_secs(60),
             poll_us: 0,
+            checkpoint_dir: None,
         }
     }
+}
+
+/// Start one node process of `prog` with `launch`: in its own process group
+/// (a terminal's Ctrl-C reaches only the coordinator), with SIGTERM if the
+/// coordinator dies (`PR_SET_PDEATHSIG`), stdout to null, stderr inherited.
+pub(super) fn spawn_child(
+    prog: &NodeProgram,
+    launch: &NodeLaunch,
+) -> Result<std::process::Child, crate::engine::EngineError> {
+    use crate::engine::EngineError;
+    use std::os::unix::process::CommandExt;
+    use std::process::{Command, Stdio};
+    let id = launch.node.id;
+    let json = serde_json::to_string(launch).map_err(|e| EngineError::Launch {
+        node: id,
+        reason: e.to_string(),
+    })?;
+    let mut cmd = Command::new(&prog.program);
+    cmd.args(&prog.args)
+        .arg("--launch")
+        .arg(json)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit());
+    cmd.process_group(0);
+    // SAFETY: prctl is async-signal-safe; nothing else runs in the child
+    // between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    cmd.spawn().map_err(|e| EngineError::Spawn {
+        node: id,
+        program: prog.program.clone(),
+        reason: e.to_string(),
+    })
+}
+
+/// The directory of the run's checkpoint files, if any node writes
+/// checkpoints: `opts.checkpoint_dir`, else a temporary directory of this
+/// run (`true`: remove it at the end). Created here.
+pub(super) fn checkpoint_dir(
+    configs: &[NodeConfig],
+    run_id: &str,
+    opts: &ProcessOptions,
+) -> Result<Option<(PathBuf, bool)>, crate::engine::EngineError> {
+    if configs.iter().all(|c| c.checkpoint_every.is_none()) {
+        return Ok(None);
+    }
+    let (dir, temp) = match &opts.checkpoint_dir {
+        Some(d) => (d.clone(), false),
+        None => (
+            std::env::temp_dir().join(format!("sonarnet-checkpoints-{run_id}")),
+            true,
+        ),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| crate::engine::EngineError::Launch {
+        node: 0,
+        reason: format!(
+            "cannot create the checkpoint directory {}: {e}",
+            dir.display()
+        ),
+    })?;
+    Ok(Some((dir, temp)))
 }
