@@ -12,7 +12,11 @@
 //!    (`PR_SET_PDEATHSIG`).
 //! 3. Every node reports READY; [`drive`](super::drive) then runs the
 //!    [`Coordinator`](super::Coordinator) over [`Processes`], with logical or
-//!    realtime clocks. A child that exits is an [`Event::NodeDied`].
+//!    realtime clocks. A child that exits is an [`Event::NodeDied`]. Faults
+//!    ([`super::process_faults`], `faults.rs`) are real signals and real
+//!    respawns: a restarted node gets a new process (fresh, or from its
+//!    checkpoint file, [`super::checkpoint`]) and is an [`Event::NodeUp`]
+//!    once it reports READY.
 //! 4. On drop the coordinator sends STOP, waits for every child, kills the
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
