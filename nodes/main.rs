@@ -13,7 +13,7 @@
 
 use clap::Parser;
 use sonarnet::engine::node::{NodeLoop, run_node};
-use sonarnet::engine::processes::NodeLaunch;
+use sonarnet::engine::processes::{NodeLaunch, TEMP_CHECKPOINTS};
 use sonarnet::transport::{IoxTransport, cleanup_run};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -95,12 +95,13 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
     let mut tx = IoxTransport::node(&topo, launch.node.id).map_err(|e| e.to_string())?;
     tx.set_poll(Duration::from_micros(launch.poll_us));
     let alive = move || std::os::unix::process::parent_id() == parent;
+    let checkpoint = launch.checkpoint.clone();
     let opts = NodeLoop {
         verbose: launch.verbose,
         term: &term,
         coordinator_alive: &alive,
         channel: launch.channel,
-        checkpoint: launch.checkpoint.clone(),
+        checkpoint: checkpoint.clone(),
         resume: launch.resume,
     };
     let result = run_node(&mut tx, launch.node, &opts);
@@ -109,6 +110,17 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
         // The coordinator died without cleaning up (SIGKILL): the nodes
         // remove what it left, the last one to leave the rest of the run.
         let _ = cleanup_run(topo.run_id());
+        // A run's temporary checkpoint directory goes too (the last node
+        // out removes it); checkpoints in a results directory stay.
+        if let Some(path) = &checkpoint
+            && let Some(dir) = path.parent()
+            && dir
+                .file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with(TEMP_CHECKPOINTS))
+        {
+            let _ = std::fs::remove_file(path);
+            let _ = std::fs::remove_dir(dir);
+        }
     }
     result.map_err(|e| e.to_string())?;
     Ok(if term.load(Ordering::Relaxed) {

@@ -377,6 +377,21 @@ fn node_processes_restart_a_node_from_its_checkpoint_file_and_leave_nothing_behi
             assert_eq!(c.sample, 99, "the last sample's checkpoint");
         }
     }
+    // A run that is not written keeps its checkpoints in a temporary
+    // directory of its own, removed when the run ends.
+    let sc = variant("restart");
+    let opts = RunOptions::inprocess()
+        .with_engine(sonarnet::engine::EngineKind::Processes)
+        .with_clock(pipeline::default_clock(&sc));
+    let out = sc.run(&opts);
+    assert!(out.error.is_none(), "{:?}", out.error);
+    let run_id = out.record.run_id.clone().expect("a run id");
+    let temp = std::env::temp_dir().join(format!(
+        "{}{run_id}",
+        sonarnet::engine::processes::TEMP_CHECKPOINTS
+    ));
+    assert!(!temp.exists(), "{} left behind", temp.display());
+    crate::util::assert_nothing_left(&run_id);
 }
 
 /// Link faults on the ideal channel of node processes go through the

@@ -181,6 +181,11 @@ pub(super) fn spawn_child(
     })
 }
 
+/// The name of a run's temporary checkpoint directory, before its run id
+/// (in the system's temporary directory; removed by the coordinator when
+/// the run ends, or by the last node out if the coordinator was killed).
+pub const TEMP_CHECKPOINTS: &str = "sonarnet-checkpoints-";
+
 /// The directory of the run's checkpoint files, if any node writes
 /// checkpoints: `opts.checkpoint_dir`, else a temporary directory of this
 /// run (`true`: remove it at the end). Created here.
@@ -195,7 +200,7 @@ pub(super) fn checkpoint_dir(
     let (dir, temp) = match &opts.checkpoint_dir {
         Some(d) => (d.clone(), false),
         None => (
-            std::env::temp_dir().join(format!("sonarnet-checkpoints-{run_id}")),
+            std::env::temp_dir().join(format!("{TEMP_CHECKPOINTS}{run_id}")),
             true,
         ),
     };
