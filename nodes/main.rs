@@ -13,7 +13,7 @@
 
 use clap::Parser;
 use sonarnet::engine::node::{NodeLoop, run_node};
-use sonarnet::engine::processes::{NodeLaunch, TEMP_CHECKPOINTS};
+use sonarnet::engine::processes::{NodeLaunch, TEMP_CHECKPOINTS, guard_parent, wait_at_gate};
 use sonarnet::transport::{IoxTransport, cleanup_run};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -86,12 +86,14 @@ enum Ended {
 }
 
 fn run(launch: NodeLaunch) -> Result<Ended, String> {
+    guard_parent(launch.coordinator_pid)?;
     let term = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
         signal_hook::flag::register(sig, Arc::clone(&term)).map_err(|e| e.to_string())?;
     }
     let parent = std::os::unix::process::parent_id();
     let topo = launch.run_topology().map_err(|e| e.to_string())?;
+    wait_at_gate(&launch)?;
     let mut tx = IoxTransport::node(&topo, launch.node.id).map_err(|e| e.to_string())?;
     tx.set_poll(Duration::from_micros(launch.poll_us));
     let alive = move || std::os::unix::process::parent_id() == parent;

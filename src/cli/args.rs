@@ -57,9 +57,10 @@ pub struct BenchArgs {
     /// Directory holding mourya2017-spiral.toml.
     #[arg(long, default_value = "scenarios")]
     pub scenarios: PathBuf,
-    /// Node counts of the scale runs (comma separated).
-    #[arg(long, value_delimiter = ',', default_value = "64,256")]
-    pub nodes: Vec<usize>,
+    /// Node counts of the scale runs (comma separated, each in [2, 4096];
+    /// e.g. 64,256,1024,2048).
+    #[arg(long, alias = "nodes", value_delimiter = ',', default_value = "64,256")]
+    pub scale: Vec<usize>,
     /// Repeats of each overhead figure (the best is kept).
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,

@@ -57,9 +57,17 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         }
         Command::Run(args) => run_command(args),
         Command::Bench(args) => {
+            if let Some(n) = args.scale.iter().find(|n| !(2..=4096).contains(*n)) {
+                return Err(crate::model::error::InputError::at(
+                    std::path::Path::new("<command line>"),
+                    "--scale",
+                    format!("{n} nodes is outside [2, 4096]"),
+                )
+                .into());
+            }
             crate::pipeline::bench::run_bench(
                 &args.scenarios,
-                &args.nodes,
+                &args.scale,
                 args.repeats,
                 &args.out,
             )?;

@@ -78,6 +78,8 @@ pub struct Processes {
     restarting: Vec<bool>,
     /// Events for the coordinator not yet handed over.
     events: Vec<Event>,
+    /// When start-up last looked at the children.
+    children_checked: Instant,
     /// Per node: frames held while it is paused ([`Processes::send_to_node`]).
     held: Vec<Vec<Frame>>,
 }
@@ -130,12 +132,13 @@ impl Processes {
             channel: water.as_ref().map(Water::clock),
             checkpoint: None,
             resume: false,
+            coordinator_pid: Some(std::process::id()),
+            gate: false,
         };
         let topo = launch0.run_topology().map_err(EngineError::Transport)?;
-        let tx = IoxTransport::coordinator(&topo).map_err(EngineError::Transport)?;
         let start = Instant::now();
         let mut p = Processes {
-            tx: Some(tx),
+            tx: None,
             children: Vec::with_capacity(n),
             dead: vec![false; n],
             decoder: ReportDecoder::default(),
@@ -158,11 +161,33 @@ impl Processes {
             restarting: vec![false; n],
             events: Vec::new(),
             held: vec![Vec::new(); n],
+            children_checked: Instant::now(),
         };
+        // The nodes start first, each waiting at a gate (its stdin, one pipe
+        // for all) until the services exist: spawned while the coordinator
+        // holds few file descriptors and mappings (the close-on-exec of
+        // every one of them is paid per spawn: O(N^2) per run otherwise,
+        // issue 20), and starting up while the services are created.
+        let (gate, gate_writer) = std::io::pipe().map_err(|e| EngineError::Launch {
+            node: 0,
+            reason: format!("creating the start gate: {e}"),
+        })?;
         for cfg in &configs {
-            let launch = p.launch_of(cfg, false);
-            p.children.push(Some(spawn_child(prog, &launch)?));
+            let launch = NodeLaunch {
+                gate: true,
+                ..p.launch_of(cfg, false)
+            };
+            let stdin = gate.try_clone().map_err(|e| EngineError::Launch {
+                node: cfg.id,
+                reason: format!("passing the start gate: {e}"),
+            })?;
+            p.children
+                .push(Some(spawn_child(prog, &launch, stdin.into())?));
         }
+        drop(gate);
+        p.tx = Some(IoxTransport::coordinator(&topo).map_err(EngineError::Transport)?);
+        // Open the gate: every node reads end-of-file and opens its ports.
+        drop(gate_writer);
         p.log(format_args!(
             "spawned {n} node processes (run {})",
             p.run_id
@@ -250,6 +275,12 @@ impl Processes {
             return Err(EngineError::Interrupted { sample: 0 });
         }
         let out = self.receive(timeout)?;
+        // One waitpid per child: every 50 ms at most, not after every batch
+        // of READYs (that made start-up O(N^2) system calls, issue 20).
+        if self.children_checked.elapsed() < Duration::from_millis(50) {
+            return Ok(out);
+        }
+        self.children_checked = Instant::now();
         if let Some((node, how)) = self.check_children() {
             return Err(EngineError::NodeDied {
                 node,

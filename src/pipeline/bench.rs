@@ -6,8 +6,9 @@
 //!   and sync; the best of `repeats` runs of each, start-up excluded (it is
 //!   reported separately). Measured with blocking nodes (the default) and with
 //!   `--poll-us` [`POLL_US`].
-//! * **Scale**: a ring of N node processes (async logical): start-up time to
-//!   the first iteration, iterations per second, peak RSS per node.
+//! * **Scale** (`--scale 64,256,1024,2048`): a ring of N node processes
+//!   (async logical): start-up time (spawn to every READY), iterations per
+//!   second, peak RSS per node, and the coordinator's own peak RSS.
 //! * **Realtime throughput**: network-wide exchanges per second of the
 //!   free-running emulator on the spiral.
 //!
@@ -48,8 +49,29 @@ pub struct Scale {
     pub max_rss_mib: f64,
     /// Mean peak RSS of the node processes (MiB).
     pub mean_rss_mib: f64,
+    /// The coordinator's peak RSS during the run (MiB; `VmHWM`, reset
+    /// before the run where the kernel allows it).
+    pub coordinator_rss_mib: Option<f64>,
     /// Whether the run completed.
     pub completed: bool,
+}
+
+/// This process's `VmHWM` (peak RSS) in MiB.
+fn own_peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kib: f64 = status
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    Some(kib / 1024.0)
+}
+
+/// Reset this process's `VmHWM` to its current RSS (`clear_refs` 5).
+fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 /// Everything `sonarnet bench` measures.
@@ -176,7 +198,9 @@ pub fn run_bench(
     let mut scale = Vec::new();
     for &n in nodes {
         let sc = ring(n)?;
+        let reset = reset_peak_rss();
         let run = pipeline::execute(&sc, &processes, &mut |_, _| {});
+        let coordinator_rss_mib = own_peak_rss_mib().filter(|_| reset);
         let (rec, res) = (run.record, run.error);
         let rss: Vec<f64> = rec
             .peak_rss_kib
@@ -184,13 +208,20 @@ pub fn run_bench(
             .flatten()
             .map(|k| *k as f64 / 1024.0)
             .collect();
-        eprintln!("scale {n}: {res:?}");
+        if let Some(e) = &res {
+            eprintln!("scale run of {n} nodes failed: {e}");
+        }
         scale.push(Scale {
             nodes: n,
             startup_seconds: rec.startup_seconds.unwrap_or(f64::NAN),
             iterations_per_second: rec.iterations as f64 / rec.wall_seconds.max(1e-9),
             max_rss_mib: rss.iter().copied().fold(0.0, f64::max),
-            mean_rss_mib: rss.iter().sum::<f64>() / rss.len().max(1) as f64,
+            mean_rss_mib: if rss.is_empty() {
+                0.0
+            } else {
+                rss.iter().sum::<f64>() / rss.len() as f64
+            },
+            coordinator_rss_mib,
             completed: res.is_none(),
         });
     }
@@ -267,12 +298,14 @@ fn print_report(r: &BenchReport, out: &Path) {
     println!("scale (ring, async logical):");
     for s in &r.scale {
         println!(
-            "  N={:4}  start-up {:7.3} s   {:9.0} iterations/s   RSS per node max {:6.2} MiB mean {:6.2} MiB{}",
+            "  N={:4}  start-up {:7.3} s   {:9.0} iterations/s   RSS per node max {:6.2} MiB mean {:6.2} MiB   coordinator {}{}",
             s.nodes,
             s.startup_seconds,
             s.iterations_per_second,
             s.max_rss_mib,
             s.mean_rss_mib,
+            s.coordinator_rss_mib
+                .map_or("n/a".to_string(), |m| format!("{m:.1} MiB")),
             if s.completed { "" } else { "   (FAILED)" }
         );
     }

@@ -116,7 +116,7 @@ impl Processes {
             eprintln!("warning: node {node} restart: cleaning up its old ports: {e}");
         }
         let launch = self.launch_of(&self.configs[i], checkpoint);
-        match spawn_child(&self.program, &launch) {
+        match spawn_child(&self.program, &launch, std::process::Stdio::null()) {
             Ok(child) => {
                 self.children[i] = Some(child);
                 self.restarting[i] = true;

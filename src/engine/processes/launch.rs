@@ -43,6 +43,46 @@ pub struct NodeLaunch {
     /// Resume from the checkpoint file (a restarted node).
     #[serde(default)]
     pub resume: bool,
+    /// The coordinator's process id: the node's parent ([`guard_parent`]).
+    #[serde(default)]
+    pub coordinator_pid: Option<u32>,
+    /// Wait at the start gate: read stdin to its end before opening the
+    /// transport (the coordinator closes the gate's pipe once the run's
+    /// services exist).
+    #[serde(default)]
+    pub gate: bool,
+}
+
+/// In a node process with `launch.gate`: wait until the coordinator opens
+/// the start gate (stdin reaches its end; also if the coordinator dies).
+pub fn wait_at_gate(launch: &NodeLaunch) -> Result<(), String> {
+    if !launch.gate {
+        return Ok(());
+    }
+    let mut sink = Vec::new();
+    std::io::Read::read_to_end(&mut std::io::stdin().lock(), &mut sink)
+        .map(|_| ())
+        .map_err(|e| format!("waiting at the start gate (stdin): {e}"))
+}
+
+/// In a node process: ask the kernel for SIGTERM when the parent dies
+/// (`PR_SET_PDEATHSIG`), then check that the parent is still `coordinator`
+/// (it may have died between the spawn and the request). Errors if it is
+/// gone, so that the node exits at once.
+pub fn guard_parent(coordinator: Option<u32>) -> Result<(), String> {
+    // SAFETY: prctl(PR_SET_PDEATHSIG) only sets a flag on this process.
+    if unsafe { libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) } != 0 {
+        return Err(format!(
+            "PR_SET_PDEATHSIG: {}",
+            std::io::Error::last_os_error()
+        ));
+    }
+    match coordinator {
+        Some(pid) if std::os::unix::process::parent_id() != pid => {
+            Err(format!("the coordinator (pid {pid}) is gone"))
+        }
+        _ => Ok(()),
+    }
 }
 
 impl NodeLaunch {
@@ -141,12 +181,14 @@ impl Default for ProcessOptions {
     }
 }
 
-/// Start one node process of `prog` with `launch`: in its own process group
-/// (a terminal's Ctrl-C reaches only the coordinator), with SIGTERM if the
-/// coordinator dies (`PR_SET_PDEATHSIG`), stdout to null, stderr inherited.
+/// Start one node process of `prog` with `launch` and `stdin` (the start
+/// gate, [`NodeLaunch::gate`]): in its own process group (a terminal's
+/// Ctrl-C reaches only the coordinator), stdout to null, stderr inherited. The node asks for SIGTERM if the coordinator dies
+/// itself ([`guard_parent`]).
 pub(super) fn spawn_child(
     prog: &NodeProgram,
     launch: &NodeLaunch,
+    stdin: std::process::Stdio,
 ) -> Result<std::process::Child, crate::engine::EngineError> {
     use crate::engine::EngineError;
     use std::os::unix::process::CommandExt;
@@ -160,20 +202,16 @@ pub(super) fn spawn_child(
     cmd.args(&prog.args)
         .arg("--launch")
         .arg(json)
-        .stdin(Stdio::null())
+        .stdin(stdin)
         .stdout(Stdio::null())
         .stderr(Stdio::inherit());
+    // No `pre_exec`: without it the standard library starts the child with
+    // posix_spawn (a vfork-like clone that shares the coordinator's memory
+    // until exec), not fork, whose copy of the coordinator's page tables
+    // grows with the shared memory it maps for the run: O(N) per spawn,
+    // O(N^2) per run (issue 20). The node program sets its own
+    // PR_SET_PDEATHSIG and checks `coordinator_pid` ([`NodeLaunch`]).
     cmd.process_group(0);
-    // SAFETY: prctl is async-signal-safe; nothing else runs in the child
-    // between fork and exec.
-    unsafe {
-        cmd.pre_exec(|| {
-            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
     cmd.spawn().map_err(|e| EngineError::Spawn {
         node: id,
         program: prog.program.clone(),
@@ -212,4 +250,20 @@ pub(super) fn checkpoint_dir(
         ),
     })?;
     Ok(Some((dir, temp)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A node started by a coordinator that has since died exits at once
+    /// instead of running as an orphan; with its coordinator alive, it runs.
+    #[test]
+    fn a_node_whose_coordinator_is_gone_refuses_to_start() {
+        let parent = std::os::unix::process::parent_id();
+        assert!(guard_parent(Some(parent)).is_ok());
+        assert!(guard_parent(None).is_ok());
+        let e = guard_parent(Some(parent.wrapping_add(7919))).unwrap_err();
+        assert!(e.contains("is gone"), "{e}");
+    }
 }

@@ -215,7 +215,11 @@ impl IoxTransport {
     /// node processes. Fails if services of this run id already exist.
     pub fn coordinator(topology: &RunTopology) -> Result<Self, TransportError> {
         let t = topology;
-        let node = make_node(t, &format!("sonarnet/{}/coordinator", t.run_id()))?;
+        let node = make_node(
+            t,
+            &format!("sonarnet/{}/coordinator", t.run_id()),
+            Endpoint::Coordinator,
+        )?;
         let inbox_svc = pubsub(&node, &coordinator_inbox_spec(t), true)?;
         let wake_svc = event_service(&node, &coordinator_wake_spec(t), true)?;
         let wake = listener(&wake_svc, "coordinator")?;
@@ -266,7 +270,7 @@ impl IoxTransport {
         let t = topology;
         let me = Endpoint::Node(id);
         t.check_endpoint(me)?;
-        let node = make_node(t, &format!("sonarnet/{}/node/{id}", t.run_id()))?;
+        let node = make_node(t, &format!("sonarnet/{}/node/{id}", t.run_id()), me)?;
         let inbox_svc = pubsub(&node, &node_inbox_spec(t, id), false)?;
         let wake_svc = event_service(&node, &node_wake_spec(t, id), false)?;
         // Listener before subscriber: whoever sees our subscriber can also wake us.

@@ -11,17 +11,36 @@ pub(super) fn endpoint_index(t: &RunTopology, e: Endpoint) -> usize {
     }
 }
 
-/// The iceoryx2 node `name` of this run (its namespace and limits).
-pub(super) fn make_node(t: &RunTopology, name: &str) -> Result<Node<Svc>, TransportError> {
+/// How many expired connections a subscriber of endpoint `me` keeps: a
+/// subscriber keeps the unread frames of senders that have exited in its
+/// "expired connections", and beyond this many (iceoryx2's default is 128)
+/// drops them with only a log warning. One slot per possible sender rules
+/// that out: every endpoint for the coordinator's inbox and the broadcast
+/// group; for a node's own inbox its senders (coordinator and
+/// in-neighbours) twice over, for the exited incarnations of restarted
+/// ones, plus slack. Sized per endpoint, not N for everyone: iceoryx2
+/// allocates and clears these slots when the subscriber is created, which
+/// made every node O(N) and start-up O(N^2) (issue 20).
+pub(super) fn expired_connections(t: &RunTopology, me: Endpoint) -> usize {
+    match me {
+        Endpoint::Node(i) if !t.broadcast() => 2 * (1 + t.in_neighbours(i).len()) + 8,
+        _ => t.n_nodes() + 1,
+    }
+}
+
+/// The iceoryx2 node `name` of this run (its namespace and limits) for
+/// endpoint `me`.
+pub(super) fn make_node(
+    t: &RunTopology,
+    name: &str,
+    me: Endpoint,
+) -> Result<Node<Svc>, TransportError> {
     init_logging();
     let prefix = resource_prefix(t.run_id());
     let mut cfg = config_for_prefix(&prefix)?;
-    // A subscriber keeps the unread frames of senders that have exited in its
-    // "expired connections"; beyond this many (default 128) it drops them with only a
-    // log warning. One slot per possible sender (all nodes + coordinator) rules it out.
     cfg.defaults
         .publish_subscribe
-        .subscriber_expired_connection_buffer = t.n_nodes() + 1;
+        .subscriber_expired_connection_buffer = expired_connections(t, me);
     let node_name =
         NodeName::new(name).map_err(|e| TransportError::ipc(format!("naming node {name}"), e))?;
     let node = NodeBuilder::new()
