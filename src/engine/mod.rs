@@ -115,6 +115,18 @@ pub enum EngineError {
         /// The encoder's reason.
         reason: String,
     },
+    /// The start gate of the node processes could not be set up
+    /// ([`processes::wait_at_gate`]).
+    #[error("cannot set up the start gate of the node processes: {0}")]
+    StartGate(String),
+    /// The directory of the nodes' checkpoint files could not be created.
+    #[error("cannot create the checkpoint directory {}: {reason}", dir.display())]
+    Checkpoints {
+        /// The directory.
+        dir: std::path::PathBuf,
+        /// The I/O error.
+        reason: String,
+    },
     /// Nodes did not report READY in time.
     #[error("nodes {missing:?} did not come up within {waited:?}")]
     Startup {

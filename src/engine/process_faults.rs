@@ -161,6 +161,12 @@ impl FaultSchedule {
                 self.records[r].detected_s = Some(now_s);
             }
         }
+        self.unpause(node);
+    }
+
+    /// Node `node` runs again without its pause ending on schedule (it was
+    /// restarted, or the run ends): it is no longer paused.
+    pub fn unpause(&mut self, node: u32) {
         if let Some(p) = self.paused.get_mut(node as usize) {
             *p = false;
         }

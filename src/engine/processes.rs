@@ -4,12 +4,14 @@
 //!
 //! Life of a run:
 //! 1. [`cleanup_stale_resources`](crate::transport::cleanup_stale_resources) removes what crashed runs left behind.
-//! 2. The coordinator creates the run's services (a fresh run id, limits sized
-//!    to the graph) and spawns the N children. Each child gets a
-//!    [`NodeLaunch`] (its own [`NodeConfig`] and the transport topology) as
+//! 2. The coordinator spawns the N children (posix_spawn), then creates the
+//!    run's services (a fresh run id, limits sized to the graph), then opens
+//!    the start gate: every child waits for the end of its stdin, one pipe
+//!    for all, before it opens its ports ([`wait_at_gate`]). Each child gets
+//!    a [`NodeLaunch`] (its own [`NodeConfig`] and the transport topology) as
 //!    JSON, runs in its own process group (a terminal Ctrl-C reaches only the
-//!    coordinator) and receives SIGTERM if the coordinator dies
-//!    (`PR_SET_PDEATHSIG`).
+//!    coordinator) and asks for SIGTERM if the coordinator dies
+//!    (`PR_SET_PDEATHSIG`, [`guard_parent`]).
 //! 3. Every node reports READY; [`drive`](super::drive) then runs the
 //!    [`Coordinator`](super::Coordinator) over [`Processes`], with logical or
 //!    realtime clocks. A child that exits is an [`Event::NodeDied`]. Faults
@@ -168,18 +170,15 @@ impl Processes {
         // holds few file descriptors and mappings (the close-on-exec of
         // every one of them is paid per spawn: O(N^2) per run otherwise,
         // issue 20), and starting up while the services are created.
-        let (gate, gate_writer) = std::io::pipe().map_err(|e| EngineError::Launch {
-            node: 0,
-            reason: format!("creating the start gate: {e}"),
-        })?;
+        let (gate, gate_writer) = std::io::pipe()
+            .map_err(|e| EngineError::StartGate(format!("creating its pipe: {e}")))?;
         for cfg in &configs {
             let launch = NodeLaunch {
                 gate: true,
                 ..p.launch_of(cfg, false)
             };
-            let stdin = gate.try_clone().map_err(|e| EngineError::Launch {
-                node: cfg.id,
-                reason: format!("passing the start gate: {e}"),
+            let stdin = gate.try_clone().map_err(|e| {
+                EngineError::StartGate(format!("passing it to node {}: {e}", cfg.id))
             })?;
             p.children
                 .push(Some(spawn_child(prog, &launch, stdin.into())?));
@@ -336,16 +335,25 @@ impl Processes {
         if self.delivered.is_empty() {
             return Ok(());
         }
-        let delivered = std::mem::take(&mut self.delivered);
-        for &(to, msg) in &delivered {
-            if self.dead.get(to as usize).copied().unwrap_or(true) {
-                continue;
+        let mut delivered = std::mem::take(&mut self.delivered);
+        for (to, msg) in delivered.drain(..) {
+            if !self.dead.get(to as usize).copied().unwrap_or(true) {
+                self.send_to_node(to, &[codec::encode_peer(&msg)])?;
             }
-            self.send_to_node(to, &[codec::encode_peer(&msg)])?;
         }
         self.delivered = delivered;
-        self.delivered.clear();
         self.flush_all()
+    }
+
+    /// Send signal `sig` to node `node`'s process, if it has one.
+    fn signal(&self, node: u32, sig: i32) {
+        if let Some(Some(child)) = self.children.get(node as usize) {
+            // SAFETY: kill(2) on the pid of a child we own and have not
+            // reaped (it is `Some` until reaped).
+            unsafe {
+                libc::kill(child.id() as i32, sig);
+            }
+        }
     }
 
     /// Whether node `node` is paused now (SIGSTOP, a `pause` fault).
@@ -449,15 +457,9 @@ impl Processes {
         for i in 0..n {
             // A node paused at the end continues, to hear the stop.
             if self.is_paused(i as u32) {
-                if let Some(Some(child)) = self.children.get(i) {
-                    // SAFETY: kill(2) on the pid of a child we own and have
-                    // not reaped.
-                    unsafe {
-                        libc::kill(child.id() as i32, libc::SIGCONT);
-                    }
-                }
+                self.signal(i as u32, libc::SIGCONT);
                 if let Some((s, _, _)) = self.faults.as_mut() {
-                    s.paused[i] = false;
+                    s.unpause(i as u32);
                 }
                 let _ = self.release(i as u32);
             }

@@ -130,41 +130,37 @@ fn key(s: f64) -> u64 {
 impl Water {
     /// The water of a run on `plan`'s channel with seed `seed`, on `clock`.
     pub fn new(plan: &ChannelPlan, seed: u64, clock: ChannelClock) -> Water {
-        let n = plan.positions.len();
         let air = plan
             .cfg
             .transmission_s(plan.cfg.frame_bits(PeerMsg::MAX_VALUES));
-        Water {
-            carrier: Carrier::Acoustic(Box::new(Medium::new(
-                plan.cfg.clone(),
-                seed,
-                plan.positions.clone(),
-                &plan.links,
-            ))),
+        let medium = Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links);
+        // Nothing judged from now on can overlap what ended this long ago
+        // (plus the grace, at any scale).
+        let horizon_s = 2.0 * air + 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
+        Water::with(
+            Carrier::Acoustic(Box::new(medium)),
+            plan.positions.len(),
             clock,
-            pending: BTreeMap::new(),
-            next: 0,
-            dead: vec![false; n],
-            records: Vec::new(),
-            errors_ms: Vec::new(),
-            // Nothing judged from now on can overlap what ended this long ago
-            // (plus the grace, at any scale).
-            horizon_s: 2.0 * air + 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64(),
-        }
+            horizon_s,
+        )
     }
 
     /// The relay of a run of `n` nodes with seed `seed` on the ideal channel
     /// under link faults, on `clock` (wall time: `time_scale` 1).
     pub fn ideal(n: usize, seed: u64, clock: ChannelClock) -> Water {
+        Water::with(Carrier::Ideal(IdealLinks::default(), seed), n, clock, 0.0)
+    }
+
+    fn with(carrier: Carrier, n: usize, clock: ChannelClock, horizon_s: f64) -> Water {
         Water {
-            carrier: Carrier::Ideal(IdealLinks::default(), seed),
+            carrier,
             clock,
             pending: BTreeMap::new(),
             next: 0,
             dead: vec![false; n],
             records: Vec::new(),
             errors_ms: Vec::new(),
-            horizon_s: 0.0,
+            horizon_s,
         }
     }
 
@@ -191,26 +187,32 @@ impl Water {
         if from >= n || (to >= n && to != crate::protocol::codec::TO_ALL) || !t_send.is_finite() {
             return;
         }
-        let to: Vec<u32> = if to == crate::protocol::codec::TO_ALL {
-            (0..n).filter(|&j| j != from).collect()
+        // A unicast frame, the common case, allocates nothing here.
+        let all: Vec<u32>;
+        let to: &[u32] = if to == crate::protocol::codec::TO_ALL {
+            all = (0..n).filter(|&j| j != from).collect();
+            &all
         } else {
-            vec![to]
+            std::slice::from_ref(&to)
         };
         match &mut self.carrier {
             Carrier::Acoustic(medium) => {
                 let bits = medium.cfg().frame_bits(msg.values());
-                let frames = match to.as_slice() {
-                    [one] => vec![medium.send(t_send, from, *one, bits)],
-                    all => medium.broadcast(t_send, from, all, bits),
-                };
-                for f in frames {
+                let mut hold = |f: Frame| {
                     self.pending
                         .insert((key(f.arrive_end), self.next), Held::Frame(f, msg));
                     self.next += 1;
+                };
+                match to {
+                    [one] => hold(medium.send(t_send, from, *one, bits)),
+                    all => medium
+                        .broadcast(t_send, from, all, bits)
+                        .into_iter()
+                        .for_each(hold),
                 }
             }
             Carrier::Ideal(links, seed) => {
-                for j in to {
+                for &j in to {
                     if let Some(d) = links.send(*seed, from, j) {
                         self.pending
                             .insert((key(t_send + d), self.next), Held::Ideal(j, msg));

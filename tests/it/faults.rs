@@ -64,6 +64,29 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
 }
 
+/// The partition variant's results in `dir` (halves {0, 1, 2} and {3, 4,
+/// 5}, samples 30-49): during the partition the nodes of a half stay closer
+/// to each other than to the other half (by 2x, on average over samples
+/// 31-49), and in samples 53-62 the halves agree again within 1.5x of how
+/// they agreed in samples 20-29.
+fn assert_two_consensuses_until_the_heal(dir: &std::path::Path) {
+    let p = positions(dir);
+    let (a, b) = ([0, 1, 2], [3, 4, 5]);
+    let before = mean((20..30).map(|k| spread(&p, k, &a, &b)));
+    let across = mean((31..50).map(|k| spread(&p, k, &a, &b)));
+    let within = mean((31..50).map(|k| spread(&p, k, &a, &a).max(spread(&p, k, &b, &b))));
+    println!("before {before:.2} m, across {across:.2} m, within {within:.2} m");
+    assert!(
+        across > 2.0 * within,
+        "across {across:.2} m, within {within:.2} m"
+    );
+    let after = mean((53..63).map(|k| spread(&p, k, &a, &b)));
+    assert!(
+        after < 1.5 * before,
+        "after the heal {after:.2} m, before the partition {before:.2} m"
+    );
+}
+
 /// A partition of the spiral graph into two connected halves, {0, 1, 2} and
 /// {3, 4, 5}, for samples 30-49: each half keeps its own consensus (the
 /// nodes of a half stay closer to each other than to the other half), and
@@ -74,20 +97,7 @@ fn a_partitioned_network_keeps_two_consensuses_and_agrees_again_after_the_heal()
     let tmp = TempDir::new("faults-partition");
     let out = run(&variant("partition"), tmp.path(), None);
     assert!(out.error.is_none(), "{:?}", out.error);
-    let p = positions(tmp.path());
-    let (a, b) = ([0, 1, 2], [3, 4, 5]);
-    let before = mean((20..30).map(|k| spread(&p, k, &a, &b)));
-    let during_across = mean((31..50).map(|k| spread(&p, k, &a, &b)));
-    let during_within = mean((31..50).map(|k| spread(&p, k, &a, &a).max(spread(&p, k, &b, &b))));
-    assert!(
-        during_across > 2.0 * during_within,
-        "across {during_across:.2} m, within {during_within:.2} m"
-    );
-    let after = mean((53..63).map(|k| spread(&p, k, &a, &b)));
-    assert!(
-        after < 1.5 * before,
-        "after the heal {after:.2} m, before the partition {before:.2} m"
-    );
+    assert_two_consensuses_until_the_heal(tmp.path());
     let f = &out.metrics.faults[0];
     assert_eq!((f.kind.as_str(), f.sample), ("partition", 30));
 }
@@ -411,21 +421,7 @@ fn a_partition_of_node_processes_on_the_ideal_channel_keeps_two_consensuses_unti
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     crate::util::assert_nothing_left(&crate::util::run_id_of(tmp.path()));
-    let p = positions(tmp.path());
-    let (a, b) = ([0, 1, 2], [3, 4, 5]);
-    let before = mean((20..30).map(|k| spread(&p, k, &a, &b)));
-    let across = mean((31..50).map(|k| spread(&p, k, &a, &b)));
-    let within = mean((31..50).map(|k| spread(&p, k, &a, &a).max(spread(&p, k, &b, &b))));
-    println!("before {before:.2} m, across {across:.2} m, within {within:.2} m");
-    assert!(
-        across > 2.0 * within,
-        "across {across:.2} m, within {within:.2} m"
-    );
-    let after = mean((53..63).map(|k| spread(&p, k, &a, &b)));
-    assert!(
-        after < 1.5 * before,
-        "after {after:.2} m, before {before:.2} m"
-    );
+    assert_two_consensuses_until_the_heal(tmp.path());
     assert_eq!(read_rows(&tmp.path().join("faults.csv")).len(), 1);
 }
 

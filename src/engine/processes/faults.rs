@@ -31,25 +31,10 @@ impl Processes {
             return;
         };
         for step in sched.due(now) {
-            let signal = |c: &Option<Child>, sig: i32| {
-                if let Some(child) = c {
-                    // SAFETY: kill(2) on the pid of a child we own and have
-                    // not reaped (it is `Some` until reaped).
-                    unsafe {
-                        libc::kill(child.id() as i32, sig);
-                    }
-                }
-            };
             match step {
-                FaultStep::Stop(n) => {
-                    if let Some(c) = self.children.get(n as usize) {
-                        signal(c, libc::SIGSTOP);
-                    }
-                }
+                FaultStep::Stop(n) => self.signal(n, libc::SIGSTOP),
                 FaultStep::Cont(n) => {
-                    if let Some(c) = self.children.get(n as usize) {
-                        signal(c, libc::SIGCONT);
-                    }
+                    self.signal(n, libc::SIGCONT);
                     if let Err(e) = self.release(n) {
                         eprintln!(
                             "warning: node {n} continued, but what was held for it could not be sent: {e}"
@@ -97,7 +82,7 @@ impl Processes {
         }
         // A paused node that restarts is not paused any more.
         if let Some((s, _, _)) = self.faults.as_mut() {
-            s.paused[i] = false;
+            s.unpause(node);
         }
         self.held[i].clear();
         if !self.dead[i] {

@@ -242,12 +242,9 @@ pub(super) fn checkpoint_dir(
             true,
         ),
     };
-    std::fs::create_dir_all(&dir).map_err(|e| crate::engine::EngineError::Launch {
-        node: 0,
-        reason: format!(
-            "cannot create the checkpoint directory {}: {e}",
-            dir.display()
-        ),
+    std::fs::create_dir_all(&dir).map_err(|e| crate::engine::EngineError::Checkpoints {
+        dir: dir.clone(),
+        reason: e.to_string(),
     })?;
     Ok(Some((dir, temp)))
 }
