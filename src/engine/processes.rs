@@ -677,6 +677,63 @@ pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
     }
 }
 
+/// The one-hop latency of node processes on this machine (issue 20): spawn
+/// `plan`'s nodes, then `count` times send a [`Control::Ping`] to the next
+/// node in turn (so that the figure mixes the CPU placements the run's
+/// processes get: a wake-up on the same CPU costs a third of one across
+/// CPUs here) and wait for its pong; each round trip is two hops (a frame
+/// and a wake-up each way), so half of it is one hop. Returns the hops in seconds, and
+/// the run id of the measurement.
+pub fn measure_hop(
+    plan: &RunPlan,
+    opts: &ProcessOptions,
+    count: usize,
+) -> Result<(Vec<f64>, String), EngineError> {
+    let NetworkLayout {
+        configs,
+        neighbours,
+        inbox,
+        broadcast,
+    } = network_layout(plan);
+    let run_id = crate::transport::unique_run_id();
+    let mut p = Processes::spawn(
+        run_id.clone(),
+        configs,
+        neighbours,
+        inbox,
+        broadcast,
+        None,
+        opts,
+    )?;
+    let n = p.children.len().max(1) as u64;
+    let mut hops = Vec::with_capacity(count);
+    for seq in 0..count as u64 {
+        let node = (seq % n) as u32;
+        let t0 = Instant::now();
+        p.control(node, &Control::Ping(seq))?;
+        p.flush_all()?;
+        let deadline = t0 + Duration::from_secs(10);
+        'wait: loop {
+            if Instant::now() > deadline {
+                return Err(EngineError::NotResponding {
+                    nodes: vec![node],
+                    sample: 0,
+                    silent_for: t0.elapsed(),
+                });
+            }
+            for x in p.poll(Duration::from_millis(100))? {
+                if matches!(x, CoordinatorInput::Pong { node: m, seq: s } if s == seq && m == node)
+                {
+                    break 'wait;
+                }
+            }
+        }
+        hops.push(t0.elapsed().as_secs_f64() / 2.0);
+    }
+    p.shutdown();
+    Ok((hops, run_id))
+}
+
 /// Run `plan` on node processes, with logical or realtime clocks
 /// ([`super::Coordinator`] over [`Processes`]).
 ///

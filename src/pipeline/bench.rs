@@ -6,6 +6,12 @@
 //!   and sync; the best of `repeats` runs of each, start-up excluded (it is
 //!   reported separately). Measured with blocking nodes (the default) and with
 //!   `--poll-us` [`POLL_US`].
+//! * **Against the wake-up floor** (issue 20): one hop between two
+//!   processes (half a coordinator-node ping-pong, over every node in turn;
+//!   [`crate::engine::processes::measure_hop`]), and the wall time over
+//!   the floor no run over processes can beat: async, the critical path of
+//!   the schedule ([`critical_path`]) times the fastest hop; sync, two
+//!   hops per round.
 //! * **Scale** (`--scale 64,256,1024,2048`): a ring of N node processes
 //!   (async logical): start-up time (spawn to every READY), iterations per
 //!   second, peak RSS per node, and the coordinator's own peak RSS.
@@ -34,7 +40,53 @@ pub struct Overhead {
     pub startup_seconds: f64,
     /// `processes_seconds / inprocess_seconds`.
     pub ratio: f64,
+    /// One hop (frame plus wake-up) between two processes, median (s):
+    /// half a coordinator-node ping-pong ([`crate::engine::processes::measure_hop`]).
+    pub hop_median_s: f64,
+    /// The same, 90th percentile (s).
+    pub hop_p90_s: f64,
+    /// The same, 10th percentile (s): a hop between processes on the same
+    /// CPU, the fastest a hop gets here (one across CPUs costs about three
+    /// times as much), and so the hop of the floor.
+    pub hop_p10_s: f64,
+    /// Async: the critical path of the schedule, in pair steps
+    /// ([`critical_path`]). Sync: the rounds.
+    pub chain: u64,
+    /// The wake-up floor (s), a lower bound on the wall time of any run
+    /// over these processes: async `chain x hop` (each step of the critical
+    /// path needs at least one message); sync `rounds x 2 hops` (every
+    /// round gathers the points at the root and sends the average back).
+    /// With the fastest hop ([`Overhead::hop_p10_s`]): with the median hop,
+    /// which mixes CPU placements, the async "floor" came out above the
+    /// real wall time (0.82x), so it bounds nothing. (Issue 20's sync
+    /// formula, `rounds x (2 + N / cores)` hops, did too: 0.54-0.67x.)
+    pub floor_seconds: f64,
+    /// `processes_seconds / floor_seconds` (issue 20's goal: at most 1.5).
+    pub floor_ratio: f64,
 }
+
+/// The longest chain of dependent pair steps in an async schedule over
+/// `n` nodes: a step `(v, w)` can only start once the last earlier steps of
+/// `v` and of `w` are done, so its depth is one more than the larger of
+/// theirs. Steps on disjoint pairs overlap; a chain cannot be shortened by
+/// any number of processes.
+pub fn critical_path(schedule: &[(usize, usize)], n: usize) -> u64 {
+    let mut depth = vec![0u64; n];
+    let mut longest = 0;
+    for &(v, w) in schedule {
+        let (Some(&dv), Some(&dw)) = (depth.get(v), depth.get(w)) else {
+            continue;
+        };
+        let d = dv.max(dw) + 1;
+        depth[v] = d;
+        depth[w] = d;
+        longest = longest.max(d);
+    }
+    longest
+}
+
+/// Hops measured per floor figure.
+const HOPS: usize = 400;
 
 /// One scale measurement.
 #[derive(Debug, Clone, Serialize)]
@@ -173,16 +225,36 @@ pub fn run_bench(
         };
         let mut best_in = f64::INFINITY;
         let mut best_proc = (f64::INFINITY, 0.0);
+        let mut chain = 0;
         for _ in 0..repeats.max(1) {
             let rec = timed(&sc, &RunOptions::inprocess(), out)?;
             best_in = best_in.min(rec.wall_seconds);
+            chain = match mode {
+                Mode::Async => critical_path(&rec.schedule, sc.graph.len()),
+                Mode::Sync => rec.iterations,
+            };
             let rec = timed(&sc, &procs, out)?;
             if rec.wall_seconds < best_proc.0 {
                 best_proc = (rec.wall_seconds, rec.startup_seconds.unwrap_or(0.0));
             }
         }
+        let plan =
+            crate::engine::RunPlan::new(&sc, Clock::Logical).map_err(|e| run_failed(e, out))?;
+        let popts = crate::engine::processes::ProcessOptions {
+            poll_us,
+            ..Default::default()
+        };
+        let (hops, _) = crate::engine::processes::measure_hop(&plan, &popts, HOPS)
+            .map_err(|e| run_failed(e, out))?;
+        let hop = crate::model::metrics::median(&hops).unwrap_or(f64::NAN);
+        let hop_p90 = crate::model::metrics::quantile(&hops, 0.9).unwrap_or(f64::NAN);
+        let hop_p10 = crate::model::metrics::quantile(&hops, 0.1).unwrap_or(f64::NAN);
+        let floor = match mode {
+            Mode::Async => chain as f64 * hop_p10,
+            Mode::Sync => chain as f64 * 2.0 * hop_p10,
+        };
         eprintln!(
-            "overhead {} (poll {poll_us} us): in-process {best_in:.4} s, processes {:.4} s",
+            "overhead {} (poll {poll_us} us): in-process {best_in:.4} s, processes {:.4} s, floor {floor:.4} s",
             mode.as_str(),
             best_proc.0
         );
@@ -193,6 +265,12 @@ pub fn run_bench(
             processes_seconds: best_proc.0,
             startup_seconds: best_proc.1,
             ratio: best_proc.0 / best_in,
+            hop_median_s: hop,
+            hop_p90_s: hop_p90,
+            hop_p10_s: hop_p10,
+            chain,
+            floor_seconds: floor,
+            floor_ratio: best_proc.0 / floor,
         });
     }
     let mut scale = Vec::new();
@@ -295,6 +373,25 @@ fn print_report(r: &BenchReport, out: &Path) {
             o.mode, o.poll_us, o.inprocess_seconds, o.processes_seconds, o.ratio, o.startup_seconds
         );
     }
+    println!(
+        "against the wake-up floor (one hop = half a ping-pong between two processes; the floor takes the fastest, p10):"
+    );
+    for o in &r.overhead {
+        let chain = match o.mode.as_str() {
+            "sync" => format!("{} rounds x 2 hops", o.chain),
+            _ => format!("critical path {} steps x 1 hop", o.chain),
+        };
+        println!(
+            "  {:5}  poll {:3} us  hop p10 {:5.1} us median {:5.1} us p90 {:5.1} us   floor {:8.4} s ({chain})   processes / floor {:5.2}x",
+            o.mode,
+            o.poll_us,
+            o.hop_p10_s * 1e6,
+            o.hop_median_s * 1e6,
+            o.hop_p90_s * 1e6,
+            o.floor_seconds,
+            o.floor_ratio
+        );
+    }
     println!("scale (ring, async logical):");
     for s in &r.scale {
         println!(
@@ -316,5 +413,46 @@ fn print_report(r: &BenchReport, out: &Path) {
         println!(
             "realtime on mourya2017-spiral: {ips:.0} exchanges/s network-wide, median {med} per sample"
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::RngExt;
+
+    /// The critical path against brute force: the longest chain in the
+    /// dependency graph of the steps (an edge from each step to the next
+    /// step of each of its two nodes), found by trying every start.
+    #[test]
+    fn the_critical_path_is_the_longest_chain_of_dependent_steps() {
+        assert_eq!(critical_path(&[], 4), 0);
+        // Disjoint pairs overlap; one pair over and over is a chain.
+        assert_eq!(critical_path(&[(0, 1), (2, 3), (0, 1), (2, 3)], 4), 2);
+        assert_eq!(critical_path(&[(0, 1); 5], 2), 5);
+        let mut rng = crate::model::rng::stream_rng(3, crate::model::rng::Stream::Schedule, 0);
+        for _ in 0..50 {
+            let n = rng.random_range(2..7usize);
+            let steps: Vec<(usize, usize)> = (0..rng.random_range(0..30usize))
+                .map(|_| {
+                    let v = rng.random_range(0..n);
+                    let w = (v + rng.random_range(1..n)) % n;
+                    (v, w)
+                })
+                .collect();
+            // longest[i]: the longest chain ending at step i.
+            let mut longest = vec![1u64; steps.len()];
+            for i in 0..steps.len() {
+                for j in 0..i {
+                    let (a, b) = steps[j];
+                    let (c, d) = steps[i];
+                    if a == c || a == d || b == c || b == d {
+                        longest[i] = longest[i].max(longest[j] + 1);
+                    }
+                }
+            }
+            let brute = longest.iter().copied().max().unwrap_or(0);
+            assert_eq!(critical_path(&steps, n), brute, "{steps:?}");
+        }
     }
 }
