@@ -15,6 +15,8 @@ pub struct Cli {
 
 /// Subcommands.
 #[derive(Debug, Subcommand)]
+// Parsed once per process: the size of the `run` variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 pub enum Command {
     /// Run a scenario and write a results directory.
     Run(RunArgs),
@@ -30,6 +32,20 @@ pub enum Command {
     /// Measure the multi-process engine: overhead over in-process, start-up,
     /// throughput and memory at scale, realtime throughput.
     Bench(BenchArgs),
+    /// Run DIR/scenario.toml again, as recorded in DIR/run.json, into a
+    /// temporary directory and compare the results file by file: exit 0 if
+    /// equal, 1 naming the first differing file and row.
+    Replay(ReplayArgs),
+}
+
+/// `sonarnet replay`.
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// The results directory of the run to reproduce.
+    pub dir: PathBuf,
+    /// Keep the replay's results directory (it is kept anyway when they differ).
+    #[arg(long)]
+    pub keep: bool,
 }
 
 // The field docs below are clap's `--help` text, not rustdoc prose: `[expect]`,
@@ -175,6 +191,12 @@ impl From<ClockArg> for Clock {
 pub struct RunArgs {
     /// The scenario TOML file.
     pub scenario: PathBuf,
+    /// Override any scenario key by its dotted path, repeatable: the value is
+    /// TOML, validated as the file is (e.g. `--set algorithm.gamma=1e-7`,
+    /// `--set target.samples=20`, `--set 'geometry.receivers=[[0,0],[1,1]]'`,
+    /// `--set faults[0].at_s=12`). Applied after a variant's own keys.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Gossip mode (overrides algorithm.mode).
     #[arg(long, value_enum)]
     pub mode: Option<ModeArg>,
@@ -217,7 +239,10 @@ pub struct RunArgs {
     /// most its length; must exceed algorithm.burn_in).
     #[arg(long)]
     pub samples: Option<usize>,
-    /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>].
+    /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>,
+    /// plus every override given (solver, kappa, poll, --set keys, ...; a
+    /// short hash when long)]. A previous run's files in it are replaced; a
+    /// directory holding other files is refused.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Which engine runs the nodes: one OS process per receiver over iceoryx2

@@ -45,6 +45,16 @@ pub enum CliError {
     /// Plots or report could not be written (exit 1).
     #[error(transparent)]
     Plot(crate::plot::PlotError),
+    /// `sonarnet replay`: the replay's results differ (exit 1).
+    #[error("the replay differs from {}: {diff}\nthe replay's results are in {}", original.display(), replay.display())]
+    ReplayDiffers {
+        /// The original results directory.
+        original: PathBuf,
+        /// Where the replay wrote its results.
+        replay: PathBuf,
+        /// The first difference.
+        diff: Box<crate::pipeline::replay::Difference>,
+    },
     /// Some variants of a scenario failed; each error was printed as it
     /// happened (exit 1).
     #[error("{failed} variant(s) failed (their errors are above):\n{list}")]

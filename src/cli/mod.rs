@@ -56,6 +56,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Run(args) => run_command(args),
+        Command::Replay(args) => replay_command(&args),
         Command::Bench(args) => {
             if let Some(n) = args.scale.iter().find(|n| !(2..=4096).contains(*n)) {
                 return Err(crate::model::error::InputError::at(
@@ -95,7 +96,12 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
 
 /// Load the scenario (every selected variant) and apply the command-line overrides.
 pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
-    let all = Scenario::load_all(&args.scenario)?;
+    let overrides = args
+        .set
+        .iter()
+        .map(|s| crate::scenario::Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let all = Scenario::load_all_with(&args.scenario, &overrides)?;
     let cli = std::path::Path::new("<command line>");
     for v in &args.variant {
         if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
@@ -274,6 +280,96 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// `sonarnet replay DIR`: run `DIR/scenario.toml` with the engine, clock,
+/// polling and watchdog of `DIR/run.json` into a temporary directory, and
+/// compare ([`crate::pipeline::replay::compare_results`]).
+fn replay_command(args: &ReplayArgs) -> Result<(), CliError> {
+    let dir = &args.dir;
+    let bad =
+        |reason: String| -> CliError { crate::model::error::InputError::file(dir, reason).into() };
+    let scenario = dir.join("scenario.toml");
+    if !scenario.is_file() {
+        return Err(bad(
+            "has no scenario.toml: not a results directory, or written by a sonarnet older than replay"
+                .into(),
+        ));
+    }
+    let rj: pipeline::RunJson = std::fs::read_to_string(dir.join("run.json"))
+        .map_err(|e| bad(format!("cannot read run.json: {e}")))
+        .and_then(|t| serde_json::from_str(&t).map_err(|e| bad(format!("run.json: {e}"))))?;
+    let engine = rj.engine.as_deref().unwrap_or("inprocess");
+    let clock = rj.clock.as_deref().unwrap_or("logical");
+    if engine == "processes" && clock == "realtime" {
+        return Err(bad(
+            "is a realtime run of node processes, which depends on wall-clock timing and cannot be \
+             reproduced exactly; runs on the logical clock, or in virtual time (--engine inprocess), replay"
+                .into(),
+        ));
+    }
+    if rj.status.as_deref() == Some("interrupted") {
+        return Err(bad(
+            "was interrupted: there is no complete run to reproduce".into(),
+        ));
+    }
+    let out = std::env::temp_dir().join(format!(
+        "sonarnet-replay-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos())
+    ));
+    let mut argv: Vec<String> = ["sonarnet", "run"].map(String::from).to_vec();
+    argv.push(scenario.display().to_string());
+    for (flag, v) in [
+        ("--engine", Some(engine.to_string())),
+        ("--clock", Some(clock.to_string())),
+        ("--poll-us", rj.poll_us.map(|p| p.to_string())),
+        ("--stall-timeout", rj.stall_timeout_s.map(|s| s.to_string())),
+        ("--out", Some(out.display().to_string())),
+    ] {
+        if let Some(v) = v {
+            argv.push(flag.into());
+            argv.push(v);
+        }
+    }
+    argv.push("--quiet".into());
+    let Command::Run(run_args) = Cli::try_parse_from(&argv)
+        .map_err(|e| bad(format!("run.json does not make a valid run command: {e}")))?
+        .command
+    else {
+        return Err(bad("run.json does not make a run command".into()));
+    };
+    println!(
+        "replaying {} ({engine}, {clock} clock) into {}",
+        dir.display(),
+        out.display()
+    );
+    match run_command(run_args) {
+        Ok(()) => {}
+        // A failed run is reproduced too: its partial results are compared.
+        Err(CliError::RunFailed { .. }) if rj.status.as_deref() == Some("failed") => {}
+        Err(e) => return Err(e),
+    }
+    let diff = crate::pipeline::replay::compare_results(dir, &out)
+        .map_err(|e| bad(format!("cannot compare: {e}")))?;
+    match diff {
+        Some(diff) => Err(CliError::ReplayDiffers {
+            original: dir.clone(),
+            replay: out,
+            diff: Box::new(diff),
+        }),
+        None => {
+            println!("replay of {}: identical results", dir.display());
+            if args.keep {
+                println!("the replay's results are in {}", out.display());
+            } else {
+                let _ = std::fs::remove_dir_all(&out);
+            }
+            Ok(())
+        }
+    }
+}
+
 /// The results directory must be writable before the run starts (exit 2
 /// otherwise, naming `--out`).
 fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
@@ -288,13 +384,82 @@ fn default_dir(args: &RunArgs, sc: &Scenario, many: bool, tail: &str) -> PathBuf
         Some(o) if many => o.join(sc.variant.as_deref().unwrap_or("base")),
         Some(o) => o.clone(),
         None => PathBuf::from("results").join(format!(
-            "{}{}-{tail}-seed{}",
+            "{}{}-{tail}-seed{}{}",
             sc.name,
             sc.variant
                 .as_ref()
                 .map_or(String::new(), |v| format!("-{v}")),
-            sc.seed
+            sc.seed,
+            override_suffix(args)
         )),
+    }
+}
+
+/// The part of a default results directory's name that tells runs with
+/// different overrides apart: every non-default override, in a fixed order
+/// (`-gtrs_l0-kappa2-poll100-set-algorithm.gamma-1e-7`), or `-o<hash>` of
+/// them when that would be longer than 48 characters.
+pub fn override_suffix(args: &RunArgs) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    if let Some(s) = args.local_solver {
+        parts.push(s.as_str().into());
+    }
+    if let Some(k) = args.kappa {
+        parts.push(format!("kappa{k}"));
+    }
+    if let Some(p) = args.prox_scaling {
+        parts.push(match p {
+            ProxScalingArg::None => "unscaled".into(),
+            ProxScalingArg::InverseProbability => "invprob".into(),
+        });
+    }
+    if args.poll_us > 0 {
+        parts.push(format!("poll{}", args.poll_us));
+    }
+    if let Some(n) = args.iterations_per_sample {
+        parts.push(format!("ips{n}"));
+    }
+    if let Some(n) = args.samples {
+        parts.push(format!("samples{n}"));
+    }
+    if let Some(b) = &args.baselines {
+        parts.push(format!("baselines-{}", b.join("-")));
+    }
+    for f in &args.faults {
+        parts.push(format!("fault-{f}"));
+    }
+    if let Some(n) = &args.nemesis {
+        parts.push(format!("nemesis-{n}-{}", args.nemesis_interval_s));
+    }
+    for s in &args.set {
+        parts.push(format!("set-{s}"));
+    }
+    if parts.is_empty() {
+        return String::new();
+    }
+    let clean = |s: &str| -> String {
+        s.chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                    c
+                } else {
+                    '-'
+                }
+            })
+            .collect()
+    };
+    let long = format!("-{}", clean(&parts.join("-")));
+    if long.len() <= 48 {
+        long
+    } else {
+        // FNV-1a over the full text: stable across builds and platforms.
+        let h = parts
+            .join("\u{1f}")
+            .bytes()
+            .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+            });
+        format!("-o{:08x}", h >> 32)
     }
 }
 

@@ -16,6 +16,9 @@ pub mod montecarlo;
 pub mod score;
 
 mod evaluate;
+pub mod outdir;
+pub mod provenance;
+pub mod replay;
 mod results;
 mod write;
 
@@ -134,6 +137,8 @@ pub struct Outcome {
     /// Why the run stopped early, if it did (the results above are then
     /// those of the completed samples).
     pub error: Option<EngineError>,
+    /// When the run started (wall clock; recorded in `run.json`).
+    pub started: std::time::SystemTime,
 }
 
 impl Outcome {
@@ -195,6 +200,7 @@ impl Scenario {
 /// every track ([`evaluate`]), and check `[expect]` when `opts` asks for it
 /// and the run completed. Writes nothing ([`Outcome::write`] does).
 pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'_>) -> Outcome {
+    let started = std::time::SystemTime::now();
     let Executed {
         real,
         record,
@@ -221,6 +227,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
         scored,
         real,
         error,
+        started,
     }
 }
 

@@ -361,12 +361,25 @@ pub struct RunJson {
     /// Why the run stopped early.
     #[serde(default)]
     pub error: Option<String>,
+    /// The git commit sonarnet was built from (when built from a git checkout).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub git_commit: Option<String>,
+    /// The host name of the machine that ran it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub host: Option<String>,
+    /// Absolute paths of the input files: `scenario`, and `trace`, `truth`,
+    /// `schedule` when the scenario names them.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub inputs: std::collections::BTreeMap<String, String>,
     /// `gtrs`, `relaxed` or `gtrs_l0`.
     #[serde(default)]
     pub local_solver: Option<String>,
     /// `sync` or `async`.
     #[serde(default)]
     pub mode: Option<String>,
+    /// The `--set KEY=VALUE` overrides, as given.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub overrides: Vec<String>,
     /// Node polling before blocking (µs).
     #[serde(default)]
     pub poll_us: Option<u64>,
@@ -386,6 +399,9 @@ pub struct RunJson {
     /// Run seed.
     #[serde(default)]
     pub seed: Option<u64>,
+    /// When the run started, UTC (`2026-12-03T01:02:03Z`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub started_utc: Option<String>,
     /// `ok`, `failed` or `interrupted`.
     #[serde(default)]
     pub status: Option<String>,

@@ -14,6 +14,7 @@ impl Outcome {
             scored,
             real,
             error,
+            started,
         } = self;
         let done = record.thetas.len();
         let status = m.status.as_str();
@@ -29,7 +30,9 @@ impl Outcome {
             status,
             error.as_ref(),
             record.run_id.as_deref(),
+            *started,
         )?;
+        write_scenario_toml(dir, sc, opts)?;
         write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
         // With faults, a `paused` column (before `seed`); without, the file
         // is as it always was.
@@ -309,6 +312,31 @@ pub fn write_trace(
     )
 }
 
+/// `scenario.toml`: the run's resolved scenario
+/// ([`Scenario::resolved_toml`]), with the command that reproduces it.
+fn write_scenario_toml(dir: &Path, sc: &Scenario, opts: &RunOptions) -> Result<(), RunError> {
+    let path = dir.join("scenario.toml");
+    let logical_async =
+        opts.clock == Clock::Logical && sc.algorithm.mode == crate::scenario::Mode::Async;
+    let mut how = format!(
+        "sonarnet run {} --engine {} --clock {}",
+        path.display(),
+        opts.engine.as_str(),
+        opts.clock.as_str()
+    );
+    if opts.poll_us > 0 {
+        how.push_str(&format!(" --poll-us {}", opts.poll_us));
+    }
+    how.push_str(&format!("   (or: sonarnet replay {})", dir.display()));
+    let text = sc
+        .resolved_toml(logical_async, &how)
+        .map_err(|e| RunError::Output {
+            path: path.clone(),
+            source: std::io::Error::other(e),
+        })?;
+    std::fs::write(&path, text).map_err(io_err(&path))
+}
+
 /// Shortest round-trip decimal form of a float (exact replay from CSV).
 fn num(x: f64) -> String {
     format!("{x:?}")
@@ -327,12 +355,16 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
 
 /// Make sure the results directory `dir` can be written before any work
 /// starts: create it (and its parents) and write and remove a probe file in
-/// it. Returns the reason it cannot be used, e.g. an existing file of that
-/// name, a path below a file, or a read-only place.
+/// it. A previous run's files in it are removed first, and a directory
+/// holding files sonarnet did not write is refused
+/// ([`super::outdir::clear_previous_run`]). Returns the reason it cannot be
+/// used, e.g. an existing file of that name, a path below a file, foreign
+/// files, or a read-only place.
 pub fn check_out_dir(dir: &Path) -> Result<(), String> {
     if dir.exists() && !dir.is_dir() {
         return Err(format!("{} exists and is not a directory", dir.display()));
     }
+    super::outdir::clear_previous_run(dir)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let probe = dir.join(".sonarnet-write-check");
     std::fs::write(&probe, b"").map_err(|e| format!("cannot write in {}: {e}", dir.display()))?;
@@ -376,17 +408,9 @@ fn write_run_json(
     status: &str,
     error: Option<&EngineError>,
     run_id: Option<&str>,
+    started: std::time::SystemTime,
 ) -> Result<(), RunError> {
-    let mut resolved = sc.file.clone();
-    resolved.seed = sc.seed;
-    resolved.algorithm.mode = sc.algorithm.mode;
-    resolved.algorithm.local_solver = sc.algorithm.local_solver;
-    resolved.algorithm.kappa = sc.algorithm.kappa;
-    resolved.algorithm.iterations_per_sample = sc.algorithm.iterations_per_sample;
-    if let Some(t) = &mut resolved.target {
-        t.samples = sc.samples;
-    }
-    resolved.geometry.receivers = sc.geometry.receivers.iter().map(|r| [r.x, r.y]).collect();
+    let resolved = sc.resolved_file();
     let scenario = serde_json::to_value(&resolved).map_err(|e| RunError::Output {
         path: dir.join("run.json"),
         source: std::io::Error::other(e),
@@ -407,6 +431,11 @@ fn write_run_json(
         error: error.map(|e| e.to_string()),
         run_id: run_id.map(str::to_owned),
         stall_timeout_s: Some(opts.stall_timeout.as_secs_f64()),
+        git_commit: super::provenance::GIT_COMMIT.map(str::to_owned),
+        host: super::provenance::host_name(),
+        inputs: super::provenance::input_paths(sc),
+        overrides: sc.overrides.clone(),
+        started_utc: Some(super::provenance::utc_iso(started)),
     };
     write_json(&dir.join("run.json"), &v)
 }

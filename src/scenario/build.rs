@@ -153,57 +153,12 @@ impl Scenario {
         }
         let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
         base.remove("variants");
-        let mut seen = BTreeSet::new();
-        let mut out = Vec::with_capacity(file.variants.len());
-        for (i, v) in file.variants.iter().enumerate() {
-            let key = format!("variants[{i}]");
-            let vname = v.name.trim();
-            if vname.is_empty()
-                || !vname
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-            {
-                return Err(InputError::at(
-                    path,
-                    format!("{key}.name"),
-                    format!(
-                        "{:?} must be non-empty ASCII letters, digits, '-', '_' or '.'",
-                        v.name
-                    ),
-                ));
-            }
-            if !seen.insert(vname.to_string()) {
-                return Err(InputError::at(
-                    path,
-                    format!("{key}.name"),
-                    format!("duplicate variant name {vname:?}"),
-                ));
-            }
-            let mut t = base.clone();
-            merge_tables(&mut t, &v.overrides);
-            let f: ScenarioFile =
-                toml::Value::Table(t)
-                    .try_into()
-                    .map_err(|e: toml::de::Error| {
-                        InputError::at(
-                            path,
-                            format!("{key} ({vname})"),
-                            e.message().trim().to_string(),
-                        )
-                    })?;
-            let sc = Self::from_parsed(f, path).map_err(|mut e| {
-                e.location = Some(match e.location.take() {
-                    Some(l) => format!("{key} ({vname}): {l}"),
-                    None => format!("{key} ({vname})"),
-                });
-                e
-            })?;
-            out.push(Scenario {
-                variant: Some(vname.to_string()),
-                ..sc
-            });
-        }
-        Ok(out)
+        for_each_variant(&file, &base, path, |t| {
+            let f: ScenarioFile = toml::Value::Table(t)
+                .try_into()
+                .map_err(|e: toml::de::Error| InputError::file(path, e.message().trim()))?;
+            Self::from_parsed(f, path)
+        })
     }
 
     /// Validate a parsed scenario file.
@@ -541,6 +496,7 @@ impl Scenario {
             scoring: file.scoring.clone(),
             trials: file.monte_carlo.as_ref().map(|m| m.trials),
             variant: None,
+            overrides: Vec::new(),
             file,
         };
         sc.check_size()
@@ -551,7 +507,7 @@ impl Scenario {
     }
 }
 
-fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> InputError {
+pub(super) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> InputError {
     let location = e.span().map(|span| {
         let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
         format!("line {line}")
@@ -709,4 +665,56 @@ pub(crate) fn resolve_faults(
                 .map_err(|(k, r)| (format!("faults[{i}].{k}"), r))
         })
         .collect()
+}
+
+/// Build one scenario per `[[variants]]` entry of `file`: `base` (the file
+/// without its variants) with the variant's tables deep-merged over it,
+/// built by `build`; an error names the variant.
+pub(super) fn for_each_variant(
+    file: &ScenarioFile,
+    base: &toml::Table,
+    path: &Path,
+    build: impl Fn(toml::Table) -> Result<Scenario, InputError>,
+) -> Result<Vec<Scenario>, InputError> {
+    let mut seen = BTreeSet::new();
+    let mut out = Vec::with_capacity(file.variants.len());
+    for (i, v) in file.variants.iter().enumerate() {
+        let key = format!("variants[{i}]");
+        let vname = v.name.trim();
+        if vname.is_empty()
+            || !vname
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        {
+            return Err(InputError::at(
+                path,
+                format!("{key}.name"),
+                format!(
+                    "{:?} must be non-empty ASCII letters, digits, '-', '_' or '.'",
+                    v.name
+                ),
+            ));
+        }
+        if !seen.insert(vname.to_string()) {
+            return Err(InputError::at(
+                path,
+                format!("{key}.name"),
+                format!("duplicate variant name {vname:?}"),
+            ));
+        }
+        let mut t = base.clone();
+        merge_tables(&mut t, &v.overrides);
+        let sc = build(t).map_err(|mut e| {
+            e.location = Some(match e.location.take() {
+                Some(l) => format!("{key} ({vname}): {l}"),
+                None => format!("{key} ({vname})"),
+            });
+            e
+        })?;
+        out.push(Scenario {
+            variant: Some(vname.to_string()),
+            ..sc
+        });
+    }
+    Ok(out)
 }

@@ -26,7 +26,9 @@ use std::path::{Path, PathBuf};
 
 mod build;
 mod limits;
+mod overrides;
 mod readers;
+mod resolve;
 mod schema;
 
 use build::check_tracks;
@@ -34,6 +36,7 @@ pub use build::merge_tables;
 pub use limits::{
     MAX_ITERATIONS_PER_SAMPLE, MAX_RECEIVERS, MAX_RECORD_BYTES, MAX_SAMPLES, MAX_TRIALS, SizeKey,
 };
+pub use overrides::Override;
 pub use readers::{read_schedule, read_trace, read_truth};
 pub use schema::*;
 
@@ -132,6 +135,8 @@ pub struct Scenario {
     pub trials: Option<usize>,
     /// The variant's name, for a file with `[[variants]]`.
     pub variant: Option<String>,
+    /// The `--set KEY=VALUE` overrides applied to the file, as given.
+    pub overrides: Vec<String>,
 }
 
 impl Scenario {

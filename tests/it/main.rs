@@ -17,3 +17,4 @@ mod report;
 mod scenarios;
 mod transport;
 mod util;
+mod workflow;

@@ -1,0 +1,343 @@
+//! `--set KEY=VALUE`: any scenario key overridden by its dotted path
+//! (`algorithm.gamma`, `geometry.receivers`, `faults[0].at_s`), the value
+//! parsed as TOML and the result validated exactly as the file is.
+
+use super::*;
+
+/// One `--set KEY=VALUE` override.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Override {
+    /// The dotted key path as written (`algorithm.gamma`, `faults[0].at_s`).
+    pub key: String,
+    /// The value, parsed as TOML (a bare word that is not TOML is a string).
+    pub value: toml::Value,
+    /// The flag's text, `KEY=VALUE`, as given (recorded in `run.json`).
+    pub text: String,
+}
+
+/// One step of a key path: a table key, or an index into an array.
+#[derive(Debug, Clone, PartialEq)]
+enum Step {
+    Key(String),
+    Index(usize),
+}
+
+/// A `--set` error: names the flag and the key.
+fn set_error(text: &str, reason: impl Into<String>) -> InputError {
+    cli_error(&format!("--set {text}"), reason)
+}
+
+impl Override {
+    /// Parse `KEY=VALUE`. The value is TOML (`1e-7`, `20`, `[[0,0],[1,1]]`,
+    /// `"text"`, `{ model = "gaussian", sigma = 1 }`); a bare word that is
+    /// not TOML (`sync`, `gtrs_l0`) is taken as a string.
+    pub fn parse(flag: &str) -> Result<Self, InputError> {
+        let Some((key, value)) = flag.split_once('=') else {
+            return Err(set_error(
+                flag,
+                "expected KEY=VALUE, e.g. algorithm.gamma=1e-7",
+            ));
+        };
+        let key = key.trim();
+        parse_path(key).map_err(|r| set_error(flag, r))?;
+        if key == "variants" || key.starts_with("variants.") || key.starts_with("variants[") {
+            return Err(set_error(
+                flag,
+                "variants cannot be set: pick one with --variant, then --set its keys",
+            ));
+        }
+        let value = parse_value(value.trim()).map_err(|r| set_error(flag, r))?;
+        Ok(Override {
+            key: key.to_string(),
+            value,
+            text: flag.to_string(),
+        })
+    }
+
+    /// Apply this override to a scenario table.
+    pub fn apply(&self, table: &mut toml::Table) -> Result<(), InputError> {
+        let steps = parse_path(&self.key).map_err(|r| set_error(&self.text, r))?;
+        set_path(table, &steps, self.value.clone()).map_err(|r| set_error(&self.text, r))
+    }
+
+    /// Blame this override for a validation error `e` of the overridden
+    /// file: the error names `--set KEY=VALUE`, then where and why.
+    pub fn blame(&self, e: InputError) -> InputError {
+        let reason = match e.location {
+            Some(l) => format!("{l}: {}", e.reason),
+            None => e.reason,
+        };
+        set_error(&self.text, reason)
+    }
+}
+
+fn parse_value(v: &str) -> Result<toml::Value, String> {
+    if v.is_empty() {
+        return Err("the value is empty (quote an empty string: KEY='\"\"')".into());
+    }
+    match toml::from_str::<toml::Table>(&format!("v = {v}")) {
+        Ok(mut t) => t.remove("v").ok_or_else(|| "no value".to_string()),
+        Err(e) => {
+            let bare = v
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.:/".contains(c));
+            if bare {
+                Ok(toml::Value::String(v.to_string()))
+            } else {
+                Err(format!("not a TOML value: {}", e.message().trim()))
+            }
+        }
+    }
+}
+
+fn parse_path(key: &str) -> Result<Vec<Step>, String> {
+    if key.is_empty() {
+        return Err("the key is empty".into());
+    }
+    let mut steps = Vec::new();
+    for part in key.split('.') {
+        let (name, mut rest) = match part.find('[') {
+            Some(i) => (&part[..i], &part[i..]),
+            None => (part, ""),
+        };
+        let ok = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+        if name.is_empty() || !name.chars().all(ok) {
+            return Err(format!(
+                "bad key {key:?}: write dotted names with optional [index], e.g. faults[0].at_s"
+            ));
+        }
+        steps.push(Step::Key(name.to_string()));
+        while !rest.is_empty() {
+            let close = rest
+                .find(']')
+                .filter(|_| rest.starts_with('['))
+                .ok_or_else(|| format!("bad index in {key:?}"))?;
+            let i: usize = rest[1..close]
+                .trim()
+                .parse()
+                .map_err(|_| format!("bad index {:?} in {key:?}", &rest[1..close]))?;
+            if i > crate::scenario::MAX_RECEIVERS {
+                return Err(format!("index {i} in {key:?} is absurdly large"));
+            }
+            steps.push(Step::Index(i));
+            rest = &rest[close + 1..];
+        }
+    }
+    Ok(steps)
+}
+
+/// Set `steps` in `table` to `value`, creating missing tables on the way. An
+/// integer that replaces a float stays a float (`gamma=1`).
+fn set_path(table: &mut toml::Table, steps: &[Step], value: toml::Value) -> Result<(), String> {
+    let mut here = TomlSlot::Table(table);
+    let mut done = String::new();
+    for (n, step) in steps.iter().enumerate() {
+        let last = n + 1 == steps.len();
+        let next = match (here, step) {
+            (TomlSlot::Table(t), Step::Key(k)) => {
+                if last {
+                    let v = coerce(t.get(k), value);
+                    t.insert(k.clone(), v);
+                    return Ok(());
+                }
+                let entry = t.entry(k.clone()).or_insert_with(|| match steps[n + 1] {
+                    Step::Key(_) => toml::Value::Table(toml::Table::new()),
+                    Step::Index(_) => toml::Value::Array(Vec::new()),
+                });
+                let at = if done.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{done}.{k}")
+                };
+                slot(entry, &at)?
+            }
+            (TomlSlot::Array(a), Step::Index(i)) => {
+                let len = a.len();
+                if *i > len || (*i == len && !last) {
+                    return Err(format!("{done} has {len} entries, no [{i}]"));
+                }
+                if last {
+                    let v = coerce(a.get(*i), value);
+                    if *i == len {
+                        a.push(v);
+                    } else {
+                        a[*i] = v;
+                    }
+                    return Ok(());
+                }
+                slot(&mut a[*i], &format!("{done}[{i}]"))?
+            }
+            (TomlSlot::Table(_), Step::Index(i)) => {
+                return Err(format!("{done} is a table, not an array: no [{i}]"));
+            }
+            (TomlSlot::Array(_), Step::Key(k)) => {
+                return Err(format!("{done} is an array: index it, e.g. {done}[0].{k}"));
+            }
+        };
+        match step {
+            Step::Key(k) if done.is_empty() => done.push_str(k),
+            Step::Key(k) => {
+                done.push('.');
+                done.push_str(k)
+            }
+            Step::Index(i) => done.push_str(&format!("[{i}]")),
+        }
+        here = next;
+    }
+    Err("the key is empty".into())
+}
+
+enum TomlSlot<'a> {
+    Table(&'a mut toml::Table),
+    Array(&'a mut Vec<toml::Value>),
+}
+
+fn slot<'a>(v: &'a mut toml::Value, at: &str) -> Result<TomlSlot<'a>, String> {
+    match v {
+        toml::Value::Table(t) => Ok(TomlSlot::Table(t)),
+        toml::Value::Array(a) => Ok(TomlSlot::Array(a)),
+        other => Err(format!(
+            "{at} is a {}, not a table or an array",
+            other.type_str()
+        )),
+    }
+}
+
+fn coerce(old: Option<&toml::Value>, new: toml::Value) -> toml::Value {
+    match (old, new) {
+        (Some(toml::Value::Float(_)), toml::Value::Integer(i)) => toml::Value::Float(i as f64),
+        (_, v) => v,
+    }
+}
+
+impl Scenario {
+    /// [`Scenario::load_all`] with `--set` overrides applied, after any
+    /// variant's own, to the file's keys; the result is validated exactly as
+    /// a file is. When the overridden file is invalid but the file alone is
+    /// not, the error names the first override that breaks it.
+    pub fn load_all_with(path: &Path, overrides: &[Override]) -> Result<Vec<Scenario>, InputError> {
+        if overrides.is_empty() {
+            return Self::load_all(path);
+        }
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        // The file alone must parse: its own errors keep their line numbers.
+        let file: ScenarioFile =
+            toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
+        let table: toml::Table =
+            toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
+        let build = |k: usize| Self::all_from_table(&file, &table, path, &overrides[..k]);
+        match build(overrides.len()) {
+            Ok(v) => Ok(v),
+            Err(e) => {
+                if build(0).is_err() {
+                    return Err(e);
+                }
+                for k in 1..=overrides.len() {
+                    if let Err(ek) = build(k) {
+                        return Err(overrides[k - 1].blame(ek));
+                    }
+                }
+                Err(e)
+            }
+        }
+    }
+
+    fn all_from_table(
+        file: &ScenarioFile,
+        table: &toml::Table,
+        path: &Path,
+        overrides: &[Override],
+    ) -> Result<Vec<Scenario>, InputError> {
+        let texts: Vec<String> = overrides.iter().map(|o| o.text.clone()).collect();
+        let finish = |mut t: toml::Table| -> Result<Scenario, InputError> {
+            for o in overrides {
+                o.apply(&mut t)?;
+            }
+            let f: ScenarioFile = toml::Value::Table(t)
+                .try_into()
+                .map_err(|e: toml::de::Error| InputError::file(path, e.message().trim()))?;
+            let mut sc = Self::from_parsed(f, path)?;
+            sc.overrides = texts.clone();
+            Ok(sc)
+        };
+        if file.variants.is_empty() {
+            return Ok(vec![finish(table.clone())?]);
+        }
+        let mut base = table.clone();
+        base.remove("variants");
+        build::for_each_variant(file, &base, path, finish)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(text: &str) -> toml::Table {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn a_dotted_key_sets_a_nested_value_and_an_integer_replacing_a_float_stays_a_float() {
+        let mut t = table("[algorithm]\ngamma = 0.5\n");
+        Override::parse("algorithm.gamma=2")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap();
+        assert_eq!(t["algorithm"]["gamma"], toml::Value::Float(2.0));
+        Override::parse("target.samples=20")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap();
+        assert_eq!(t["target"]["samples"], toml::Value::Integer(20));
+    }
+
+    #[test]
+    fn arrays_tables_and_bare_words_parse_as_toml_values() {
+        let mut t = table("[geometry]\nreceivers = [[1.0, 2.0]]\n[algorithm]\nmode = \"async\"\n");
+        Override::parse("geometry.receivers=[[0,0],[1,1]]")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap();
+        assert_eq!(t["geometry"]["receivers"].as_array().unwrap().len(), 2);
+        Override::parse("algorithm.mode=sync")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap();
+        assert_eq!(t["algorithm"]["mode"].as_str(), Some("sync"));
+        Override::parse("geometry.receivers[1]=[5.0,6.0]")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap();
+        assert_eq!(t["geometry"]["receivers"][1][0].as_float(), Some(5.0));
+    }
+
+    #[test]
+    fn a_bad_set_flag_names_the_flag_and_says_why() {
+        for (flag, why) in [
+            ("algorithm.gamma", "expected KEY=VALUE"),
+            ("=3", "the key is empty"),
+            ("a..b=1", "bad key"),
+            ("variants[0].name=x", "variants cannot be set"),
+            ("x={unclosed=1", "not a TOML value"),
+            ("faults[99999999999]=1", "absurdly large"),
+        ] {
+            let e = Override::parse(flag).unwrap_err();
+            let s = e.to_string();
+            assert!(s.contains(&format!("--set {flag}")), "{s}");
+            assert!(s.contains(why), "{flag}: {s}");
+        }
+        let mut t = table("[algorithm]\ngamma = 0.5\nfaults = []\n");
+        let e = Override::parse("algorithm.gamma.x=1")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap_err();
+        assert!(e.to_string().contains("algorithm.gamma is a float"), "{e}");
+        let e = Override::parse("algorithm.faults[3]=1")
+            .unwrap()
+            .apply(&mut t)
+            .unwrap_err();
+        assert!(e.to_string().contains("has 0 entries"), "{e}");
+    }
+}

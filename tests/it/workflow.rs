@@ -1,0 +1,292 @@
+//! The researcher's workflow (issue 19): `--set`, provenance in `run.json`,
+//! `scenario.toml` and `sonarnet replay`, results directories that never mix
+//! runs.
+
+use crate::util::{TempDir, read_rows, run_file, scenario, sonarnet};
+use std::time::Duration;
+
+const LIMIT: Duration = Duration::from_secs(120);
+
+fn text(o: &std::process::Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn run_json(dir: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("run.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn set_overrides_any_key_and_is_recorded_in_run_json() {
+    let t = TempDir::new("set");
+    let out = t.path().join("r");
+    let o = run_file(
+        &scenario("mourya2017-spiral.toml"),
+        &out,
+        &[
+            "--engine",
+            "inprocess",
+            "--quiet",
+            "--set",
+            "target.samples=14",
+            "--set",
+            "algorithm.gamma=3e-7",
+            "--set",
+            "algorithm.mode=sync",
+        ],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    // 14 samples of 6 nodes.
+    assert_eq!(read_rows(&out.join("nodes.csv")).len(), 14 * 6);
+    let rj = run_json(&out);
+    assert_eq!(
+        rj["overrides"],
+        serde_json::json!([
+            "target.samples=14",
+            "algorithm.gamma=3e-7",
+            "algorithm.mode=sync"
+        ])
+    );
+    assert_eq!(rj["scenario"]["algorithm"]["gamma"], 3e-7);
+    assert_eq!(rj["mode"], "sync");
+}
+
+#[test]
+fn a_bad_set_names_the_flag_and_the_key_and_exits_2_before_any_work() {
+    let t = TempDir::new("set-bad");
+    for (flag, says) in [
+        (
+            "algorithm.gamma=-1",
+            "--set algorithm.gamma=-1: algorithm.gamma: must be finite and > 0",
+        ),
+        (
+            "algorithm.gama=1",
+            "--set algorithm.gama=1: unknown field `gama`",
+        ),
+        (
+            "target.samples=many words",
+            "--set target.samples=many words: not a TOML value",
+        ),
+        (
+            "geometry.receivers[40]=[0,0]",
+            "geometry.receivers has 6 entries, no [40]",
+        ),
+    ] {
+        let out = t.path().join("r");
+        let o = run_file(
+            &scenario("mourya2017-spiral.toml"),
+            &out,
+            &["--engine", "inprocess", "--set", flag],
+            LIMIT,
+        );
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
+        assert!(err.contains(says), "{flag}: {err}");
+        assert_eq!(err.matches("error:").count(), 1, "{err}");
+        assert!(
+            !out.join("run.json").exists(),
+            "no work was done for {flag}"
+        );
+    }
+}
+
+#[test]
+fn run_json_records_when_where_and_from_what_a_run_was_made() {
+    let t = TempDir::new("provenance");
+    let out = t.path().join("r");
+    let o = run_file(
+        &scenario("mourya2017-spiral.toml"),
+        &out,
+        &["--engine", "inprocess", "--quiet", "--samples", "12"],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let rj = run_json(&out);
+    let started = rj["started_utc"].as_str().unwrap();
+    assert_eq!(started.len(), 20, "{started}");
+    assert!(
+        started.starts_with("20") && started.ends_with('Z'),
+        "{started}"
+    );
+    assert!(!rj["host"].as_str().unwrap().is_empty());
+    assert_eq!(rj["crate_version"], env!("CARGO_PKG_VERSION"));
+    let scen = rj["inputs"]["scenario"].as_str().unwrap();
+    assert!(std::path::Path::new(scen).is_absolute(), "{scen}");
+    assert!(scen.ends_with("scenarios/mourya2017-spiral.toml"), "{scen}");
+    // Built from this git checkout: the commit is embedded.
+    if crate::util::root().join(".git").exists() {
+        let c = rj["git_commit"].as_str().unwrap();
+        assert_eq!(c.len(), 40, "{c}");
+    }
+}
+
+#[test]
+fn scenario_toml_reruns_the_run_bit_for_bit_and_replay_says_so() {
+    let t = TempDir::new("replay-cmd");
+    let a = t.path().join("a");
+    let o = run_file(
+        &scenario("mourya2017-spiral.toml"),
+        &a,
+        &[
+            "--engine",
+            "inprocess",
+            "--quiet",
+            "--samples",
+            "15",
+            "--seed",
+            "7",
+        ],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    // `sonarnet run DIR/scenario.toml` by hand.
+    let b = t.path().join("b");
+    let o = run_file(
+        &a.join("scenario.toml"),
+        &b,
+        &["--engine", "inprocess", "--quiet"],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    for f in ["nodes.csv", "track.csv", "schedule.csv", "measurements.csv"] {
+        assert_eq!(
+            std::fs::read_to_string(a.join(f)).unwrap(),
+            std::fs::read_to_string(b.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    // `sonarnet replay DIR`.
+    let o = sonarnet(&["replay", a.to_str().unwrap()], LIMIT);
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{stdout}{err}");
+    assert!(stdout.contains("identical results"), "{stdout}");
+    // One changed digit in nodes.csv is found and named.
+    let nodes = std::fs::read_to_string(a.join("nodes.csv")).unwrap();
+    let mut lines: Vec<String> = nodes.lines().map(String::from).collect();
+    lines[5] = lines[5].replacen(',', ",9", 2);
+    std::fs::write(a.join("nodes.csv"), lines.join("\n") + "\n").unwrap();
+    let o = sonarnet(&["replay", a.to_str().unwrap()], LIMIT);
+    let (stdout, err) = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{stdout}{err}");
+    assert!(err.contains("nodes.csv: row 5"), "{err}");
+    // The differing replay is kept, and named.
+    let kept = err
+        .lines()
+        .find_map(|l| l.strip_prefix("the replay's results are in "))
+        .unwrap();
+    assert!(std::path::Path::new(kept).join("nodes.csv").exists());
+    std::fs::remove_dir_all(kept).unwrap();
+}
+
+#[test]
+fn a_variant_and_a_monte_carlo_run_replay_exactly() {
+    let t = TempDir::new("replay-variants");
+    let out = t.path().join("v");
+    let o = run_file(
+        &scenario("mourya2017-spiral-acoustic.toml"),
+        &out,
+        &["--quiet", "--samples", "12", "--variant", "modem"],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = sonarnet(&["replay", out.to_str().unwrap()], LIMIT);
+    assert!(o.status.success(), "{:?}", text(&o));
+    let mc = t.path().join("mc");
+    let o = run_file(
+        &scenario("mourya2017-spiral.toml"),
+        &mc,
+        &["--quiet", "--samples", "12", "--trials", "3"],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let o = sonarnet(&["replay", mc.to_str().unwrap()], LIMIT);
+    assert!(o.status.success(), "{:?}", text(&o));
+}
+
+#[test]
+fn replay_refuses_what_it_cannot_reproduce_with_exit_2() {
+    let t = TempDir::new("replay-refuse");
+    let o = sonarnet(&["replay", t.path().to_str().unwrap()], LIMIT);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("has no scenario.toml"), "{err}");
+}
+
+#[test]
+fn a_run_into_a_previous_runs_directory_replaces_its_files_and_refuses_foreign_ones() {
+    let t = TempDir::new("outdir");
+    let out = t.path().join("r");
+    let spiral = scenario("mourya2017-spiral.toml");
+    let args = ["--engine", "inprocess", "--quiet", "--samples", "12"];
+    let o = run_file(&spiral, &out, &args, LIMIT);
+    assert!(o.status.success(), "{:?}", text(&o));
+    // A Monte Carlo run's trials.csv must not survive a single run into the
+    // same directory: plant one as a previous run's leftover.
+    std::fs::write(out.join("trials.csv"), "trial\n0\n").unwrap();
+    let o = run_file(&spiral, &out, &args, LIMIT);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(!out.join("trials.csv").exists());
+    assert!(out.join("track.csv").exists());
+    // A file sonarnet does not write: refused, exit 2, nothing removed.
+    std::fs::write(out.join("my-notes.txt"), "mine").unwrap();
+    let o = run_file(&spiral, &out, &args, LIMIT);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--out") && err.contains("my-notes.txt"),
+        "{err}"
+    );
+    assert!(out.join("my-notes.txt").exists() && out.join("track.csv").exists());
+}
+
+#[test]
+fn default_directories_of_different_overrides_never_collide() {
+    let t = TempDir::new("default-dirs");
+    let bin = env!("CARGO_BIN_EXE_sonarnet");
+    let spiral = scenario("mourya2017-spiral.toml");
+    let run = |extra: &[&str]| {
+        let o = std::process::Command::new(bin)
+            .current_dir(t.path())
+            .args([
+                "run",
+                spiral.to_str().unwrap(),
+                "--engine",
+                "inprocess",
+                "--quiet",
+            ])
+            .args(["--samples", "12"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{:?}", text(&o));
+        let s = String::from_utf8_lossy(&o.stdout).into_owned();
+        s.lines()
+            .find_map(|l| l.trim().strip_prefix("results in ").map(String::from))
+            .unwrap()
+    };
+    let dirs = [
+        run(&[]),
+        run(&["--local-solver", "relaxed"]),
+        run(&["--kappa", "1", "--local-solver", "gtrs_l0"]),
+        run(&["--set", "algorithm.gamma=1e-7"]),
+        run(&["--set", "algorithm.gamma=2e-7"]),
+        run(&[
+            "--set",
+            "algorithm.gamma=2e-7",
+            "--set",
+            "geometry.transmitters=[[0.0,0.0],[2000.0,2100.0]]",
+        ]),
+    ];
+    let unique: std::collections::BTreeSet<_> = dirs.iter().collect();
+    assert_eq!(unique.len(), dirs.len(), "{dirs:?}");
+    assert!(dirs[1].ends_with("-relaxed-samples12"), "{}", dirs[1]);
+    assert!(
+        dirs[5].contains("-o"),
+        "a long suffix is hashed: {}",
+        dirs[5]
+    );
+    assert!(dirs.iter().all(|d| d.len() < 120), "{dirs:?}");
+}
