@@ -32,10 +32,52 @@ pub enum Command {
     /// Measure the multi-process engine: overhead over in-process, start-up,
     /// throughput and memory at scale, realtime throughput.
     Bench(BenchArgs),
+    /// Run a scenario over a grid of values and seeds, in parallel, into one
+    /// directory: sweep.csv, sweep-summary.csv, sweep.svg, report.html.
+    Sweep(SweepArgs),
     /// Run DIR/scenario.toml again, as recorded in DIR/run.json, into a
     /// temporary directory and compare the results file by file: exit 0 if
     /// equal, 1 naming the first differing file and row.
     Replay(ReplayArgs),
+}
+
+/// `sonarnet sweep`.
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    /// The scenario TOML file.
+    pub scenario: PathBuf,
+    /// A grid axis, repeatable: a scenario key and its values, each a TOML
+    /// value (e.g. `--grid algorithm.gamma=1e-9,1e-8,1e-7`, `--grid
+    /// algorithm.mode=sync,async`). Runs the cartesian product of the axes.
+    #[arg(long, value_name = "KEY=V1,V2,...", required = true)]
+    pub grid: Vec<String>,
+    /// Seeds run at every grid point: A..B (A to B inclusive: 0..9 is ten
+    /// seeds) or a list 1,5,9 [default: the scenario's seed].
+    #[arg(long, value_name = "SEEDS")]
+    pub seeds: Option<String>,
+    /// Overrides applied before the grid's (as `sonarnet run --set`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Only these variants of a scenario with [[variants]] (repeatable;
+    /// default: every variant, as one more grid key).
+    #[arg(long, value_name = "NAME")]
+    pub variant: Vec<String>,
+    /// The engine of every run.
+    #[arg(long, value_enum, default_value = "inprocess")]
+    pub engine: EngineArg,
+    /// Runs at once [default: the number of CPUs; 1 with --engine processes].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=256))]
+    pub jobs: Option<u64>,
+    /// The metric of sweep.svg and the summary (a metrics.json name; a bare
+    /// name means theta_bar's, e.g. rmse_after_burn_in, ctte, ml.rmse).
+    #[arg(long, default_value = "rmse_after_burn_in")]
+    pub metric: String,
+    /// Sweep directory [default: results/<name>-sweep-<grid keys>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// `sonarnet replay`.

@@ -45,6 +45,20 @@ pub enum CliError {
     /// Plots or report could not be written (exit 1).
     #[error(transparent)]
     Plot(crate::plot::PlotError),
+    /// Ctrl-C/SIGTERM stopped a sweep (exit 1); the completed runs were
+    /// written and summarised in `dir`.
+    #[error(
+        "interrupted after {done} of {requested} runs\nthe completed runs were written to {}",
+        dir.display()
+    )]
+    SweepInterrupted {
+        /// Runs completed.
+        done: usize,
+        /// Runs asked for.
+        requested: usize,
+        /// Where they are.
+        dir: PathBuf,
+    },
     /// `sonarnet replay`: the replay's results differ (exit 1).
     #[error("the replay differs from {}: {diff}\nthe replay's results are in {}", original.display(), replay.display())]
     ReplayDiffers {

@@ -11,9 +11,11 @@ use std::path::PathBuf;
 mod args;
 mod errors;
 mod print;
+mod sweep;
 
 pub use args::*;
 pub use errors::{CliError, error_report};
+pub use print::eng;
 use print::{print_mc_summary, print_summary, progress_bar};
 
 /// Run a parsed command line.
@@ -57,6 +59,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         }
         Command::Run(args) => run_command(args),
         Command::Replay(args) => replay_command(&args),
+        Command::Sweep(args) => sweep::sweep_command(&args),
         Command::Bench(args) => {
             if let Some(n) = args.scale.iter().find(|n| !(2..=4096).contains(*n)) {
                 return Err(crate::model::error::InputError::at(
@@ -533,11 +536,14 @@ fn run_monte_carlo_command(
         b.finish_and_clear();
     }
     let plots = if args.report {
-        crate::report::write_report(&mc.out_dir, false).map(drop)
+        crate::report::write_report(&mc.out_dir, false).map(Some)
     } else {
-        crate::plot::write_run_plots(&mc.out_dir).map(drop)
+        crate::plot::write_run_plots(&mc.out_dir).map(|_| None)
     };
     print_mc_summary(sc, &mc);
+    if let Ok(Some(p)) = &plots {
+        println!("  report             {}", p.display());
+    }
     if mc.interrupted {
         if let Err(e) = plots {
             eprintln!("warning: plots were not written: {e}");
@@ -669,11 +675,14 @@ fn run_single(
     outcome.write(sc, &opts)?;
     let dir = opts.out_dir;
     let plots = if args.report {
-        crate::report::write_report(&dir, false).map(drop)
+        crate::report::write_report(&dir, false).map(Some)
     } else {
-        crate::plot::write_run_plots(&dir).map(drop)
+        crate::plot::write_run_plots(&dir).map(|_| None)
     };
     print_summary(&outcome, &dir);
+    if let Ok(Some(p)) = &plots {
+        println!("  report             {}", p.display());
+    }
     match outcome.error {
         Some(error) => {
             if let Err(e) = plots {

@@ -16,7 +16,42 @@ pub(super) fn progress_bar(opts: &RunOptions, samples: u64) -> Option<indicatif:
 }
 
 fn fmt_opt(x: Option<f64>) -> String {
-    x.map_or("-".into(), |v| format!("{v:.3}"))
+    x.map_or("-".into(), eng)
+}
+
+/// A number for the terminal: five significant digits between 1e-3 and
+/// 1e6, engineering notation (an exponent that is a multiple of 3) outside,
+/// never `-0`. `1.34e89` prints as `134.00e87`, `-0.0000123` as `-12.300e-6`.
+pub fn eng(v: f64) -> String {
+    if !v.is_finite() {
+        return format!("{v}");
+    }
+    let a = v.abs();
+    if a == 0.0 {
+        return "0".into();
+    }
+    let s = if (1e-3..1e6).contains(&a) {
+        let decimals = (4 - a.log10().floor() as i32).clamp(0, 9) as usize;
+        format!("{v:.decimals$}")
+    } else {
+        let e3 = (a.log10() / 3.0).floor() as i32 * 3;
+        let m = v / 10f64.powi(e3);
+        // Rounding can carry the mantissa to 1000: renormalise.
+        let (m, e3) = if format!("{:.2}", m.abs()).starts_with("1000") {
+            (m / 1000.0, e3 + 3)
+        } else {
+            (m, e3)
+        };
+        format!("{m:.2}e{e3}")
+    };
+    if s.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        "0".into()
+    } else {
+        s
+    }
 }
 
 pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
@@ -151,4 +186,28 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
     }
     print_expect(&mc.expect);
     println!("  results in {}", mc.out_dir.display());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::eng;
+
+    #[test]
+    fn terminal_numbers_keep_five_significant_digits_and_large_ones_go_engineering() {
+        for (v, s) in [
+            (283.507, "283.51"),
+            (1.0, "1.0000"),
+            (0.00123456, "0.0012346"),
+            (123456.7, "123457"),
+            (1.34e89, "134.00e87"),
+            (-1.23e-5, "-12.30e-6"),
+            (999_999.9, "1000000"),
+            (2.5e6, "2.50e6"),
+            (-0.0, "0"),
+            (1e-300, "1.00e-300"),
+            (f64::NAN, "NaN"),
+        ] {
+            assert_eq!(eng(v), s, "{v:e}");
+        }
+    }
 }

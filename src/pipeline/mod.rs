@@ -20,6 +20,7 @@ pub mod outdir;
 pub mod provenance;
 pub mod replay;
 mod results;
+pub mod sweep;
 mod write;
 
 pub use evaluate::{check_expect, evaluate, expect_results, unknown_metric};

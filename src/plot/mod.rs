@@ -236,6 +236,9 @@ pub struct Panel {
     pub y_range: (f64, f64),
     /// Logarithmic y axis.
     pub log_y: bool,
+    /// The x data are `log10` of the values (a logarithmic x axis): tick
+    /// labels show `10^x`.
+    pub log10_x: bool,
     /// Equal scale on both axes (ranges already adjusted by the builder).
     pub equal_aspect: bool,
     /// Bands, drawn first.
@@ -266,6 +269,7 @@ impl Panel {
             x_range: (0.0, 1.0),
             y_range: (0.0, 1.0),
             log_y: false,
+            log10_x: false,
             equal_aspect: false,
             bands: Vec::new(),
             discs: Vec::new(),

@@ -124,6 +124,29 @@ pub(crate) fn tick(v: f64) -> String {
     if s == "-0" { "0".into() } else { s.into() }
 }
 
+/// Ticks of a log axis over `(lo, hi)`: 1, 2 and 5 times every power of
+/// ten when it spans up to three decades, the powers of ten alone beyond
+/// (every other one beyond twelve), so a short log axis has more than its
+/// one or two powers of ten labelled.
+pub(crate) fn log_ticks((lo, hi): (f64, f64)) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Vec::new();
+    }
+    let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let decades = hi.log10() - lo.log10();
+    let mults: &[f64] = if decades <= 3.0 {
+        &[1.0, 2.0, 5.0]
+    } else {
+        &[1.0]
+    };
+    let step = if decades > 12.0 { 2 } else { 1 };
+    (k0..=k1)
+        .filter(|k| (k - k0) % step == 0)
+        .flat_map(|k| mults.iter().map(move |m| m * 10f64.powi(k)))
+        .filter(|v| *v >= lo * (1.0 - 1e-12) && *v <= hi * (1.0 + 1e-12))
+        .collect()
+}
+
 fn chart_builder<'a, 'b, DB: DrawingBackend>(
     area: &'a DrawingArea<DB, Shift>,
 ) -> ChartBuilder<'a, 'b, DB> {
@@ -141,7 +164,10 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> D
     let mut cb = chart_builder(area);
     let xr = p.x_range.0..p.x_range.1;
     if p.log_y {
-        let mut chart = cb.build_cartesian_2d(xr, (p.y_range.0..p.y_range.1).log_scale())?;
+        let y = (p.y_range.0..p.y_range.1)
+            .log_scale()
+            .with_key_points(log_ticks(p.y_range));
+        let mut chart = cb.build_cartesian_2d(xr, y)?;
         contents(&mut chart, p)
     } else {
         let mut chart = cb.build_cartesian_2d(xr, p.y_range.0..p.y_range.1)?;
@@ -245,6 +271,13 @@ where
         }
     }
     let fmt = |v: &f64| tick(*v);
+    let fmt_x = |v: &f64| {
+        if p.log10_x {
+            tick(10f64.powf(*v))
+        } else {
+            tick(*v)
+        }
+    };
     chart
         .configure_mesh()
         .x_desc(p.x_label.as_str())
@@ -256,7 +289,7 @@ where
         .axis_style(RGBColor(80, 80, 80).stroke_width(1))
         .x_labels(10)
         .y_labels(8)
-        .x_label_formatter(&fmt)
+        .x_label_formatter(&fmt_x)
         .y_label_formatter(&fmt)
         .draw()?;
     for b in &p.bands {

@@ -16,10 +16,12 @@
 mod compare;
 mod html;
 mod sections;
+mod sweep;
 mod tables;
 pub use compare::*;
 pub use html::*;
 pub use sections::*;
+pub use sweep::*;
 pub use tables::*;
 
 use crate::plot::data::{ML, RunData, THETA_BAR};

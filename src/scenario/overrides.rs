@@ -13,6 +13,8 @@ pub struct Override {
     pub value: toml::Value,
     /// The flag's text, `KEY=VALUE`, as given (recorded in `run.json`).
     pub text: String,
+    /// The flag it came from (`--set`, or `--grid` for a sweep's point).
+    pub flag: &'static str,
 }
 
 /// One step of a key path: a table key, or an index into an array.
@@ -23,8 +25,8 @@ enum Step {
 }
 
 /// A `--set` error: names the flag and the key.
-fn set_error(text: &str, reason: impl Into<String>) -> InputError {
-    cli_error(&format!("--set {text}"), reason)
+fn set_error(flag: &str, text: &str, reason: impl Into<String>) -> InputError {
+    cli_error(&format!("{flag} {text}"), reason)
 }
 
 impl Override {
@@ -32,10 +34,17 @@ impl Override {
     /// `"text"`, `{ model = "gaussian", sigma = 1 }`); a bare word that is
     /// not TOML (`sync`, `gtrs_l0`) is taken as a string.
     pub fn parse(flag: &str) -> Result<Self, InputError> {
+        Self::parse_for("--set", flag)
+    }
+
+    /// [`Override::parse`] for a value that came from flag `name` (errors
+    /// name it: `--grid algorithm.gamma=-1`).
+    pub fn parse_for(name: &'static str, flag: &str) -> Result<Self, InputError> {
+        let set_error = |text: &str, r: String| set_error(name, text, r);
         let Some((key, value)) = flag.split_once('=') else {
             return Err(set_error(
                 flag,
-                "expected KEY=VALUE, e.g. algorithm.gamma=1e-7",
+                "expected KEY=VALUE, e.g. algorithm.gamma=1e-7".into(),
             ));
         };
         let key = key.trim();
@@ -43,7 +52,7 @@ impl Override {
         if key == "variants" || key.starts_with("variants.") || key.starts_with("variants[") {
             return Err(set_error(
                 flag,
-                "variants cannot be set: pick one with --variant, then --set its keys",
+                "variants cannot be set: pick one with --variant, then --set its keys".into(),
             ));
         }
         let value = parse_value(value.trim()).map_err(|r| set_error(flag, r))?;
@@ -51,13 +60,14 @@ impl Override {
             key: key.to_string(),
             value,
             text: flag.to_string(),
+            flag: name,
         })
     }
 
     /// Apply this override to a scenario table.
     pub fn apply(&self, table: &mut toml::Table) -> Result<(), InputError> {
-        let steps = parse_path(&self.key).map_err(|r| set_error(&self.text, r))?;
-        set_path(table, &steps, self.value.clone()).map_err(|r| set_error(&self.text, r))
+        let steps = parse_path(&self.key).map_err(|r| set_error(self.flag, &self.text, r))?;
+        set_path(table, &steps, self.value.clone()).map_err(|r| set_error(self.flag, &self.text, r))
     }
 
     /// Blame this override for a validation error `e` of the overridden
@@ -67,7 +77,7 @@ impl Override {
             Some(l) => format!("{l}: {}", e.reason),
             None => e.reason,
         };
-        set_error(&self.text, reason)
+        set_error(self.flag, &self.text, reason)
     }
 }
 

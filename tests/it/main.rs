@@ -15,6 +15,7 @@ mod processes;
 mod replay;
 mod report;
 mod scenarios;
+mod sweep;
 mod transport;
 mod util;
 mod workflow;

@@ -4,11 +4,13 @@ mod channel;
 mod consensus;
 mod network;
 mod series;
+mod sweep;
 mod tracks;
 pub use channel::*;
 pub use consensus::*;
 pub use network::*;
 pub use series::*;
+pub use sweep::*;
 pub use tracks::*;
 
 use super::data::{BandCurve, NodePoint, RunData, THETA_BAR, Track, TrackKind};

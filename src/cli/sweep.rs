@@ -1,0 +1,148 @@
+//! `sonarnet sweep`: parse and validate the whole grid, run it with a
+//! progress bar, write the tables, the plot and the page, print a summary.
+
+use super::*;
+use crate::pipeline::sweep::{Axis, SweepPlan, metric_key, parse_seeds, run_sweep, summarise};
+use crate::scenario::Override;
+
+pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
+    let sets = args
+        .set
+        .iter()
+        .map(|s| Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let axes = args
+        .grid
+        .iter()
+        .map(|g| Axis::parse(g))
+        .collect::<Result<Vec<_>, _>>()?;
+    let seeds = match &args.seeds {
+        Some(s) => parse_seeds(s)?,
+        None => {
+            let base = Scenario::load_all_with(&args.scenario, &sets)?;
+            vec![base.first().map_or(0, |s| s.seed)]
+        }
+    };
+    let plan = SweepPlan::new(&args.scenario, &sets, axes, seeds, &args.variant)?;
+    let Some((_, first)) = plan.points.first() else {
+        return Err(crate::model::error::InputError::at(
+            std::path::Path::new("<command line>"),
+            "--grid",
+            "the grid has no point",
+        )
+        .into());
+    };
+    if plan
+        .points
+        .iter()
+        .any(|(_, sc)| sc.file.monte_carlo.is_some())
+    {
+        eprintln!(
+            "note: [monte_carlo] is ignored: a sweep runs each grid point once per --seeds seed"
+        );
+    }
+    let engine: EngineKind = args.engine.into();
+    let out = args.out.clone().unwrap_or_else(|| {
+        let keys: Vec<&str> = plan
+            .axes
+            .iter()
+            .map(|a| a.key.rsplit('.').next().unwrap_or(&a.key))
+            .collect();
+        PathBuf::from("results").join(format!("{}-sweep-{}", first.name, keys.join("-")))
+    });
+    check_out(&out)?;
+    // Every run's machine check before any work (node processes).
+    for (_, sc) in &plan.points {
+        let opts = RunOptions::inprocess()
+            .with_engine(engine)
+            .with_clock(pipeline::default_clock(sc))
+            .with_out_dir(&out);
+        pipeline::preflight(sc, &opts)?;
+    }
+    let jobs = args.jobs.map_or_else(
+        || {
+            if engine == EngineKind::Processes {
+                1
+            } else {
+                std::thread::available_parallelism().map_or(1, |n| n.get())
+            }
+        },
+        |j| j as usize,
+    );
+    println!(
+        "sonarnet sweep: {} grid points x {} seeds = {} runs on {} ({} at once), into {}",
+        plan.points.len(),
+        plan.seeds.len(),
+        plan.runs(),
+        engine.as_str(),
+        jobs,
+        out.display()
+    );
+    let bar = (!args.quiet && std::io::stdout().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(plan.runs() as u64);
+        if let Ok(style) = indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs ({per_sec}, eta {eta})",
+        ) {
+            b.set_style(style);
+        }
+        b
+    });
+    let tick = |n: usize| {
+        if let Some(b) = &bar {
+            b.set_position(n as u64);
+        }
+    };
+    let outcome = run_sweep(&plan, engine, jobs, &out, &tick);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    pipeline::sweep::write_tables(&plan, &outcome, &out)?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let report = crate::report::write_sweep_report(&plan, &outcome, &out, &args.metric, &command);
+    // The summary.
+    let key = metric_key(&outcome.runs, &args.metric);
+    match &key {
+        Some(k) => println!("{k} (mean ± std over the seeds):"),
+        None => {
+            let names: std::collections::BTreeSet<&String> =
+                outcome.runs.iter().flat_map(|r| r.metrics.keys()).collect();
+            eprintln!(
+                "warning: no run has a metric {:?}; the runs have: {}",
+                args.metric,
+                names.into_iter().cloned().collect::<Vec<_>>().join(", ")
+            );
+        }
+    }
+    for (p, ok, failed, stats) in summarise(&plan, &outcome.runs) {
+        let cell = key.as_ref().and_then(|k| stats.get(k).copied()).map_or(
+            "–".to_string(),
+            |(m, s, _)| match (m, s) {
+                (Some(m), Some(s)) => format!("{} ± {}", print::eng(m), print::eng(s)),
+                (Some(m), None) => print::eng(m),
+                _ => "–".into(),
+            },
+        );
+        println!(
+            "  {:<48} {cell:>24}  n={ok}{}",
+            plan.points[p].0.label(),
+            if failed > 0 {
+                format!(" failed={failed}")
+            } else {
+                String::new()
+            }
+        );
+    }
+    println!("  results in {}", out.display());
+    match &report {
+        Ok(p) => println!("  report     {}", p.display()),
+        Err(e) => eprintln!("warning: the sweep's report was not written: {e}"),
+    }
+    if outcome.interrupted {
+        return Err(CliError::SweepInterrupted {
+            done: outcome.runs.len(),
+            requested: outcome.requested,
+            dir: out,
+        });
+    }
+    report.map(drop).map_err(CliError::from)
+}
