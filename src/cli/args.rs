@@ -32,6 +32,27 @@ pub enum Command {
     /// Measure the multi-process engine: overhead over in-process, start-up,
     /// throughput and memory at scale, realtime throughput.
     Bench(BenchArgs),
+    /// Write a commented scenario file from a few layout words; it validates
+    /// and runs as written.
+    New(NewArgs),
+    /// The shipped scenarios, each with its description and variants.
+    List {
+        /// The directory of scenario files.
+        #[arg(long, default_value = "scenarios")]
+        dir: PathBuf,
+    },
+    /// What a scenario file runs, in words: nodes, links, samples, noise,
+    /// mode, solver, baselines, bounds, faults, channel, [expect].
+    Describe {
+        /// The scenario TOML file.
+        scenario: PathBuf,
+        /// Only this variant (repeatable; default: every variant).
+        #[arg(long, value_name = "NAME")]
+        variant: Vec<String>,
+        /// Overrides, as `sonarnet run --set`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// Run a scenario over a grid of values and seeds, in parallel, into one
     /// directory: sweep.csv, sweep-summary.csv, sweep.svg, report.html.
     Sweep(SweepArgs),
@@ -39,6 +60,38 @@ pub enum Command {
     /// temporary directory and compare the results file by file: exit 0 if
     /// equal, 1 naming the first differing file and row.
     Replay(ReplayArgs),
+}
+
+/// `sonarnet new`.
+#[derive(Debug, clap::Args)]
+pub struct NewArgs {
+    /// The scenario file to write.
+    pub file: PathBuf,
+    /// Receivers: circle:N:RADIUS, line:N:X0,Y0:X1,Y1, grid:RxC:SPACING or
+    /// random:N:XMIN,YMIN:XMAX,YMAX (metres; random drawn from --seed).
+    #[arg(long, value_name = "LAYOUT")]
+    pub receivers: String,
+    /// Transmitters, in the same forms [default: two, a quarter of the
+    /// scene either side of its centre].
+    #[arg(long, value_name = "LAYOUT")]
+    pub transmitters: Option<String>,
+    /// The gossip graph: ring, grid (with grid receivers), rgg:RADIUS
+    /// (receivers closer than RADIUS metres), or edges (an explicit list to
+    /// edit: each receiver to its two nearest).
+    #[arg(long, default_value = "ring")]
+    pub network: String,
+    /// The target's track: spiral, line, waypoints or static.
+    #[arg(long, default_value = "spiral")]
+    pub motion: String,
+    /// Scenario name [default: the file's stem].
+    #[arg(long)]
+    pub name: Option<String>,
+    /// The scenario's seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Overwrite an existing file.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// `sonarnet sweep`.

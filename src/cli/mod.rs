@@ -11,6 +11,7 @@ use std::path::PathBuf;
 mod args;
 mod errors;
 mod print;
+mod scaffold;
 mod sweep;
 
 pub use args::*;
@@ -20,6 +21,17 @@ use print::{print_mc_summary, print_summary, progress_bar};
 
 /// Run a parsed command line.
 pub fn dispatch(cli: Cli) -> Result<(), CliError> {
+    if matches!(
+        cli.command,
+        Command::List { .. } | Command::Describe { .. } | Command::Validate { .. }
+    ) {
+        // Commands that only print end quietly when their reader goes away
+        // (`sonarnet list | head`), as a Unix filter does, instead of
+        // panicking on EPIPE. Runs keep SIGPIPE ignored: the coordinator
+        // must never die in the middle of owning node processes.
+        // SAFETY: resetting a signal's disposition to the default.
+        unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
+    }
     match cli.command {
         Command::Validate { scenarios } => {
             for p in &scenarios {
@@ -60,6 +72,13 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Run(args) => run_command(args),
         Command::Replay(args) => replay_command(&args),
         Command::Sweep(args) => sweep::sweep_command(&args),
+        Command::New(args) => scaffold::new_command(&args),
+        Command::List { dir } => scaffold::list_command(&dir),
+        Command::Describe {
+            scenario,
+            variant,
+            set,
+        } => scaffold::describe_command(&scenario, &variant, &set),
         Command::Bench(args) => {
             if let Some(n) = args.scale.iter().find(|n| !(2..=4096).contains(*n)) {
                 return Err(crate::model::error::InputError::at(

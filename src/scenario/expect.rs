@@ -246,6 +246,15 @@ pub fn check(
     expect: &ExpectCfg,
     lookup: &impl Fn(&str) -> Result<f64, String>,
 ) -> Vec<Result<Check, String>> {
+    relations(expect)
+        .iter()
+        .map(|t| eval_relation(t, lookup).map_err(|e| format!("{t}: {e}")))
+        .collect()
+}
+
+/// Every expectation as a relation (`theta_bar.rmse <= 20.0` for the
+/// `*_max` thresholds, then the `holds` entries as written).
+pub fn relations(expect: &ExpectCfg) -> Vec<String> {
     let mut texts: Vec<String> = Vec::new();
     let thresholds = [
         ("theta_bar.rmse", expect.rmse_max),
@@ -265,9 +274,6 @@ pub fn check(
     }
     texts.extend(expect.holds.iter().cloned());
     texts
-        .iter()
-        .map(|t| eval_relation(t, lookup).map_err(|e| format!("{t}: {e}")))
-        .collect()
 }
 
 /// Check the syntax of every `holds` entry (no metric lookup; the values

@@ -25,10 +25,13 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 mod build;
+mod describe;
 mod limits;
 mod overrides;
 mod readers;
 mod resolve;
+pub mod scaffold;
+pub use describe::in_words;
 mod schema;
 
 use build::check_tracks;

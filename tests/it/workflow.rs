@@ -290,3 +290,158 @@ fn default_directories_of_different_overrides_never_collide() {
     );
     assert!(dirs.iter().all(|d| d.len() < 120), "{dirs:?}");
 }
+
+#[test]
+fn new_writes_a_commented_scenario_that_validates_runs_and_describes_itself() {
+    let t = TempDir::new("new");
+    let file = t.path().join("mine.toml");
+    let o = sonarnet(
+        &[
+            "new",
+            file.to_str().unwrap(),
+            "--receivers",
+            "grid:3x3:800",
+            "--transmitters",
+            "line:2:-500,0:500,0",
+            "--network",
+            "grid",
+            "--motion",
+            "line",
+        ],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let toml = std::fs::read_to_string(&file).unwrap();
+    assert!(
+        toml.lines().filter(|l| l.starts_with('#')).count() >= 5,
+        "commented:\n{toml}"
+    );
+    let out = t.path().join("r");
+    let o = run_file(&file, &out, &["--engine", "inprocess", "--quiet"], LIMIT);
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(read_rows(&out.join("nodes.csv")).len(), 100 * 9);
+    // describe reads it back in words.
+    let o = sonarnet(&["describe", file.to_str().unwrap()], LIMIT);
+    let (d, _) = text(&o);
+    assert!(o.status.success());
+    for says in [
+        "9 receivers",
+        "2 transmitters",
+        "12 links, 800 m to 800 m long",
+        "100 samples of a target moving as constant_velocity",
+        "asynchronous randomized Douglas-Rachford gossip",
+        "channel  ideal",
+        "expect  nothing",
+    ] {
+        assert!(d.contains(says), "{says} in:\n{d}");
+    }
+    // It does not overwrite, and a layout that cannot make a connected graph
+    // is refused naming the flag.
+    let o = sonarnet(
+        &["new", file.to_str().unwrap(), "--receivers", "circle:5:100"],
+        LIMIT,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).1.contains("exists"), "{:?}", text(&o));
+    let o = sonarnet(
+        &[
+            "new",
+            t.path().join("x.toml").to_str().unwrap(),
+            "--receivers",
+            "circle:8:5000",
+            "--network",
+            "rgg:100",
+        ],
+        LIMIT,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o)
+            .1
+            .contains("--network: the scenario would not validate"),
+        "{:?}",
+        text(&o)
+    );
+    assert!(!t.path().join("x.toml").exists());
+}
+
+#[test]
+fn list_names_every_shipped_scenario_with_its_description_and_variants() {
+    let dir = crate::util::root().join("scenarios");
+    let o = sonarnet(&["list", "--dir", dir.to_str().unwrap()], LIMIT);
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    let shipped = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.path().extension().is_some_and(|x| x == "toml"))
+        .count();
+    assert_eq!(
+        out.lines().filter(|l| l.ends_with(".toml")).count(),
+        shipped
+    );
+    assert!(out.contains("mourya2017-spiral-faults.toml"));
+    assert!(out.contains("variants: pause, crash"), "{out}");
+    assert!(!out.contains("invalid"), "{out}");
+    assert!(
+        out.lines().all(|l| l.chars().count() <= 120),
+        "one line each:\n{out}"
+    );
+}
+
+#[test]
+fn describe_names_faults_channel_baselines_and_expectations_in_words() {
+    let o = sonarnet(
+        &[
+            "describe",
+            scenario("mourya2017-spiral-faults.toml").to_str().unwrap(),
+            "--variant",
+            "partition",
+        ],
+        LIMIT,
+    );
+    let (d, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        d.contains("partition (at_sample 30, for_samples 20, groups [[0, 1, 2], [3, 4, 5]])"),
+        "{d}"
+    );
+    assert!(d.contains("faults.0.recovery_samples <= 3"), "{d}");
+    let o = sonarnet(
+        &[
+            "describe",
+            scenario("mourya2017-spiral-acoustic.toml")
+                .to_str()
+                .unwrap(),
+            "--variant",
+            "modem",
+        ],
+        LIMIT,
+    );
+    let (d, _) = text(&o);
+    assert!(d.contains("channel  acoustic"), "{d}");
+}
+
+#[test]
+fn report_says_where_it_wrote_the_page() {
+    let t = TempDir::new("report-path");
+    let out = t.path().join("r");
+    let o = run_file(
+        &scenario("mourya2017-spiral.toml"),
+        &out,
+        &[
+            "--engine",
+            "inprocess",
+            "--quiet",
+            "--samples",
+            "12",
+            "--report",
+        ],
+        LIMIT,
+    );
+    let (stdout, _) = text(&o);
+    assert!(o.status.success());
+    let line = format!("report             {}", out.join("report.html").display());
+    assert!(stdout.contains(&line), "{stdout}");
+    assert!(out.join("report.html").is_file());
+}

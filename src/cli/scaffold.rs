@@ -1,0 +1,162 @@
+//! `sonarnet new`, `sonarnet list`, `sonarnet describe`.
+
+use super::*;
+use crate::model::error::InputError;
+use crate::scenario::scaffold::{Layout, MotionSpec, NetworkSpec, ScaffoldSpec};
+use std::path::Path;
+
+pub(super) fn new_command(args: &NewArgs) -> Result<(), CliError> {
+    let name = match &args.name {
+        Some(n) => n.clone(),
+        None => args
+            .file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scenario".into()),
+    };
+    let spec = ScaffoldSpec {
+        name,
+        receivers: Layout::parse("--receivers", &args.receivers)?,
+        transmitters: args
+            .transmitters
+            .as_deref()
+            .map(|t| Layout::parse("--transmitters", t))
+            .transpose()?,
+        network: NetworkSpec::parse(&args.network)?,
+        motion: MotionSpec::parse(&args.motion)?,
+        seed: args.seed,
+    };
+    let text = spec.to_toml()?;
+    // What is written must validate: say which flag to change if not.
+    let sc = Scenario::from_toml_str(&text, &args.file).map_err(|e| {
+        let flag = match e.location.as_deref() {
+            Some(l) if l.starts_with("network") => "--network",
+            Some(l) if l.starts_with("geometry.transmitters") => "--transmitters",
+            Some(l) if l.starts_with("geometry") => "--receivers",
+            Some(l) if l.starts_with("target") => "--motion",
+            _ => "<layout>",
+        };
+        InputError::at(
+            Path::new("<command line>"),
+            flag,
+            format!(
+                "the scenario would not validate: {}{}",
+                e.location.map_or(String::new(), |l| format!("{l}: ")),
+                e.reason
+            ),
+        )
+    })?;
+    if args.file.exists() && !args.force {
+        return Err(InputError::file(&args.file, "exists: choose another name, or --force").into());
+    }
+    if let Some(dir) = args.file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| InputError::file(dir, format!("cannot create the directory: {e}")))?;
+    }
+    std::fs::write(&args.file, &text)
+        .map_err(|e| InputError::file(&args.file, format!("cannot write: {e}")))?;
+    println!(
+        "wrote {} ({} receivers, {} transmitters, {} links, {} samples)",
+        args.file.display(),
+        sc.graph.len(),
+        sc.geometry.transmitters.len(),
+        sc.graph.edges().len(),
+        sc.samples
+    );
+    println!("  run it:      sonarnet run {}", args.file.display());
+    println!("  read it:     sonarnet describe {}", args.file.display());
+    Ok(())
+}
+
+pub(super) fn list_command(dir: &Path) -> Result<(), CliError> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| InputError::file(dir, format!("cannot list scenarios: {e}")))?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        println!("no scenario files in {}", dir.display());
+    }
+    for p in &files {
+        let file = p
+            .file_name()
+            .map_or(String::new(), |f| f.to_string_lossy().into_owned());
+        match Scenario::load_all(p) {
+            Ok(all) => {
+                let first = &all[0];
+                println!("{file}");
+                println!("    {}", one_line(&first.file.description));
+                let variants: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+                if !variants.is_empty() {
+                    println!("    variants: {}", variants.join(", "));
+                }
+            }
+            Err(e) => println!("{file}\n    invalid: {e}"),
+        }
+    }
+    Ok(())
+}
+
+pub(super) fn describe_command(
+    file: &Path,
+    variants: &[String],
+    set: &[String],
+) -> Result<(), CliError> {
+    let overrides = set
+        .iter()
+        .map(|s| crate::scenario::Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let all = Scenario::load_all_with(file, &overrides)?;
+    for v in variants {
+        if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
+            return Err(InputError::at(
+                Path::new("<command line>"),
+                "--variant",
+                format!("no variant {v:?} in {}", file.display()),
+            )
+            .into());
+        }
+    }
+    let mut first = true;
+    for sc in &all {
+        if !variants.is_empty()
+            && !variants
+                .iter()
+                .any(|v| sc.variant.as_deref() == Some(v.as_str()))
+        {
+            continue;
+        }
+        if !first {
+            println!();
+        }
+        first = false;
+        for (k, v) in sc.describe() {
+            println!("{k:>13}  {v}");
+        }
+    }
+    Ok(())
+}
+
+/// A description on one line, cut at a word to at most 110 characters.
+fn one_line(desc: &str) -> String {
+    let flat = desc.split_whitespace().collect::<Vec<_>>().join(" ");
+    if flat.is_empty() {
+        return "(no description)".into();
+    }
+    if flat.chars().count() <= 110 {
+        return flat;
+    }
+    let mut out = String::new();
+    for w in flat.split(' ') {
+        if out.chars().count() + w.chars().count() + 1 > 108 {
+            break;
+        }
+        if !out.is_empty() {
+            out.push(' ');
+        }
+        out.push_str(w);
+    }
+    format!("{out} …")
+}

@@ -1,0 +1,275 @@
+//! `sonarnet describe FILE`: what a scenario runs, in words.
+
+use super::*;
+
+/// A serialisable value in words: `gaussian (sigma 5)` for
+/// `{ model = "gaussian", sigma = 5.0 }`; tags (`model`, `kind`) lead.
+pub fn in_words(v: &impl Serialize) -> String {
+    fn go(v: &serde_json::Value) -> String {
+        use serde_json::Value;
+        match v {
+            Value::Object(m) => {
+                let tag = ["model", "kind"]
+                    .iter()
+                    .find_map(|t| m.get(*t).and_then(Value::as_str));
+                let rest: Vec<String> = m
+                    .iter()
+                    .filter(|(k, x)| !matches!(k.as_str(), "model" | "kind") && !x.is_null())
+                    .map(|(k, x)| format!("{k} {}", go(x)))
+                    .collect();
+                match (tag, rest.is_empty()) {
+                    (Some(t), true) => t.to_string(),
+                    (Some(t), false) => format!("{t} ({})", rest.join(", ")),
+                    (None, _) => rest.join(", "),
+                }
+            }
+            Value::Array(a) => format!("[{}]", a.iter().map(go).collect::<Vec<_>>().join(", ")),
+            Value::String(s) => s.clone(),
+            other => other.to_string(),
+        }
+    }
+    serde_json::to_value(v).map_or_else(|e| format!("({e})"), |v| go(&v))
+}
+
+fn metres(x: f64) -> String {
+    if x >= 10_000.0 {
+        format!("{:.1} km", x / 1000.0)
+    } else {
+        format!("{x:.0} m")
+    }
+}
+
+impl Scenario {
+    /// What this scenario runs, one `(topic, text)` per line.
+    pub fn describe(&self) -> Vec<(String, String)> {
+        let mut out: Vec<(String, String)> = Vec::new();
+        let mut put = |k: &str, v: String| out.push((k.to_string(), v));
+        let f = &self.file;
+        put(
+            "scenario",
+            format!(
+                "{}{} — {}",
+                self.name,
+                self.variant
+                    .as_ref()
+                    .map_or(String::new(), |v| format!(" [{v}]")),
+                if f.description.is_empty() {
+                    "(no description)"
+                } else {
+                    &f.description
+                }
+            ),
+        );
+        put("seed", self.seed.to_string());
+        let g = &self.geometry;
+        put(
+            "nodes",
+            format!(
+                "{} receivers (one node process each), {} transmitters",
+                g.receivers.len(),
+                g.transmitters.len()
+            ),
+        );
+        let lens: Vec<(usize, usize, f64)> = self
+            .graph
+            .edges()
+            .iter()
+            .map(|&(a, b)| {
+                let (p, q) = (g.receivers[a], g.receivers[b]);
+                (a, b, ((p.x - q.x).powi(2) + (p.y - q.y).powi(2)).sqrt())
+            })
+            .collect();
+        let mut sorted: Vec<f64> = lens.iter().map(|l| l.2).collect();
+        sorted.sort_by(f64::total_cmp);
+        let degree = (0..self.graph.len()).map(|v| self.graph.degree(v));
+        let (dmin, dmax) = degree.fold((usize::MAX, 0), |(a, b), d| (a.min(d), b.max(d)));
+        put(
+            "links",
+            if sorted.is_empty() {
+                "none".into()
+            } else {
+                format!(
+                    "{} links, {} to {} long (median {}); node degree {dmin} to {dmax}{}",
+                    lens.len(),
+                    metres(sorted[0]),
+                    metres(sorted[sorted.len() - 1]),
+                    metres(sorted[sorted.len() / 2]),
+                    if lens.len() <= 12 {
+                        format!(
+                            ": {}",
+                            lens.iter()
+                                .map(|(a, b, l)| format!("{a}-{b} {}", metres(*l)))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        )
+                    } else {
+                        String::new()
+                    }
+                )
+            },
+        );
+        put(
+            "samples",
+            match &self.source {
+                DataSource::Synthetic { motion } => {
+                    format!(
+                        "{} samples of a target moving as {}",
+                        self.samples,
+                        in_words(motion)
+                    )
+                }
+                DataSource::Trace { path, truth, .. } => format!(
+                    "{} samples read from the trace {}{}",
+                    self.samples,
+                    path.display(),
+                    if truth.is_some() {
+                        " (with its true track)"
+                    } else {
+                        " (no true track)"
+                    }
+                ),
+            },
+        );
+        let m = &self.measurements;
+        let mut what = Vec::new();
+        if m.bistatic {
+            what.push(format!(
+                "{} bistatic ranges",
+                g.receivers.len() * g.transmitters.len()
+            ));
+        }
+        if m.doa {
+            what.push(format!(
+                "{} directions of arrival (weight omega {})",
+                g.receivers.len(),
+                m.omega
+            ));
+        }
+        if m.range {
+            what.push(format!("{} one-way ranges", g.receivers.len()));
+        }
+        put("measurements", format!("per sample: {}", what.join(", ")));
+        put(
+            "noise",
+            format!(
+                "ranges: {}; directions: {}{}",
+                m.range_noise.as_ref().map_or("none".into(), in_words),
+                m.doa_noise.as_ref().map_or("none".into(), in_words),
+                if m.nlos_links == Default::default() {
+                    String::new()
+                } else {
+                    format!("; NLOS links: {}", in_words(&m.nlos_links))
+                }
+            ),
+        );
+        let a = &self.algorithm;
+        put(
+            "mode",
+            format!(
+                "{} Douglas-Rachford gossip{}, gamma {:e}, {} iterations per sample, burn-in {} samples",
+                match a.mode {
+                    Mode::Sync => "synchronous",
+                    Mode::Async => "asynchronous randomized",
+                },
+                a.clock
+                    .map_or(String::new(), |c| format!(" on the {} clock", in_words(&c))),
+                a.gamma,
+                a.iterations_per_sample,
+                a.burn_in
+            ),
+        );
+        put(
+            "solver",
+            format!(
+                "{}{}, prox scaling {}, start {}, row weights {}",
+                a.local_solver.as_str(),
+                if a.local_solver == LocalSolver::GtrsL0 {
+                    format!(" (kappa {})", a.kappa)
+                } else {
+                    String::new()
+                },
+                in_words(&a.prox_scaling),
+                in_words(&a.init),
+                in_words(&a.row_weights)
+            ),
+        );
+        put(
+            "baselines",
+            if self.baselines.is_empty() {
+                "none (theta_bar and the centralised ML only)".into()
+            } else {
+                self.baselines
+                    .iter()
+                    .map(|b| {
+                        if b.name() == b.kind() {
+                            b.name()
+                        } else {
+                            format!("{} ({})", b.name(), b.kind())
+                        }
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            },
+        );
+        put(
+            "bounds",
+            self.bounds.as_ref().map_or("none".into(), in_words),
+        );
+        put("channel", in_words(&self.channel));
+        put(
+            "faults",
+            if f.faults.is_empty() && self.nemesis.is_none() {
+                "none".into()
+            } else {
+                let mut v: Vec<String> = f.faults.iter().map(in_words).collect();
+                if let Some(n) = &self.nemesis {
+                    v.push(format!("nemesis: {}", in_words(n)));
+                }
+                v.join("; ")
+            },
+        );
+        put(
+            "realtime",
+            self.realtime
+                .as_ref()
+                .map_or("no [realtime] table (logical clock only)".into(), in_words),
+        );
+        if let Some(t) = self.trials {
+            put(
+                "monte carlo",
+                format!(
+                    "{t} trials, seeds {} to {}",
+                    self.seed,
+                    self.seed.wrapping_add(t as u64 - 1)
+                ),
+            );
+        }
+        let rel = expect::relations(&self.expect);
+        put(
+            "expect",
+            if rel.is_empty() {
+                "nothing (no [expect] block)".into()
+            } else {
+                rel.join("; ")
+            },
+        );
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_noise_model_reads_as_words() {
+        let n: crate::model::noise::NoiseModel = toml::from_str::<toml::Table>(
+            "v = { model = \"gaussian\", sigma = 5.0 }",
+        )
+        .unwrap()["v"]
+            .clone()
+            .try_into()
+            .unwrap();
+        assert_eq!(in_words(&n), "gaussian (sigma 5.0)");
+    }
+}
