@@ -43,7 +43,7 @@ use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 fn default_ogd_step() -> StepSize {
-    StepSize::Constant { eta: 0.1 }
+    StepSize::Lipschitz { scale: 1.0 }
 }
 fn default_q() -> f64 {
     1.5
@@ -65,7 +65,9 @@ pub enum BaselineCfg {
         /// Track name (default `ogd`).
         #[serde(default)]
         name: Option<String>,
-        /// Step rule: `{ rule = "constant", eta = 0.1 }` (default) or
+        /// Step rule: `{ rule = "lipschitz", scale = 1 }` (default: `1/L_t`,
+        /// the local Lipschitz constant of `grad f_t`, stable at any
+        /// scale), `{ rule = "constant", eta = 0.1 }` (seed 000) or
         /// `{ rule = "inv_sqrt", eta0 = 1 }` (seed 001).
         #[serde(default = "default_ogd_step")]
         step: StepSize,

@@ -119,6 +119,56 @@ impl TrackRun {
     }
 }
 
+/// The scene of a track: the bounding box of the sensors (and the first
+/// true position). An estimate is *exploding* when it is not finite or lies
+/// more than [`Scene::EXPLODED`] scene diameters from the box's centre;
+/// [`run_track`] counts it as a failure, with no estimate for that sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scene {
+    /// Centre of the bounding box.
+    pub center: Vec2,
+    /// Its diagonal (at least 1 m).
+    pub diameter: f64,
+}
+
+impl Scene {
+    /// How many diameters from the centre an estimate may lie.
+    pub const EXPLODED: f64 = 100.0;
+
+    /// The scene of `geometry` (and `truth0`).
+    pub fn of(geometry: &Geometry, truth0: Option<Vec2>) -> Scene {
+        let pts = geometry
+            .transmitters
+            .iter()
+            .chain(&geometry.receivers)
+            .copied()
+            .chain(truth0)
+            .filter(|p| p.x.is_finite() && p.y.is_finite());
+        let (mut lo, mut hi) = (Vec2::repeat(f64::INFINITY), Vec2::repeat(f64::NEG_INFINITY));
+        for p in pts {
+            lo = lo.inf(&p);
+            hi = hi.sup(&p);
+        }
+        if !lo.x.is_finite() {
+            return Scene {
+                center: Vec2::zeros(),
+                diameter: 1.0,
+            };
+        }
+        Scene {
+            center: (lo + hi) / 2.0,
+            diameter: (hi - lo).norm().max(1.0),
+        }
+    }
+
+    /// Whether `x` is a sane estimate (finite, within the limit).
+    pub fn holds(&self, x: &Vec2) -> bool {
+        x.x.is_finite()
+            && x.y.is_finite()
+            && (x - self.center).norm() <= Self::EXPLODED * self.diameter
+    }
+}
+
 /// Drive `solver` along every sample of `problem` (the executor of the seam).
 pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> TrackRun {
     let n = problem.samples.len();
@@ -138,6 +188,7 @@ pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> T
         run.est = vec![None; n];
         return run;
     }
+    let scene = Scene::of(problem.geometry, problem.truth0);
     let mut before = Vec::with_capacity(n);
     for (k, s) in problem.samples.iter().enumerate() {
         if let Some(x) = solver.prior() {
@@ -147,7 +198,17 @@ pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> T
         let r = solver.solve(problem.geometry, s, k);
         run.step_seconds += start.elapsed().as_secs_f64();
         match r {
-            Ok(x) => run.est.push(Some(x)),
+            Ok(x) if scene.holds(&x) => run.est.push(Some(x)),
+            Ok(x) => {
+                // Diverged: a failure, and no estimate to score or draw.
+                run.fail(format!(
+                    "sample {k}: the estimate diverged to ({:e}, {:e}), beyond {} scene diameters",
+                    x.x,
+                    x.y,
+                    Scene::EXPLODED
+                ));
+                run.est.push(None);
+            }
             Err(e) => {
                 run.fail(format!("sample {k}: {e}"));
                 run.est.push(solver.on_failure());

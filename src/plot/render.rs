@@ -67,7 +67,7 @@ pub fn render_svg(fig: &Figure) -> Result<String, PlotError> {
     let mut buf = String::new();
     {
         let root = SVGBackend::with_string(&mut buf, (fig.width, fig.height())).into_drawing_area();
-        draw_figure(&root, fig).map_err(err(fig))?;
+        draw_figure(&root, fig, Joins::Path).map_err(err(fig))?;
         root.present().map_err(err(fig))?;
     }
     Ok(buf)
@@ -77,7 +77,7 @@ pub fn render_svg(fig: &Figure) -> Result<String, PlotError> {
 pub fn render_png(fig: &Figure, path: &Path) -> Result<(), PlotError> {
     ensure_font()?;
     let root = BitMapBackend::new(path, (fig.width, fig.height())).into_drawing_area();
-    draw_figure(&root, fig).map_err(err(fig))?;
+    draw_figure(&root, fig, Joins::Segments).map_err(err(fig))?;
     root.present().map_err(|e| PlotError::Write {
         path: path.to_path_buf(),
         source: std::io::Error::other(e.to_string()),
@@ -86,7 +86,21 @@ pub fn render_png(fig: &Figure, path: &Path) -> Result<(), PlotError> {
 
 type DResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
-fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> DResult<DB> {
+/// How thick polylines are drawn. The bitmap backend joins the segments of
+/// a wide path with unbounded miters, so a sharp turn (a noisy track
+/// doubling back) draws a long spike across the figure; there every segment
+/// is drawn on its own. SVG viewers bound miters themselves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Joins {
+    Path,
+    Segments,
+}
+
+fn draw_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+    joins: Joins,
+) -> DResult<DB> {
     root.fill(&WHITE)?;
     let (title, body) = root.split_vertically(TITLE_H);
     // Shrink long titles to fit (DejaVu Sans averages ~0.6 em per glyph).
@@ -103,7 +117,7 @@ fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) 
     let mut rest = plots;
     for p in &fig.panels {
         let (area, r) = rest.split_vertically(p.height);
-        draw_panel(&area, p)?;
+        draw_panel(&area, p, joins)?;
         rest = r;
     }
     draw_legend(&legend, &fig.legend)?;
@@ -160,7 +174,11 @@ fn chart_builder<'a, 'b, DB: DrawingBackend>(
     cb
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> DResult<DB> {
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+    joins: Joins,
+) -> DResult<DB> {
     let mut cb = chart_builder(area);
     let xr = p.x_range.0..p.x_range.1;
     if p.log_y {
@@ -168,10 +186,10 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> D
             .log_scale()
             .with_key_points(log_ticks(p.y_range));
         let mut chart = cb.build_cartesian_2d(xr, y)?;
-        contents(&mut chart, p)
+        contents(&mut chart, p, joins)
     } else {
         let mut chart = cb.build_cartesian_2d(xr, p.y_range.0..p.y_range.1)?;
-        contents(&mut chart, p)
+        contents(&mut chart, p, joins)
     }
 }
 
@@ -236,6 +254,7 @@ fn disc_polygon(d: &Disc, x: (f64, f64), y: (f64, f64)) -> Vec<(f64, f64)> {
 fn contents<DB, Y>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
     p: &Panel,
+    joins: Joins,
 ) -> DResult<DB>
 where
     DB: DrawingBackend,
@@ -337,15 +356,28 @@ where
     for s in &p.series {
         let st = shape(&s.style);
         for seg in &s.segments {
+            // Lines are clipped to the plot area here: a backend draws a
+            // line to a point outside the ranges across the margins, title
+            // and legend (the bitmap backend does).
             if s.style.width > 0 && seg.len() > 1 {
-                if s.style.dashed {
-                    chart.draw_series(DashedLineSeries::new(seg.iter().copied(), 9, 5, st))?;
-                } else {
-                    chart.draw_series(LineSeries::new(seg.iter().copied(), st))?;
+                for piece in clip_polyline(seg, p.x_range, p.y_range, p.log_y) {
+                    if s.style.dashed {
+                        chart.draw_series(DashedLineSeries::new(piece, 9, 5, st))?;
+                    } else if joins == Joins::Segments && s.style.width > 1 {
+                        chart.draw_series(
+                            piece
+                                .windows(2)
+                                .map(|w| PathElement::new(vec![w[0], w[1]], st)),
+                        )?;
+                    } else {
+                        chart.draw_series(LineSeries::new(piece, st))?;
+                    }
                 }
             }
             if let Some(m) = s.style.marker {
-                draw_markers(chart, seg, m, &s.style)?;
+                let inside: Vec<(f64, f64)> =
+                    seg.iter().copied().filter(|q| p.contains(*q)).collect();
+                draw_markers(chart, &inside, m, &s.style)?;
             }
         }
     }
@@ -380,6 +412,87 @@ where
             .draw_text(note, &style, (w as i32 / 2, h as i32 / 2))?;
     }
     Ok(())
+}
+
+/// Clip a polyline to the rectangle `x` x `y` (Liang-Barsky on every
+/// segment, in the drawn coordinates: `log10 y` on a log axis, where the
+/// drawn segments are straight), as the pieces that lie inside.
+pub(crate) fn clip_polyline(
+    pts: &[(f64, f64)],
+    x: (f64, f64),
+    y: (f64, f64),
+    log_y: bool,
+) -> Vec<Vec<(f64, f64)>> {
+    let fy = |v: f64| {
+        if log_y {
+            v.max(f64::MIN_POSITIVE).log10()
+        } else {
+            v
+        }
+    };
+    let gy = |v: f64| if log_y { 10f64.powf(v) } else { v };
+    let (ylo, yhi) = (fy(y.0), fy(y.1));
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut cur: Vec<(f64, f64)> = Vec::new();
+    for w in pts.windows(2) {
+        let (a, b) = ((w[0].0, fy(w[0].1)), (w[1].0, fy(w[1].1)));
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        let mut keep = a.0.is_finite() && a.1.is_finite() && b.0.is_finite() && b.1.is_finite();
+        for (pk, qk) in [
+            (-dx, a.0 - x.0),
+            (dx, x.1 - a.0),
+            (-dy, a.1 - ylo),
+            (dy, yhi - a.1),
+        ] {
+            if !keep {
+                break;
+            }
+            if pk == 0.0 {
+                keep = qk >= 0.0;
+            } else {
+                let r = qk / pk;
+                if pk < 0.0 {
+                    t0 = t0.max(r);
+                } else {
+                    t1 = t1.min(r);
+                }
+                keep = t0 <= t1;
+            }
+        }
+        if !keep {
+            if cur.len() > 1 {
+                out.push(std::mem::take(&mut cur));
+            }
+            cur.clear();
+            continue;
+        }
+        // Vertices inside are kept exactly; only cuts are computed.
+        let p0 = if t0 > 0.0 {
+            (a.0 + t0 * dx, gy(a.1 + t0 * dy))
+        } else {
+            w[0]
+        };
+        let p1 = if t1 < 1.0 {
+            (a.0 + t1 * dx, gy(a.1 + t1 * dy))
+        } else {
+            w[1]
+        };
+        if t0 > 0.0 || cur.is_empty() {
+            if cur.len() > 1 {
+                out.push(std::mem::take(&mut cur));
+            }
+            cur = vec![p0];
+        }
+        cur.push(p1);
+        if t1 < 1.0 {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    if cur.len() > 1 {
+        out.push(cur);
+    }
+    out
 }
 
 fn draw_markers<DB, Y>(

@@ -500,3 +500,155 @@ fn the_channel_figures_draw_each_frame_where_the_channel_put_it() {
     let e = parse_messages(Path::new("messages.csv"), &csv_of(&bad)).unwrap_err();
     assert!(e.to_string().contains("line 5, column to"), "{e}");
 }
+
+mod clipping {
+    use super::render::clip_polyline;
+    use proptest::prelude::*;
+
+    #[test]
+    fn a_polyline_inside_the_plot_is_drawn_whole_and_one_leaving_it_is_cut_at_the_edge() {
+        let inside = vec![(0.1, 0.1), (0.5, 0.9), (0.9, 0.2)];
+        assert_eq!(
+            clip_polyline(&inside, (0.0, 1.0), (0.0, 1.0), false),
+            vec![inside.clone()]
+        );
+        // Out through the top at x = 0.5, back in at x = 1.5.
+        let out = clip_polyline(
+            &[(0.0, 0.5), (1.0, 1.5), (2.0, 0.5)],
+            (0.0, 2.0),
+            (0.0, 1.0),
+            false,
+        );
+        assert_eq!(
+            out,
+            vec![vec![(0.0, 0.5), (0.5, 1.0)], vec![(1.5, 1.0), (2.0, 0.5)]]
+        );
+        // Entirely outside: nothing.
+        assert!(clip_polyline(&[(5.0, 5.0), (6.0, 7.0)], (0.0, 1.0), (0.0, 1.0), false).is_empty());
+        // A log axis cuts where the straight line in log y meets the edge.
+        let l = clip_polyline(&[(0.0, 1.0), (1.0, 1000.0)], (0.0, 1.0), (1.0, 100.0), true);
+        approx::assert_relative_eq!(l[0][1].0, 2.0 / 3.0, max_relative = 1e-12);
+        approx::assert_relative_eq!(l[0][1].1, 100.0, max_relative = 1e-12);
+    }
+
+    proptest! {
+        #[test]
+        fn every_clipped_point_lies_in_the_plot_and_on_the_polyline(
+            pts in proptest::collection::vec((-3.0f64..3.0, -3.0f64..3.0), 2..12)
+        ) {
+            let pieces = clip_polyline(&pts, (-1.0, 1.0), (-1.0, 1.0), false);
+            for piece in &pieces {
+                prop_assert!(piece.len() >= 2);
+                for q in piece {
+                    prop_assert!(q.0.abs() <= 1.0 + 1e-9 && q.1.abs() <= 1.0 + 1e-9, "{q:?}");
+                    // On some segment of the input.
+                    let on = pts.windows(2).any(|w| {
+                        let (a, b) = (w[0], w[1]);
+                        let cross = (b.0 - a.0) * (q.1 - a.1) - (b.1 - a.1) * (q.0 - a.0);
+                        let within = q.0 >= a.0.min(b.0) - 1e-9 && q.0 <= a.0.max(b.0) + 1e-9
+                            && q.1 >= a.1.min(b.1) - 1e-9 && q.1 <= a.1.max(b.1) + 1e-9;
+                        cross.abs() <= 1e-9 * (1.0 + (b.0 - a.0).hypot(b.1 - a.1)) && within
+                    });
+                    prop_assert!(on, "{q:?} not on {pts:?}");
+                }
+            }
+            // Points inside stay: each inside vertex appears in some piece.
+            for p in pts.iter().filter(|p| p.0.abs() < 1.0 && p.1.abs() < 1.0) {
+                prop_assert!(pieces.iter().flatten().any(|q| q == p), "{p:?} lost");
+            }
+        }
+    }
+
+    #[test]
+    fn log_ticks_label_one_two_five_on_short_axes_and_decades_on_long_ones() {
+        use super::render::log_ticks;
+        assert_eq!(
+            log_ticks((0.3, 60.0)),
+            vec![0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0]
+        );
+        assert_eq!(log_ticks((1e-9, 1e3)).len(), 13);
+        assert!(log_ticks((0.0, 1.0)).is_empty());
+    }
+}
+
+#[test]
+fn a_diverging_track_is_clipped_at_the_scene_and_named_not_allowed_to_rescale_the_map() {
+    let mut d = data();
+    let ogd = d.track.tracks.iter_mut().find(|t| t.name == "ogd").unwrap();
+    ogd.pos[3] = Some([1.3e89, -2.0e88]);
+    let fig = tracks_figure(&d);
+    let p = &fig.panels[0];
+    // The scene is a few km: the axes stay within a few scene sizes.
+    assert!(p.x_range.1 - p.x_range.0 < 1e5, "{:?}", p.x_range);
+    assert!(
+        p.caption
+            .as_deref()
+            .unwrap_or("")
+            .contains("ogd (1 samples)"),
+        "{:?}",
+        p.caption
+    );
+    assert!(fig.legend.iter().any(|l| l.label.contains("off the map")));
+    // Drawn lines stay in the plot area.
+    for s in &p.series {
+        for seg in &s.segments {
+            for piece in super::render::clip_polyline(seg, p.x_range, p.y_range, p.log_y) {
+                assert!(piece.iter().all(|q| p.contains(*q)));
+            }
+        }
+    }
+}
+
+#[test]
+fn a_png_of_a_track_that_doubles_back_draws_nothing_outside_its_plot() {
+    // A noisy track reversing at sharp angles: the bitmap backend's wide
+    // path joins would spike across the title and the margins (issue 19).
+    let mut seg = Vec::new();
+    for k in 0..400 {
+        let t = k as f64;
+        seg.push((1.0 + 0.3 * (t * 2.1).sin(), 1.0 + 0.3 * (t * 3.7).cos()));
+    }
+    let mut panel = Panel::new(500, "x", "y");
+    panel.x_range = (0.0, 2.0);
+    panel.y_range = (0.0, 2.0);
+    panel.series.push(Series {
+        name: "zigzag".into(),
+        segments: vec![seg],
+        style: Style::line(Rgb(200, 0, 0), 3),
+    });
+    let fig = Figure {
+        name: "zigzag".into(),
+        title: String::new(),
+        width: 800,
+        panels: vec![panel],
+        legend: vec![],
+    };
+    let dir = std::env::temp_dir().join(format!("sonarnet-png-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("zigzag.png");
+    render_png(&fig, &path).unwrap();
+    let mut r = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; r.output_buffer_size()];
+    let info = r.next_frame(&mut buf).unwrap();
+    let bpp = info.color_type.samples();
+    let red = |x: usize, y: usize| {
+        let i = (y * info.width as usize + x) * bpp;
+        buf[i] > 150 && buf[i + 1] < 100 && buf[i + 2] < 100
+    };
+    // The title band and the legend column hold no red.
+    let title_h = super::render::TITLE_H as usize;
+    for y in 0..title_h {
+        for x in 0..info.width as usize {
+            assert!(!red(x, y), "red at ({x}, {y}) in the title band");
+        }
+    }
+    let legend_x = 800 - super::render::LEGEND_W as usize;
+    for y in 0..info.height as usize {
+        for x in legend_x..800 {
+            assert!(!red(x, y), "red at ({x}, {y}) in the legend column");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

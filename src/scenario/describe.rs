@@ -15,6 +15,8 @@ pub fn in_words(v: &impl Serialize) -> String {
                 let rest: Vec<String> = m
                     .iter()
                     .filter(|(k, x)| !matches!(k.as_str(), "model" | "kind") && !x.is_null())
+                    // A noise schedule that does not vary says nothing.
+                    .filter(|(k, x)| !(k.as_str() == "schedule" && x.as_str() == Some("constant")))
                     .map(|(k, x)| format!("{k} {}", go(x)))
                     .collect();
                 match (tag, rest.is_empty()) {

@@ -124,6 +124,30 @@ pub enum StepSize {
         /// The step size at `t = 1`.
         eta0: f64,
     },
+    /// `eta_t = scale / L_t`, where `L_t = ||hess f_t(x_{t-1})||_2` is the
+    /// local Lipschitz constant of `grad f_t` at the previous estimate (the
+    /// default, `scale = 1`: the classical `1/L` gradient step). Unlike a
+    /// constant `eta`, it is stable whatever the geometry's scale: the
+    /// bistatic terms of a km-scale scene have `L ~ 8 m` per range, so seed
+    /// 000's `eta = 0.1` (`eta L >> 2`) diverges there.
+    Lipschitz {
+        /// The multiple of `1/L_t` (in `(0, 2)` for a locally quadratic `f_t`).
+        #[serde(default = "one")]
+        scale: f64,
+    },
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// The spectral norm of a symmetric 2 x 2 matrix: its largest eigenvalue in
+/// absolute value, in closed form.
+pub fn sym_norm(h: &Mat2) -> f64 {
+    let (a, b, d) = (h[(0, 0)], 0.5 * (h[(0, 1)] + h[(1, 0)]), h[(1, 1)]);
+    let m = 0.5 * (a + d);
+    let r = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    (m + r).abs().max((m - r).abs())
 }
 
 impl StepSize {
@@ -132,6 +156,8 @@ impl StepSize {
         match *self {
             StepSize::Constant { eta } => eta,
             StepSize::InvSqrt { eta0 } => eta0 / (t as f64).sqrt(),
+            // Scaled by 1/L_t where the tracker steps (it knows x_{t-1}).
+            StepSize::Lipschitz { scale } => scale,
         }
     }
 
@@ -139,6 +165,7 @@ impl StepSize {
         let v = match *self {
             StepSize::Constant { eta } => eta,
             StepSize::InvSqrt { eta0 } => eta0,
+            StepSize::Lipschitz { scale } => scale,
         };
         if v.is_finite() && v > 0.0 {
             Ok(())
@@ -402,8 +429,16 @@ impl Tracker for OgdTracker {
         if t == 0 {
             return Err(TrackError::ZeroTime);
         }
-        let ev = loss_grad(geometry, sample, &self.x)?;
-        let x = commit(self.x - self.step.at(t) * ev.grad, "OGD update")?;
+        let (ev, eta) = match self.step {
+            StepSize::Lipschitz { scale } => {
+                let ev = loss_grad_hess(geometry, sample, &self.x)?;
+                // A flat f_t (no curvature at all) takes no step.
+                let l = sym_norm(&ev.hess);
+                (ev, if l > 0.0 { scale / l } else { 0.0 })
+            }
+            rule => (loss_grad(geometry, sample, &self.x)?, rule.at(t)),
+        };
+        let x = commit(self.x - eta * ev.grad, "OGD update")?;
         self.x = x;
         Ok(x)
     }

@@ -64,19 +64,43 @@ pub fn tracks_figure(data: &RunData) -> Figure {
         TrackKind::Baseline => 1,
         TrackKind::Distributed => 2,
     });
+    // The axes keep to the scene: the sensors and the true track, with a
+    // margin of one scene size. Estimates beyond it (a diverging baseline)
+    // are clipped at the edge and named, instead of shrinking everything
+    // else to a dot.
+    let mut scene: Vec<(f64, f64)> = geometry_points(data);
+    scene.extend(tt.truth.iter().flatten().map(|p| (p[0], p[1])));
+    let (sx, sy) = (
+        linear_range(scene.iter().map(|p| p.0), 0.0),
+        linear_range(scene.iter().map(|p| p.1), 0.0),
+    );
+    let size = (sx.1 - sx.0).max(sy.1 - sy.0);
+    let on_map = |p: &(f64, f64)| {
+        p.0 >= sx.0 - size && p.0 <= sx.1 + size && p.1 >= sy.0 - size && p.1 <= sy.1 + size
+    };
+    let mut clipped: Vec<String> = Vec::new();
+    let mut in_scene: Vec<(f64, f64)> = tracks.points().into_iter().filter(|p| on_map(p)).collect();
     for t in order {
         let st = track_style(t, &names);
+        let segments = point_segments(&t.pos);
+        let off = segments.iter().flatten().filter(|p| !on_map(p)).count();
+        in_scene.extend(segments.iter().flatten().filter(|p| on_map(p)).copied());
         tracks.series.push(Series {
             name: t.name.clone(),
-            segments: point_segments(&t.pos),
+            segments,
             style: st,
         });
+        let mut label = t.label();
+        if off > 0 {
+            clipped.push(format!("{} ({off} samples)", t.name));
+            label.push_str(&format!(" ({off} samples off the map)"));
+        }
         legend.push(LegendItem {
-            label: t.label(),
+            label,
             swatch: Swatch::Line(st),
         });
     }
-    let track_pts = tracks.points();
+    let track_pts = in_scene;
     panel.discs.extend(tracks.discs.iter().cloned());
     panel.series.extend(tracks.series.iter().cloned());
     let mut extent: Vec<(f64, f64)> = geometry_points(data);
@@ -103,6 +127,9 @@ pub fn tracks_figure(data: &RunData) -> Figure {
     }
     if n == 0 {
         panels[0].note = Some("no samples in track.csv".into());
+    }
+    if !clipped.is_empty() {
+        panels[0].caption = Some(format!("clipped at the scene: {}", clipped.join(", ")));
     }
     dedup_legend(&mut legend);
     Figure {
