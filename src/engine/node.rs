@@ -70,7 +70,8 @@ pub fn run_node<T: Transport>(
     tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
     tx.flush()?;
     if opts.verbose {
-        eprintln!("[node {id}] up, neighbours {:?}", node.neighbours);
+        let nb: Vec<String> = node.neighbours.iter().map(u32::to_string).collect();
+        vlog(id, &format!("up, neighbours {}", nb.join(", ")));
     }
 
     let mut core = start_core(node, opts);
@@ -98,7 +99,7 @@ pub fn run_node<T: Transport>(
     loop {
         if opts.term.load(Ordering::Relaxed) {
             if opts.verbose {
-                eprintln!("[node {id}] terminated by signal");
+                vlog(id, "terminated by a signal");
             }
             return Ok(());
         }
@@ -156,7 +157,7 @@ pub fn run_node<T: Transport>(
                 }
                 Some(NodeInput::Control(Control::Stop)) => {
                     if opts.verbose {
-                        eprintln!("[node {id}] stop: {:?}", core.counters());
+                        vlog(id, &format!("stops: {}", core.counters().in_words()));
                     }
                     // The run is over: what a neighbour (killed, say) did not
                     // read no longer matters; the last reports to the
@@ -228,7 +229,7 @@ pub fn run_node<T: Transport>(
                 }
                 Output::Report(r) => {
                     if opts.verbose {
-                        eprintln!("[node {id}] report {r:?}");
+                        vlog(id, &format!("reports {}", r.in_words()));
                     }
                     encoded.clear();
                     encoded.append(&mut iteration_reports);
@@ -248,7 +249,7 @@ pub fn run_node<T: Transport>(
         }
         for node in gone {
             if opts.verbose {
-                eprintln!("[node {id}] node {node} has exited: treated as down");
+                vlog(id, &format!("node {node} has exited: treated as down"));
             }
             core.handle(Input::Command(Command::NodeDown { node }), &mut outputs);
         }
@@ -293,18 +294,12 @@ fn after(from: Instant, secs: f64) -> Instant {
 }
 
 fn log_command(id: u32, c: &Command) {
-    match c {
-        Command::Sample { sample, meas, .. } => {
-            eprintln!(
-                "[node {id}] sample {sample}: {} measurements",
-                meas.bistatic.len() + meas.doa.is_some() as usize + meas.range.is_some() as usize
-            )
-        }
-        Command::AsyncPlan { sample, steps } => {
-            eprintln!("[node {id}] sample {sample}: plan of {} steps", steps.len())
-        }
-        other => eprintln!("[node {id}] {other:?}"),
-    }
+    vlog(id, &c.in_words());
+}
+
+/// One whole line of this node's verbose log.
+fn vlog(id: u32, text: &str) {
+    crate::protocol::words::log_line(&format!("node {id}"), text);
 }
 
 #[cfg(test)]

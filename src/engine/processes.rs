@@ -237,7 +237,7 @@ impl Processes {
 
     fn log(&self, args: std::fmt::Arguments<'_>) {
         if self.verbose {
-            eprintln!("[coordinator] {args}");
+            crate::protocol::words::log_line("coordinator", &args.to_string());
         }
     }
 

@@ -22,6 +22,7 @@
 
 pub mod codec;
 mod messages;
+pub mod words;
 
 pub use messages::*;
 

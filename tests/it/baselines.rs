@@ -297,3 +297,60 @@ fn replacing_the_baselines_must_keep_every_track_the_bounds_name() {
     let pocs = sonarnet::estimators::baselines::BaselineCfg::default_of("pocs").unwrap();
     assert!(sc.with_baselines(vec![pocs]).is_ok());
 }
+
+#[test]
+fn the_default_ogd_step_tracks_the_spiral_and_a_diverging_constant_step_counts_failures() {
+    let t = TempDir::new("ogd-step");
+    let spiral = crate::util::scenario("mourya2017-spiral.toml");
+    // README's command: the default step (1/L_t) is stable.
+    let out = t.path().join("default");
+    let o = run_file(
+        &spiral,
+        &out,
+        &[
+            "--engine",
+            "inprocess",
+            "--quiet",
+            "--baselines",
+            "ogd,onm,ls",
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success());
+    let m = crate::util::metrics(&out);
+    let ogd = &m["baselines"]["ogd"];
+    assert_eq!(ogd["failures"], 0);
+    assert!(ogd["rmse"].as_f64().unwrap() < 200.0, "{ogd}");
+    // Seed 000's constant eta = 0.1 explodes on this km-scale geometry: the
+    // samples beyond 100 scene diameters are failures, no number is absurd.
+    let out = t.path().join("constant");
+    let o = run_file(
+        &spiral,
+        &out,
+        &[
+            "--engine",
+            "inprocess",
+            "--set",
+            "baselines=[{kind = \"ogd\", step = {rule = \"constant\", eta = 0.1}}]",
+        ],
+        Duration::from_secs(120),
+    );
+    assert!(o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let m = crate::util::metrics(&out);
+    let ogd = &m["baselines"]["ogd"];
+    assert!(ogd["failures"].as_u64().unwrap() > 0, "{ogd}");
+    assert!(
+        ogd["first_failure"].as_str().unwrap().contains("diverged"),
+        "{ogd}"
+    );
+    let rmse = ogd["rmse"].as_f64().unwrap_or(0.0);
+    assert!(rmse < 1e6, "{ogd}");
+    assert!(
+        stdout.lines().all(|l| l.len() < 100),
+        "no 90-digit numbers:\n{stdout}"
+    );
+    // The diverged samples are empty cells in track.csv, never inf or NaN.
+    let track = std::fs::read_to_string(out.join("track.csv")).unwrap();
+    assert!(!track.contains("inf") && !track.contains("NaN"));
+}

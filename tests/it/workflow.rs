@@ -445,3 +445,52 @@ fn report_says_where_it_wrote_the_page() {
     assert!(stdout.contains(&line), "{stdout}");
     assert!(out.join("report.html").is_file());
 }
+
+#[test]
+fn verbose_node_processes_log_one_whole_line_per_event_in_words() {
+    let t = TempDir::new("verbose");
+    for mode in ["async", "sync"] {
+        let out = t.path().join(mode);
+        let o = run_file(
+            &scenario("mourya2017-spiral.toml"),
+            &out,
+            &[
+                "--engine",
+                "processes",
+                "--samples",
+                "12",
+                "--mode",
+                mode,
+                "--verbose",
+                "--quiet",
+            ],
+            LIMIT,
+        );
+        let (_, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        let lines: Vec<&str> = err.lines().collect();
+        assert!(lines.len() > 6 * 12, "{mode}: {} lines", lines.len());
+        for l in &lines {
+            let node = l
+                .strip_prefix("[node ")
+                .and_then(|r| r.split_once("] "))
+                .is_some_and(|(i, _)| i.parse::<u32>().is_ok());
+            assert!(
+                node || l.starts_with("[coordinator] "),
+                "{mode}: not one event per line: {l:?}"
+            );
+            assert!(
+                !l.contains('{') && !l.contains("::") && !l.contains("Counters"),
+                "{mode}: raw Debug: {l:?}"
+            );
+        }
+        for i in 0..6 {
+            assert!(
+                lines
+                    .iter()
+                    .any(|l| l.starts_with(&format!("[node {i}] stops: "))),
+                "{mode}: node {i}"
+            );
+        }
+    }
+}
