@@ -152,15 +152,28 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
     let mean = |k: &str| mc.stats.get(k).and_then(|s| s.get("mean").copied());
     let mut names: Vec<String> = vec!["theta_bar".into(), "ml".into()];
     names.extend(sc.baselines.iter().map(|b| b.name()));
+    // RMS over trials: sqrt(mean of the per-trial RMSE^2), every sample of
+    // every trial pooled (what README quotes); next to the mean RMSE.
+    let rms = |k: &str| {
+        let v: Vec<f64> = mc
+            .trials
+            .iter()
+            .filter_map(|t| t.flat.get(k).copied())
+            .filter(|x| x.is_finite())
+            .collect();
+        (!v.is_empty()).then(|| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt())
+    };
     println!(
-        "  {:<14} {:>12} {:>12} {:>12} {:>12}   (means over trials)",
-        "track", "rmse", "median", "ctte", "regret"
+        "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "track", "rmse (mean)", "rmse (rms)", "median", "ctte", "regret"
     );
+    println!("  (means over the trials; rms = sqrt(mean of the per-trial rmse^2))");
     for n in &names {
         println!(
-            "  {:<14} {:>12} {:>12} {:>12} {:>12}",
+            "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>12}",
             n,
             fmt_opt(mean(&format!("{n}.rmse"))),
+            fmt_opt(rms(&format!("{n}.rmse"))),
             fmt_opt(mean(&format!("{n}.median_error"))),
             fmt_opt(mean(&format!("{n}.ctte"))),
             fmt_opt(mean(&format!("{n}.regret")))

@@ -54,7 +54,7 @@ pub fn report_html(d: &RunData, figs: &[(Figure, String)]) -> String {
     s.push_str("<h2 id=\"scenario\">Scenario</h2>\n");
     s.push_str(&kv_table(&scenario_summary(d)));
     s.push_str(if d.monte_carlo.is_some() {
-        "<h2 id=\"metrics\">Metrics</h2>\n<h3>Tracks (the trial in metrics.json and track.csv)</h3>\n"
+        "<h2 id=\"metrics\">Metrics</h2>\n<h3>Tracks: one trial (trial 0, the one in metrics.json and track.csv)</h3>\n"
     } else {
         "<h2 id=\"metrics\">Metrics</h2>\n<h3>Tracks</h3>\n"
     });

@@ -187,6 +187,7 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
                     | "mode"
                     | "clock"
                     | "seed"
+                    | "expect"
             )
     };
     let mut rows: Vec<(String, String)> = Vec::new();
@@ -244,10 +245,41 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
             .collect();
         rows.push(("deaths".into(), list.join("; ")));
     }
+    let expect = expect_html(&m.expect);
     if rows.is_empty() {
+        return expect;
+    }
+    format!("<h3>Run</h3>\n{}{expect}", kv_table(&rows))
+}
+
+/// The `[expect]` checks of a run as a table: the relation, both sides,
+/// and whether it holds.
+pub(super) fn expect_html(checks: &[crate::pipeline::ExpectResult]) -> String {
+    if checks.is_empty() {
         return String::new();
     }
-    format!("<h3>Run</h3>\n{}", kv_table(&rows))
+    let held = checks.iter().filter(|c| c.holds).count();
+    let mut s = format!(
+        "<h3 id=\"expect\">Expectations: {held} of {} hold</h3>\n<table id=\"expect-table\">\n<tr><th>expectation</th><th>left</th><th>right</th><th>holds</th></tr>\n",
+        checks.len()
+    );
+    for c in checks {
+        let side = |v: Option<f64>| v.map_or("–".to_string(), fmt_num);
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td></tr>",
+            esc(&c.expect),
+            side(c.lhs),
+            side(c.rhs),
+            if c.holds {
+                "<span class=\"status-ok\">yes</span>"
+            } else {
+                "<span class=\"status-bad\">no</span>"
+            }
+        );
+    }
+    s.push_str("</table>\n");
+    s
 }
 
 /// A table of objects with the union of their keys as columns.
@@ -395,18 +427,66 @@ pub(super) fn monte_carlo_html(d: &RunData) -> String {
     };
     let stats = trial_stats(mc);
     let mut s = format!(
-        "<h3>Monte Carlo: {} trials</h3>\n<table id=\"trial-stats\">\n<tr><th>metric</th><th>trials</th><th>mean</th><th>std</th><th>p5</th><th>median</th><th>p95</th></tr>\n",
+        "<h3>Monte Carlo: {} trials</h3>\n<p class=\"note\">Statistics over the trials, one table per track. \
+         For rmse, <b>mean</b> is the mean of the per-trial RMSE and <b>RMS over trials</b> is \
+         √(mean of the per-trial RMSE²), the RMSE of every sample of every trial pooled.</p>\n",
         mc.trials.unwrap_or(mc.trial_rows.len() as u64)
     );
-    for (c, n, v) in stats {
-        let _ = write!(s, "<tr><th>{}</th><td class=\"num\">{n}</td>", esc(&c));
-        for x in v {
-            let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(x));
+    for (track, rows) in group_by_track(&stats) {
+        let _ = write!(
+            s,
+            "<h4>{}</h4>\n<table class=\"trial-stats\" id=\"trial-stats-{}\">\n<tr><th>metric</th><th>trials</th><th>mean</th><th>RMS over trials</th><th>std</th><th>p5</th><th>median</th><th>p95</th></tr>\n",
+            esc(&track),
+            esc(&track)
+        );
+        for (metric, n, v, rms) in rows {
+            let _ = write!(s, "<tr><th>{}</th><td class=\"num\">{n}</td>", esc(&metric));
+            let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(v[0]));
+            let _ = write!(
+                s,
+                "<td class=\"num\">{}</td>",
+                rms.map_or("–".to_string(), fmt_num)
+            );
+            for x in &v[1..] {
+                let _ = write!(s, "<td class=\"num\">{}</td>", fmt_num(*x));
+            }
+            s.push_str("</tr>\n");
         }
-        s.push_str("</tr>\n");
+        s.push_str("</table>\n");
     }
-    s.push_str("</table>\n");
     s
+}
+
+/// A track's statistics: `(metric, n, [mean, std, p5, median, p95], RMS
+/// over trials for the rmse metrics)`.
+type TrackStats = Vec<(String, usize, [f64; 5], Option<f64>)>;
+
+/// [`trial_stats`] grouped by track (the name before the first `.`;
+/// `theta_bar` and `ml` first, run-wide columns under `run`), with the
+/// RMS over trials of every `rmse*` metric.
+pub fn group_by_track(stats: &[(String, usize, [f64; 5])]) -> Vec<(String, TrackStats)> {
+    let mut groups: Vec<(String, TrackStats)> = Vec::new();
+    for (c, n, v) in stats {
+        let (track, metric) = c.split_once('.').unwrap_or(("run", c.as_str()));
+        // sqrt(mean x^2) = sqrt(mean^2 + var (n-1)/n).
+        let rms = metric.starts_with("rmse").then(|| {
+            let var = v[1] * v[1] * (*n as f64 - 1.0).max(0.0) / (*n as f64).max(1.0);
+            (v[0] * v[0] + var).sqrt()
+        });
+        let row = (metric.to_string(), *n, *v, rms);
+        match groups.iter_mut().find(|g| g.0 == track) {
+            Some(g) => g.1.push(row),
+            None => groups.push((track.to_string(), vec![row])),
+        }
+    }
+    let rank = |t: &str| match t {
+        "theta_bar" => 0,
+        "ml" => 1,
+        "run" => 3,
+        _ => 2,
+    };
+    groups.sort_by_key(|g| rank(&g.0));
+    groups
 }
 
 /// Quote a command-line argument for a POSIX shell when needed.

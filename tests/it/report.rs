@@ -246,10 +246,16 @@ fn monte_carlo_directory_reports_trial_statistics_and_percentile_bands() {
     let o = sonarnet(&["report", out.to_str().unwrap()], Duration::from_secs(60));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let html = read(&out.join("report.html"));
-    assert!(html.contains("id=\"trial-stats\""));
+    // Grouped by track (these columns have no track prefix: `run`).
+    assert!(html.contains("id=\"trial-stats-run\""));
     assert!(html.contains("Monte Carlo: 3 trials"));
-    // mean of rmse over the three trials: (50.5 + 40.25 + 61) / 3 = 50.58
-    assert!(html.contains("<td class=\"num\">50.58</td>"), "mean rmse");
+    // mean of rmse over the three trials: (50.5 + 40.25 + 61) / 3 = 50.58,
+    // RMS over trials: sqrt((50.5^2 + 40.25^2 + 61^2) / 3) = 51.29.
+    assert!(
+        html.contains("<td class=\"num\">50.58</td><td class=\"num\">51.29</td>"),
+        "mean and RMS of rmse"
+    );
+    assert!(html.contains("Tracks: one trial"));
     let err = read(&out.join("error.svg"));
     assert!(err.contains("<polygon"), "error.svg has no percentile band");
     assert!(err.contains("ogd"), "error.svg lacks the ogd baseline");
@@ -362,4 +368,28 @@ fn a_4096_node_network_is_drawn_with_its_markers_and_without_a_label_per_node() 
         !svg.contains(">R4095"),
         "per-node labels drawn for 4096 nodes"
     );
+}
+
+#[test]
+fn the_report_lists_expectations_as_a_table_and_the_ml_regret_it_has() {
+    let tmp = TempDir::new("report-expect");
+    let out = tmp.path().join("r");
+    small_run(&out, &["--engine", "inprocess", "--baselines", "ogd,ls"]);
+    let o = sonarnet(&["report", out.to_str().unwrap()], Duration::from_secs(60));
+    assert!(o.status.success());
+    let html = read(&out.join("report.html"));
+    assert!(html.contains("id=\"expect-table\""), "expectations table");
+    assert!(html.contains("<td>theta_bar.rmse_after_burn_in &lt;= 20.0</td>"));
+    assert!(!html.contains("[{&quot;expect"), "raw JSON in the report");
+    // The ML reference's regret is in metrics.json and in the track table.
+    let m = crate::util::metrics(&out);
+    let regret = m["ml"]["regret"]
+        .as_f64()
+        .expect("ml.regret in metrics.json");
+    let row_start = html
+        .find("<th>centralised ML</th>")
+        .or_else(|| html.find(">centralised ML<"))
+        .unwrap();
+    let row = &html[row_start..row_start + html[row_start..].find("</tr>").unwrap()];
+    assert!(row.contains(&sonarnet::report::fmt_num(regret)), "{row}");
 }
