@@ -652,3 +652,68 @@ fn a_png_of_a_track_that_doubles_back_draws_nothing_outside_its_plot() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn monte_carlo_bands_are_few_and_each_has_a_swatch_in_its_own_colour() {
+    let mut d = mc_data();
+    let mc = d.monte_carlo.as_mut().unwrap();
+    // Seven tracks with bands.
+    let ogd = mc.curves.iter().find(|c| c.name == "ogd").unwrap().clone();
+    for i in 0..4 {
+        let mut c = ogd.clone();
+        c.name = format!("b{i}");
+        mc.curves.push(c);
+    }
+    let fig = error_figure(&d);
+    let p = &fig.panels[0];
+    assert_eq!(p.bands.len(), super::figures::MAX_BANDS);
+    assert_eq!(p.bands[0].name, "theta_bar");
+    for b in &p.bands {
+        assert!(
+            fig.legend
+                .iter()
+                .any(|l| l.swatch == Swatch::Area(b.color) && l.label.contains("percentile")),
+            "no swatch for the {} band",
+            b.name
+        );
+    }
+    assert!(
+        p.caption
+            .as_deref()
+            .unwrap_or("")
+            .contains("first 3 tracks")
+    );
+}
+
+#[test]
+fn the_comparison_tells_run_b_from_run_a_by_colour_as_well_as_dashes() {
+    let (a, b) = (data(), data());
+    for f in comparison_figures(&a, &b, "A", "B") {
+        let s = &f.panels[0].series;
+        for sa in s.iter().filter(|x| x.name.starts_with("A: ")) {
+            let name = &sa.name[3..];
+            let sb = s.iter().find(|x| x.name == format!("B: {name}")).unwrap();
+            assert!(sb.style.dashed && !sa.style.dashed);
+            assert_ne!(sa.style.color, sb.style.color, "{name} in {}", f.name);
+        }
+    }
+}
+
+#[test]
+fn network_labels_move_off_a_transmitter_beside_their_node() {
+    let mut d = data();
+    // A transmitter just right of R1, where its label would go.
+    d.info.transmitters.push([1700.0, -1050.0]);
+    let fig = network_figure(&d);
+    let p = &fig.panels[0];
+    let r1 = p
+        .labels
+        .iter()
+        .find(|l| l.lines[0].starts_with("R1"))
+        .unwrap();
+    assert_ne!(
+        r1.offset,
+        (15, -8),
+        "the label still covers the transmitter"
+    );
+}

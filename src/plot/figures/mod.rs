@@ -327,6 +327,12 @@ pub fn run_figures(data: &RunData) -> Vec<Figure> {
 }
 
 /// Overlay of runs `a` (solid) and `b` (dashed) for a comparison report:
+/// `c` mixed 45 % towards black: run B's shade of a track colour.
+pub fn darker(c: Rgb) -> Rgb {
+    let f = |v: u8| (f64::from(v) * 0.55).round() as u8;
+    Rgb(f(c.0), f(c.1), f(c.2))
+}
+
 /// `compare-error` (error per sample) and `compare-ctte` (running CTTE) of
 /// every track of both runs; Monte Carlo runs contribute their mean curves.
 pub fn comparison_figures(a: &RunData, b: &RunData, label_a: &str, label_b: &str) -> Vec<Figure> {
@@ -370,7 +376,11 @@ pub fn comparison_figures(a: &RunData, b: &RunData, label_a: &str, label_b: &str
                 }
             }
             for (name, xs, ys) in curves {
-                let mut st = Style::line(track_color(&name, &all_ref), 2);
+                // Run B: dashed and in a darker shade of the track's colour,
+                // so the two runs differ by more than the dash.
+                let c = track_color(&name, &all_ref);
+                let c = if dashed { darker(c) } else { c };
+                let mut st = Style::line(c, 2);
                 st.dashed = dashed;
                 panel.series.push(Series {
                     name: format!("{tag}: {name}"),

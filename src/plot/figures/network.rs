@@ -113,6 +113,7 @@ pub fn network_figure(data: &RunData) -> Figure {
     let y = linear_range(pts.iter().map(|p| p.1), 0.1);
     let y = (y.0 - 0.12 * (y.1 - y.0), y.1);
     fit_map(&mut panel, x, y, 420, 820);
+    place_labels(&mut panel, &data.info.transmitters, rx);
     if rx.is_empty() {
         panel.note = Some("run.json has no receiver positions".into());
     } else if counters.is_empty() {
@@ -124,5 +125,71 @@ pub fn network_figure(data: &RunData) -> Figure {
         width: WIDTH,
         panels: vec![panel],
         legend,
+    }
+}
+
+/// A label's box in pixels relative to its anchor: `(x0, y0, x1, y1)`, y
+/// down (the text's top-left corner is at the label's offset).
+fn label_box(l: &Label, offset: (i32, i32)) -> (f64, f64, f64, f64) {
+    let chars = l.lines.iter().map(|t| t.chars().count()).max().unwrap_or(0) as f64;
+    let w = chars * 0.6 * l.size as f64;
+    let h = l.lines.len() as f64 * 1.25 * l.size as f64;
+    let (x, y) = (offset.0 as f64, offset.1 as f64);
+    (x, y, x + w, y + h)
+}
+
+/// Put each receiver's label on the side of its marker where it covers no
+/// transmitter or receiver marker and no label placed before it (right,
+/// then left, above or below); the first side if none is free.
+pub(crate) fn place_labels(panel: &mut Panel, transmitters: &[[f64; 2]], receivers: &[[f64; 2]]) {
+    let (pw, ph) = crate::plot::render::plot_area(WIDTH, panel.height);
+    let sx = pw / (panel.x_range.1 - panel.x_range.0).max(1e-300);
+    let sy = ph / (panel.y_range.1 - panel.y_range.0).max(1e-300);
+    let px = |p: (f64, f64)| ((p.0 - panel.x_range.0) * sx, (panel.y_range.1 - p.1) * sy);
+    let markers: Vec<(f64, f64)> = transmitters
+        .iter()
+        .chain(receivers)
+        .map(|p| px((p[0], p[1])))
+        .collect();
+    let mut placed: Vec<(f64, f64, f64, f64)> = Vec::new();
+    let overlaps = |a: (f64, f64, f64, f64), b: (f64, f64, f64, f64)| {
+        a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+    };
+    for l in panel
+        .labels
+        .iter_mut()
+        .filter(|l| !l.lines.is_empty() && l.lines[0].starts_with('R'))
+    {
+        let at = px(l.at);
+        let (w, h) = {
+            let b = label_box(l, (0, 0));
+            (b.2, b.3)
+        };
+        let (w, h) = (w as i32, h as i32);
+        let candidates = [
+            (15, -8),
+            (-w - 15, -8),
+            (15, -h - 10),
+            (-w - 15, -h - 10),
+            (-w / 2, 12),
+            (-w / 2, -h - 14),
+        ];
+        let free = |o: (i32, i32)| {
+            let b = label_box(l, o);
+            let b = (b.0 + at.0, b.1 + at.1, b.2 + at.0, b.3 + at.1);
+            let r = 9.0;
+            markers
+                .iter()
+                .all(|m| !overlaps(b, (m.0 - r, m.1 - r, m.0 + r, m.1 + r)))
+                && placed.iter().all(|q| !overlaps(b, *q))
+        };
+        let o = candidates
+            .iter()
+            .copied()
+            .find(|o| free(*o))
+            .unwrap_or(candidates[0]);
+        let b = label_box(l, o);
+        placed.push((b.0 + at.0, b.1 + at.1, b.2 + at.0, b.3 + at.1));
+        l.offset = o;
     }
 }

@@ -3,6 +3,9 @@
 
 use super::*;
 
+/// Percentile bands drawn per panel.
+pub const MAX_BANDS: usize = 3;
+
 pub(super) fn add_band(
     panel: &mut Panel,
     legend: &mut Vec<LegendItem>,
@@ -27,12 +30,22 @@ pub(super) fn add_band(
     if !cur.is_empty() {
         segs.push(cur);
     }
-    if !segs.is_empty() {
+    // At most MAX_BANDS bands per panel, the first curves' (theta_bar and
+    // ml come first): more overlapping fills turn to mud. Each has its own
+    // swatch in the track's colour.
+    if !segs.is_empty() && panel.bands.len() < MAX_BANDS {
         panel.bands.push(Band {
             name: name.to_string(),
             segments: segs,
             color: style.color,
         });
+        legend.push(LegendItem {
+            label: format!("{label} 5th–95th percentile"),
+            swatch: Swatch::Area(style.color),
+        });
+    } else if !segs.is_empty() {
+        let note = format!("5th–95th percentile bands of the first {MAX_BANDS} tracks only");
+        panel.caption = Some(note);
     }
     panel.series.push(Series {
         name: name.to_string(),
@@ -169,10 +182,6 @@ pub fn error_figure(data: &RunData) -> Figure {
                 swatch: Swatch::Line(crlb_style),
             });
         }
-        legend.push(LegendItem {
-            label: "5th–95th percentile".into(),
-            swatch: Swatch::Area(PALETTE[0]),
-        });
         title = format!(
             "Error per sample, {} trials — {}",
             mc.trials.map_or("Monte Carlo".into(), |t| t.to_string()),
@@ -260,10 +269,6 @@ pub fn ctte_figure(data: &RunData) -> Figure {
                 );
             }
         }
-        legend.push(LegendItem {
-            label: "5th–95th percentile".into(),
-            swatch: Swatch::Area(PALETTE[0]),
-        });
         title = format!(
             "Running CTTE, {} trials — {}",
             mc.trials.map_or("Monte Carlo".into(), |t| t.to_string()),
