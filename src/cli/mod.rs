@@ -123,7 +123,7 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         .iter()
         .map(|s| crate::scenario::Override::parse(s))
         .collect::<Result<Vec<_>, _>>()?;
-    let all = Scenario::load_all_with(&args.scenario, &overrides)?;
+    let all = Scenario::load_all_with(&args.scenario, &overrides, &args.variant)?;
     let cli = std::path::Path::new("<command line>");
     for v in &args.variant {
         if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {

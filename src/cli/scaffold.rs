@@ -108,7 +108,7 @@ pub(super) fn describe_command(
         .iter()
         .map(|s| crate::scenario::Override::parse(s))
         .collect::<Result<Vec<_>, _>>()?;
-    let all = Scenario::load_all_with(file, &overrides)?;
+    let all = Scenario::load_all_with(file, &overrides, variants)?;
     for v in variants {
         if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
             return Err(InputError::at(

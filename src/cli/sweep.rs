@@ -19,7 +19,7 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
     let seeds = match &args.seeds {
         Some(s) => parse_seeds(s)?,
         None => {
-            let base = Scenario::load_all_with(&args.scenario, &sets)?;
+            let base = Scenario::load_all_with(&args.scenario, &sets, &args.variant)?;
             vec![base.first().map_or(0, |s| s.seed)]
         }
     };

@@ -183,7 +183,7 @@ impl SweepPlan {
             for (k, v) in &values {
                 ov.push(Override::parse_for("--grid", &format!("{k}={v}"))?);
             }
-            let all = Scenario::load_all_with(file, &ov)?;
+            let all = Scenario::load_all_with(file, &ov, variants)?;
             for v in variants {
                 if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
                     return Err(cli_error(

@@ -153,7 +153,7 @@ impl Scenario {
         }
         let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
         base.remove("variants");
-        for_each_variant(&file, &base, path, |t| {
+        for_each_variant(&file, &base, path, &[], |t| {
             let f: ScenarioFile = toml::Value::Table(t)
                 .try_into()
                 .map_err(|e: toml::de::Error| InputError::file(path, e.message().trim()))?;
@@ -669,11 +669,13 @@ pub(crate) fn resolve_faults(
 
 /// Build one scenario per `[[variants]]` entry of `file`: `base` (the file
 /// without its variants) with the variant's tables deep-merged over it,
-/// built by `build`; an error names the variant.
+/// built by `build`; an error names the variant. With `only` non-empty,
+/// only the variants it names are built (every name is still checked).
 pub(super) fn for_each_variant(
     file: &ScenarioFile,
     base: &toml::Table,
     path: &Path,
+    only: &[String],
     build: impl Fn(toml::Table) -> Result<Scenario, InputError>,
 ) -> Result<Vec<Scenario>, InputError> {
     let mut seen = BTreeSet::new();
@@ -701,6 +703,9 @@ pub(super) fn for_each_variant(
                 format!("{key}.name"),
                 format!("duplicate variant name {vname:?}"),
             ));
+        }
+        if !only.is_empty() && !only.iter().any(|o| o == vname) {
+            continue;
         }
         let mut t = base.clone();
         merge_tables(&mut t, &v.overrides);

@@ -225,7 +225,13 @@ impl Scenario {
     /// variant's own, to the file's keys; the result is validated exactly as
     /// a file is. When the overridden file is invalid but the file alone is
     /// not, the error names the first override that breaks it.
-    pub fn load_all_with(path: &Path, overrides: &[Override]) -> Result<Vec<Scenario>, InputError> {
+    /// `only`, when not empty, names the variants to build (`--variant`):
+    /// the overrides must make those valid, not every variant of the file.
+    pub fn load_all_with(
+        path: &Path,
+        overrides: &[Override],
+        only: &[String],
+    ) -> Result<Vec<Scenario>, InputError> {
         if overrides.is_empty() {
             return Self::load_all(path);
         }
@@ -236,7 +242,18 @@ impl Scenario {
             toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
         let table: toml::Table =
             toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
-        let build = |k: usize| Self::all_from_table(&file, &table, path, &overrides[..k]);
+        let names: Vec<&str> = file.variants.iter().map(|v| v.name.trim()).collect();
+        if let Some(v) = only.iter().find(|v| !names.contains(&v.as_str())) {
+            return Err(cli_error(
+                "--variant",
+                if names.is_empty() {
+                    format!("{} has no [[variants]]", path.display())
+                } else {
+                    format!("no variant {v:?} (the file has: {})", names.join(", "))
+                },
+            ));
+        }
+        let build = |k: usize| Self::all_from_table(&file, &table, path, &overrides[..k], only);
         match build(overrides.len()) {
             Ok(v) => Ok(v),
             Err(e) => {
@@ -258,6 +275,7 @@ impl Scenario {
         table: &toml::Table,
         path: &Path,
         overrides: &[Override],
+        only: &[String],
     ) -> Result<Vec<Scenario>, InputError> {
         let texts: Vec<String> = overrides.iter().map(|o| o.text.clone()).collect();
         let finish = |mut t: toml::Table| -> Result<Scenario, InputError> {
@@ -276,7 +294,7 @@ impl Scenario {
         }
         let mut base = table.clone();
         base.remove("variants");
-        build::for_each_variant(file, &base, path, finish)
+        build::for_each_variant(file, &base, path, only, finish)
     }
 }
 

@@ -55,6 +55,30 @@ fn set_overrides_any_key_and_is_recorded_in_run_json() {
 }
 
 #[test]
+fn set_with_variant_applies_to_the_chosen_variant_only() {
+    let t = TempDir::new("set-variant");
+    let out = t.path().join("r");
+    // `crash` is instantaneous: for_samples would be invalid there, but only
+    // `pause` is run.
+    let o = run_file(
+        &scenario("mourya2017-spiral-faults.toml"),
+        &out,
+        &[
+            "--variant",
+            "pause",
+            "--set",
+            "faults[0].for_samples=5",
+            "--quiet",
+            "--samples",
+            "40",
+        ],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert_eq!(run_json(&out)["scenario"]["faults"][0]["for_samples"], 5);
+}
+
+#[test]
 fn a_bad_set_names_the_flag_and_the_key_and_exits_2_before_any_work() {
     let t = TempDir::new("set-bad");
     for (flag, says) in [
