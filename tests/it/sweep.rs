@@ -153,6 +153,9 @@ fn a_sweep_runs_every_grid_point_at_every_seed_and_summarises_them() {
     if let Some(chromium) = chromium_or_skip("sweep report") {
         let v = page_selftest(&chromium, &out.join("report.html")).unwrap();
         check_selftest(&v).unwrap();
+        let shot = t.path().join("sweep.png");
+        crate::util::screenshot(&chromium, &out.join("report.html"), &shot);
+        assert!(!crate::util::png_is_blank(&shot), "the sweep page renders blank");
     }
 }
 

@@ -518,3 +518,79 @@ fn verbose_node_processes_log_one_whole_line_per_event_in_words() {
         }
     }
 }
+
+#[test]
+fn bench_prints_figures_not_debug_lines() {
+    let _cpu = crate::util::cpu_exclusive();
+    let t = TempDir::new("bench");
+    let scen = crate::util::root().join("scenarios");
+    let o = sonarnet(
+        &[
+            "bench",
+            "--scale",
+            "2",
+            "--repeats",
+            "1",
+            "--scenarios",
+            scen.to_str().unwrap(),
+            "--out",
+            t.path().to_str().unwrap(),
+        ],
+        Duration::from_secs(300),
+    );
+    let (out, err) = text(&o);
+    assert!(o.status.success(), "{out}{err}");
+    assert!(out.contains("N=   2  start-up"), "{out}");
+    assert!(
+        !out.contains("None") && !err.contains("None"),
+        "debug lines:\n{out}{err}"
+    );
+    assert!(t.path().join("bench.json").is_file());
+    let bad = TempDir::new("bench-bad");
+    let o = sonarnet(
+        &[
+            "bench",
+            "--scale",
+            "1",
+            "--out",
+            bad.path().to_str().unwrap(),
+        ],
+        LIMIT,
+    );
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn the_monte_carlo_table_prints_mean_and_rms_rmse_in_significant_digits() {
+    let t = TempDir::new("mc-table");
+    let out = t.path().join("mc");
+    let o = run_file(
+        &scenario("pun-so-small-noise.toml"),
+        &out,
+        &[
+            "--variant",
+            "sigma_1e-4",
+            "--trials",
+            "3",
+            "--samples",
+            "50",
+        ],
+        LIMIT,
+    );
+    let (stdout, err) = text(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        stdout.contains("rmse (mean)") && stdout.contains("rmse (rms)"),
+        "{stdout}"
+    );
+    // sigma = 1e-4: errors of a few 1e-4 m print with their digits, not 0.000.
+    assert!(
+        !stdout.contains(" 0.000 ") && !stdout.contains("-0.000"),
+        "{stdout}"
+    );
+    let row = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("ml "))
+        .unwrap();
+    assert!(row.contains("e-6"), "{row}");
+}
