@@ -395,7 +395,7 @@ fn replay_command(args: &ReplayArgs) -> Result<(), CliError> {
 /// The results directory must be writable before the run starts (exit 2
 /// otherwise, naming `--out`).
 fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
-    pipeline::check_out_dir(dir).map_err(|reason| {
+    pipeline::outdir::prepare_out_dir(dir).map_err(|reason| {
         crate::model::error::InputError::at(std::path::Path::new("<command line>"), "--out", reason)
             .into()
     })

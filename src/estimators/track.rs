@@ -122,7 +122,8 @@ impl TrackRun {
 /// The scene of a track: the bounding box of the sensors (and the first
 /// true position). An estimate is *exploding* when it is not finite or lies
 /// more than [`Scene::EXPLODED`] scene diameters from the box's centre;
-/// [`run_track`] counts it as a failure, with no estimate for that sample.
+/// [`run_track`] counts it as a failure (a finite one stays the track's
+/// estimate; a non-finite one is replaced as a solver failure is).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Scene {
     /// Centre of the bounding box.
@@ -199,15 +200,21 @@ pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> T
         run.step_seconds += start.elapsed().as_secs_f64();
         match r {
             Ok(x) if scene.holds(&x) => run.est.push(Some(x)),
-            Ok(x) => {
-                // Diverged: a failure, and no estimate to score or draw.
+            Ok(x) if x.x.is_finite() && x.y.is_finite() => {
+                // Exploded: a failure, the estimate kept as made (its error
+                // is the track's; plots clip it, tables print it in
+                // engineering notation).
                 run.fail(format!(
-                    "sample {k}: the estimate diverged to ({:e}, {:e}), beyond {} scene diameters",
+                    "sample {k}: the estimate exploded to ({:.3e}, {:.3e}), beyond {} scene diameters",
                     x.x,
                     x.y,
                     Scene::EXPLODED
                 ));
-                run.est.push(None);
+                run.est.push(Some(x));
+            }
+            Ok(_) => {
+                run.fail(format!("sample {k}: a non-finite estimate"));
+                run.est.push(solver.on_failure());
             }
             Err(e) => {
                 run.fail(format!("sample {k}: {e}"));

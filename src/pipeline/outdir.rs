@@ -59,6 +59,18 @@ pub fn is_sonarnet_output(name: &str, is_dir: bool) -> bool {
     }
 }
 
+/// The command line's check of a results directory before any work:
+/// [`clear_previous_run`], then [`super::check_out_dir`] (writable). The
+/// library's [`crate::scenario::Scenario::run_and_write`] only checks that it
+/// can write, so a program may keep its own files next to a run's.
+pub fn prepare_out_dir(dir: &Path) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(format!("{} exists and is not a directory", dir.display()));
+    }
+    clear_previous_run(dir)?;
+    super::check_out_dir(dir)
+}
+
 /// Make `dir` ready for a new run: create it if needed; if it holds a
 /// previous run's files, remove them (and nothing else). Refuses, naming
 /// them, when it holds anything sonarnet does not write. Returns the

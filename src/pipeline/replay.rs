@@ -93,21 +93,23 @@ pub fn compare_results(a: &Path, b: &Path) -> Result<Option<Difference>, String>
 
 type Found = Option<(String, (String, String))>;
 
+/// A CSV line without the cells of the [`is_timing`] columns of `header`.
+pub fn without_timing(header: &str, line: &str) -> String {
+    line.split(',')
+        .zip(header.split(','))
+        .filter(|(_, h)| !is_timing(h))
+        .map(|(c, _)| c)
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
 fn csv_difference(a: &str, b: &str) -> Found {
     let (mut la, mut lb) = (a.lines(), b.lines());
     let (ha, hb) = (la.next().unwrap_or(""), lb.next().unwrap_or(""));
     if ha != hb {
         return Some(("row 0 (header)".into(), (ha.into(), hb.into())));
     }
-    let keep: Vec<bool> = ha.split(',').map(|h| !is_timing(h)).collect();
-    let pick = |l: &str| -> String {
-        l.split(',')
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-            .map(|(c, _)| c)
-            .collect::<Vec<_>>()
-            .join(",")
-    };
+    let pick = |l: &str| without_timing(ha, l);
     let mut row = 0usize;
     loop {
         row += 1;
@@ -146,7 +148,9 @@ fn json_difference(a: &str, b: &str) -> Result<Found, String> {
     Ok(None)
 }
 
-fn scalars(v: &serde_json::Value, path: &str, out: &mut Vec<(String, String)>) {
+/// Every scalar of a JSON value with its key path (`.a.b[2]`), leaving out
+/// the keys [`is_timing`] names.
+pub fn scalars(v: &serde_json::Value, path: &str, out: &mut Vec<(String, String)>) {
     use serde_json::Value;
     match v {
         Value::Object(m) => {

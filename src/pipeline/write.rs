@@ -355,16 +355,13 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
 
 /// Make sure the results directory `dir` can be written before any work
 /// starts: create it (and its parents) and write and remove a probe file in
-/// it. A previous run's files in it are removed first, and a directory
-/// holding files sonarnet did not write is refused
-/// ([`super::outdir::clear_previous_run`]). Returns the reason it cannot be
-/// used, e.g. an existing file of that name, a path below a file, foreign
-/// files, or a read-only place.
+/// it. Returns the reason it cannot be used, e.g. an existing file of that
+/// name, a path below a file, or a read-only place. (The command line also
+/// clears a previous run's files first: [`super::outdir::prepare_out_dir`].)
 pub fn check_out_dir(dir: &Path) -> Result<(), String> {
     if dir.exists() && !dir.is_dir() {
         return Err(format!("{} exists and is not a directory", dir.display()));
     }
-    super::outdir::clear_previous_run(dir)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let probe = dir.join(".sonarnet-write-check");
     std::fs::write(&probe, b"").map_err(|e| format!("cannot write in {}: {e}", dir.display()))?;

@@ -341,16 +341,22 @@ fn the_default_ogd_step_tracks_the_spiral_and_a_diverging_constant_step_counts_f
     let ogd = &m["baselines"]["ogd"];
     assert!(ogd["failures"].as_u64().unwrap() > 0, "{ogd}");
     assert!(
-        ogd["first_failure"].as_str().unwrap().contains("diverged"),
+        ogd["first_failure"].as_str().unwrap().contains("exploded"),
         "{ogd}"
     );
-    let rmse = ogd["rmse"].as_f64().unwrap_or(0.0);
-    assert!(rmse < 1e6, "{ogd}");
+    // The exploded estimates stay the track's: its error is huge, and the
+    // terminal prints it in engineering notation, never 90 digits.
+    assert!(ogd["rmse"].as_f64().unwrap() > 1e6, "{ogd}");
+    let row = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("ogd "))
+        .unwrap();
+    assert!(row.contains('e') && row.len() < 100, "{row}");
     assert!(
-        stdout.lines().all(|l| l.len() < 100),
+        stdout.lines().all(|l| l.len() < 120),
         "no 90-digit numbers:\n{stdout}"
     );
-    // The diverged samples are empty cells in track.csv, never inf or NaN.
+    // track.csv holds finite numbers, never inf or NaN.
     let track = std::fs::read_to_string(out.join("track.csv")).unwrap();
     assert!(!track.contains("inf") && !track.contains("NaN"));
 }

@@ -15,6 +15,7 @@
 
 use crate::util::{TempDir, root, run_file, scenario};
 use serde_json::Value;
+use sonarnet::pipeline::replay::{scalars, without_timing};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -101,56 +102,18 @@ fn golden_dir(name: &str) -> PathBuf {
     root().join("tests/golden/runs").join(name)
 }
 
-/// A measurement or a fact of the machine rather than a result.
-fn is_timing(key: &str) -> bool {
-    key == "command_line" || is_measurement(key)
-}
-
-fn is_measurement(key: &str) -> bool {
-    key.contains("seconds") || key.ends_with("_per_s") || key == "realtime" || key.contains("rss")
-}
-
-/// Every scalar of a JSON value with its path, timings left out.
-fn scalars(v: &Value, path: &str, out: &mut Vec<(String, String)>) {
-    match v {
-        Value::Number(_) | Value::String(_) | Value::Bool(_) | Value::Null => {
-            out.push((path.to_string(), v.to_string()))
-        }
-        Value::Object(m) => {
-            for (k, x) in m {
-                if !is_timing(k) {
-                    scalars(x, &format!("{path}.{k}"), out);
-                }
-            }
-        }
-        Value::Array(a) => {
-            for (i, x) in a.iter().enumerate() {
-                scalars(x, &format!("{path}[{i}]"), out);
-            }
-        }
-    }
-}
-
 /// A CSV with its timing columns removed (the processes engine writes
-/// per-node busy and wait seconds into `nodes.csv`).
+/// per-node busy and wait seconds into `nodes.csv`), by the rule `sonarnet
+/// replay` uses ([`sonarnet::pipeline::replay::is_timing`]).
 fn without_timing_columns(text: &str) -> String {
     let mut lines = text.lines();
     let Some(header) = lines.next() else {
         return String::new();
     };
-    let keep: Vec<bool> = header.split(',').map(|h| !is_timing(h)).collect();
-    let pick = |line: &str| -> String {
-        line.split(',')
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-            .map(|(c, _)| c)
-            .collect::<Vec<_>>()
-            .join(",")
-    };
-    let mut out = pick(header);
+    let mut out = without_timing(header, header);
     for l in lines {
         out.push('\n');
-        out.push_str(&pick(l));
+        out.push_str(&without_timing(header, l));
     }
     out
 }

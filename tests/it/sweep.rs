@@ -155,7 +155,10 @@ fn a_sweep_runs_every_grid_point_at_every_seed_and_summarises_them() {
         check_selftest(&v).unwrap();
         let shot = t.path().join("sweep.png");
         crate::util::screenshot(&chromium, &out.join("report.html"), &shot);
-        assert!(!crate::util::png_is_blank(&shot), "the sweep page renders blank");
+        assert!(
+            !crate::util::png_is_blank(&shot),
+            "the sweep page renders blank"
+        );
     }
 }
 
