@@ -16,7 +16,8 @@ pub struct Cli {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 // Parsed once per process: the size of the `run` variant costs nothing.
-#[allow(clippy::large_enum_variant)]
+// `[expect]`: see the note above `ReportArgs` (clap's --help text).
+#[allow(clippy::large_enum_variant, rustdoc::broken_intra_doc_links)]
 pub enum Command {
     /// Run a scenario and write a results directory.
     Run(RunArgs),
@@ -96,6 +97,8 @@ pub struct NewArgs {
 
 /// `sonarnet sweep`.
 #[derive(Debug, clap::Args)]
+// `[[variants]]`, `<name>`: see the note above `ReportArgs`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 pub struct SweepArgs {
     /// The scenario TOML file.
     pub scenario: PathBuf,
