@@ -14,7 +14,7 @@
 use clap::Parser;
 use sonarnet::engine::node::{NodeLoop, run_node};
 use sonarnet::engine::processes::{NodeLaunch, TEMP_CHECKPOINTS, guard_parent, wait_at_gate};
-use sonarnet::transport::{IoxTransport, cleanup_run};
+use sonarnet::transport::{cleanup_run, open_node};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -94,8 +94,13 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
     let parent = std::os::unix::process::parent_id();
     let topo = launch.run_topology().map_err(|e| e.to_string())?;
     wait_at_gate(&launch)?;
-    let mut tx = IoxTransport::node(&topo, launch.node.id).map_err(|e| e.to_string())?;
-    tx.set_poll(Duration::from_micros(launch.poll_us));
+    let mut tx = open_node(
+        &launch.transport,
+        &topo,
+        launch.node.id,
+        Duration::from_micros(launch.poll_us),
+    )
+    .map_err(|e| e.to_string())?;
     let alive = move || std::os::unix::process::parent_id() == parent;
     let checkpoint = launch.checkpoint.clone();
     let opts = NodeLoop {

@@ -61,6 +61,56 @@ pub enum Command {
     /// temporary directory and compare the results file by file: exit 0 if
     /// equal, 1 naming the first differing file and row.
     Replay(ReplayArgs),
+    /// Start and reap this host's nodes of a run spread over hosts: connect
+    /// to the coordinator (`sonarnet run --transport zenoh` with a placement)
+    /// and run the nodes it assigns to --host.
+    Agent(AgentArgs),
+}
+
+/// `sonarnet agent`.
+#[derive(Debug, clap::Args)]
+pub struct AgentArgs {
+    /// The coordinator's endpoint, e.g. `tcp/10.0.0.1:7447` (repeatable).
+    #[arg(long, required = true, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// The run to join, as the coordinator printed it (`--run-id` of `sonarnet
+    /// run`): without it the coordinator admits nothing.
+    #[arg(long, value_name = "ID")]
+    pub run_id: String,
+    /// This host's name in the run's placement (`[deploy] hosts`, `--place`).
+    #[arg(long, value_name = "NAME")]
+    pub host: String,
+    /// A zenoh configuration file (JSON5) to start from: TLS, access control.
+    #[arg(long, value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Seconds to wait for the coordinator (0.1 to 3600).
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0, value_parser = seconds_up_to_an_hour)]
+    pub wait: f64,
+    /// Log what the agent does to stderr.
+    #[arg(long, short)]
+    pub verbose: bool,
+}
+
+/// The command-line spelling of the transport.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum TransportArg {
+    /// Shared memory: every node on this host.
+    #[default]
+    Iceoryx2,
+    /// zenoh over TCP: nodes on this host or on others (`--place`, `[deploy]`).
+    Zenoh,
+}
+
+/// Seconds in [0.1, 3600].
+pub(crate) fn seconds_up_to_an_hour(v: &str) -> Result<f64, String> {
+    let t: f64 = v
+        .parse()
+        .map_err(|e| format!("not a number of seconds: {e}"))?;
+    if (0.1..=3600.0).contains(&t) {
+        Ok(t)
+    } else {
+        Err(format!("{t} s is outside [0.1, 3600]"))
+    }
 }
 
 /// `sonarnet new`.
@@ -391,6 +441,31 @@ pub struct RunArgs {
     /// has not answered a snapshot within it is left out like a dead node.
     #[arg(long, value_name = "SECONDS", default_value_t = 5.0, value_parser = stall_timeout)]
     pub stall_timeout: f64,
+    /// Transport between the node processes: iceoryx2 (shared memory, every
+    /// node on this host) or zenoh (TCP; nodes here or on other hosts). Needs
+    /// --engine processes (the default with zenoh).
+    #[arg(long, value_enum, default_value_t = TransportArg::Iceoryx2)]
+    pub transport: TransportArg,
+    /// zenoh: the endpoint the coordinator listens on (repeatable)
+    /// [default: a free loopback port; with a placement, tcp/0.0.0.0:7447].
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// zenoh: place nodes on hosts, HOST=NODES (repeatable; ranges allowed:
+    /// `a=0-2 b=3,4,5`), replacing the scenario's [deploy]. Host `local` is
+    /// this one; every other host needs `sonarnet agent`.
+    #[arg(long = "place", value_name = "HOST=NODES")]
+    pub place: Vec<String>,
+    /// zenoh: the run id the agents give (`sonarnet agent --run-id`)
+    /// [default: a fresh one with a 64-bit random secret, printed].
+    #[arg(long, value_name = "ID")]
+    pub run_id: Option<String>,
+    /// zenoh: a zenoh configuration file (JSON5) to start from: TLS
+    /// certificates, your own access control (README, "Across hosts").
+    #[arg(long, value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// zenoh: seconds to wait for the agents of a placement (0.1 to 3600).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0, value_parser = seconds_up_to_an_hour)]
+    pub agent_wait: f64,
     /// Log coordinator and node events (with node ids) to stderr.
     #[arg(long, short)]
     pub verbose: bool,

@@ -69,6 +69,13 @@ pub enum CliError {
         /// The first difference.
         diff: Box<crate::pipeline::replay::Difference>,
     },
+    /// `sonarnet agent` failed (exit 1).
+    #[error(transparent)]
+    Agent(crate::engine::agent::AgentError),
+    /// `sonarnet agent` was stopped by SIGINT or SIGTERM (exit 1); its nodes
+    /// were stopped and reaped.
+    #[error("interrupted; this host's nodes were stopped")]
+    AgentInterrupted,
     /// Some variants of a scenario failed; each error was printed as it
     /// happened (exit 1).
     #[error("{failed} variant(s) failed (their errors are above):\n{list}")]

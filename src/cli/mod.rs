@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 mod args;
 mod errors;
+mod net;
 mod print;
 mod scaffold;
 mod sweep;
@@ -70,6 +71,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
             Ok(())
         }
         Command::Run(args) => run_command(args),
+        Command::Agent(args) => net::agent_command(&args),
         Command::Replay(args) => replay_command(&args),
         Command::Sweep(args) => sweep::sweep_command(&args),
         Command::New(args) => scaffold::new_command(&args),
@@ -435,6 +437,9 @@ pub fn override_suffix(args: &RunArgs) -> String {
             ProxScalingArg::InverseProbability => "invprob".into(),
         });
     }
+    if args.transport == TransportArg::Zenoh {
+        parts.push("zenoh".into());
+    }
     if args.poll_us > 0 {
         parts.push(format!("poll{}", args.poll_us));
     }
@@ -534,6 +539,7 @@ fn run_monte_carlo_command(
         verbose: false,
         stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
         write_checkpoints: false,
+        net: Default::default(),
     };
     check_out(&opts.out_dir)?;
     let bar = opts.progress.then(|| {
@@ -585,11 +591,14 @@ fn run_single(
     let acoustic = sc.channel.acoustic().is_some();
     // The acoustic channel and faults run on the discrete-event engine by
     // default.
-    let engine = args.engine().unwrap_or(if acoustic || sc.has_faults() {
-        EngineKind::Inprocess
-    } else {
-        EngineKind::Processes
-    });
+    let engine = args.engine().unwrap_or(
+        if (acoustic || sc.has_faults()) && args.transport != TransportArg::Zenoh {
+            EngineKind::Inprocess
+        } else {
+            EngineKind::Processes
+        },
+    );
+    let net = net::net_options(args, sc, engine)?;
     let clock = args.clock_for(sc);
     if args.poll_us > 0 && engine != EngineKind::Processes {
         return Err(crate::model::error::InputError::at(
@@ -676,6 +685,7 @@ fn run_single(
         verbose: args.verbose,
         stall_timeout: std::time::Duration::from_secs_f64(args.stall_timeout),
         write_checkpoints: true,
+        net,
     };
     check_out(&opts.out_dir)?;
     pipeline::preflight(sc, &opts)?;

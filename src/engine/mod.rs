@@ -11,6 +11,7 @@
 //! All of them run the same coordinator and the same node core; [`run`] is
 //! the one entry point.
 
+pub mod agent;
 pub mod checkpoint;
 pub mod coordinator;
 pub mod des;
@@ -126,6 +127,21 @@ pub enum EngineError {
         dir: std::path::PathBuf,
         /// The I/O error.
         reason: String,
+    },
+    /// The agents of some hosts of a placement did not connect in time.
+    #[error(
+        "no agent connected for host(s) {} within {waited:?}: start `sonarnet agent --connect tcp/<this host>:<port> --run-id {run_id} --host <name>` there (the coordinator listens on {listen})",
+        missing.join(", ")
+    )]
+    AgentsMissing {
+        /// The hosts without an agent.
+        missing: Vec<String>,
+        /// How long the coordinator waited.
+        waited: Duration,
+        /// The run id the agents must give.
+        run_id: String,
+        /// The coordinator's endpoints.
+        listen: String,
     },
     /// Nodes did not report READY in time.
     #[error("nodes {missing:?} did not come up within {waited:?}")]

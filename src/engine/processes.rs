@@ -31,21 +31,26 @@ use crate::model::synth::Realization;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
 use crate::transport::wire::Frame;
-use crate::transport::{Endpoint, IoxTransport, Transport, TransportError};
-use std::process::{Child, ExitStatus};
+use crate::transport::{Endpoint, IoxTransport, Transport, TransportChoice, TransportError};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 mod faults;
+pub mod fleet;
 mod launch;
+pub use fleet::{NodeProc, Placement, RemoteFleet};
 pub use launch::*;
 
 /// The coordinator side of a multi-process run.
 pub struct Processes {
     /// `None` only while dropping.
-    tx: Option<IoxTransport>,
-    children: Vec<Option<Child>>,
+    tx: Option<Box<dyn Transport>>,
+    children: Vec<Option<NodeProc>>,
+    /// The agents of the other hosts (a `[deploy]` placement over zenoh).
+    fleet: Option<Arc<RemoteFleet>>,
+    /// Which host runs which node (`None`: all here).
+    placement: Option<Placement>,
     dead: Vec<bool>,
     decoder: ReportDecoder,
     frames: Vec<Frame>,
@@ -86,16 +91,6 @@ pub struct Processes {
     held: Vec<Vec<Frame>>,
 }
 
-fn status_text(s: &ExitStatus) -> String {
-    use std::os::unix::process::ExitStatusExt;
-    match (s.code(), s.signal()) {
-        (Some(143), _) => "exit code 143: stopped by SIGTERM or SIGINT".into(),
-        (Some(c), _) => format!("exit code {c}"),
-        (None, Some(sig)) => format!("killed by signal {sig}"),
-        _ => "unknown status".into(),
-    }
-}
-
 impl Processes {
     /// Create the run's services (namespace `run_id`, from
     /// [`unique_run_id`](crate::transport::unique_run_id)) and spawn one node
@@ -117,6 +112,15 @@ impl Processes {
                 path: prog.program.clone(),
             });
         }
+        let zenoh = match &opts.transport {
+            TransportChoice::Zenoh(z) => Some(z.clone()),
+            TransportChoice::Iceoryx2 => None,
+        };
+        if opts.placement.is_some() && zenoh.is_none() {
+            return Err(EngineError::Unsupported(
+                "nodes placed on other hosts ([deploy], --place) need --transport zenoh".into(),
+            ));
+        }
         let interrupt = super::interrupt::flag();
         let _ = crate::transport::cleanup_stale_resources();
         let n = configs.len();
@@ -136,12 +140,18 @@ impl Processes {
             resume: false,
             coordinator_pid: Some(std::process::id()),
             gate: false,
+            transport: match &zenoh {
+                Some(z) => TransportChoice::Zenoh(z.for_local_nodes()),
+                None => TransportChoice::Iceoryx2,
+            },
         };
         let topo = launch0.run_topology().map_err(EngineError::Transport)?;
         let start = Instant::now();
         let mut p = Processes {
             tx: None,
             children: Vec::with_capacity(n),
+            fleet: None,
+            placement: opts.placement.clone(),
             dead: vec![false; n],
             decoder: ReportDecoder::default(),
             frames: Vec::new(),
@@ -165,6 +175,28 @@ impl Processes {
             held: vec![Vec::new(); n],
             children_checked: Instant::now(),
         };
+        if let Some(z) = &zenoh {
+            p.start_zenoh(&topo, z, &configs, opts)?;
+        } else {
+            p.start_iceoryx2(&topo, &configs)?;
+        }
+        p.log(format_args!(
+            "spawned {n} node processes (run {})",
+            p.run_id
+        ));
+        p.wait_ready(start, opts.startup_timeout)?;
+        Ok(p)
+    }
+
+    /// Over iceoryx2: spawn every node, then create the services.
+    fn start_iceoryx2(
+        &mut self,
+        topo: &crate::transport::RunTopology,
+        configs: &[NodeConfig],
+    ) -> Result<(), EngineError> {
+        let p = self;
+        let prog = p.program.clone();
+        let prog = &prog;
         // The nodes start first, each waiting at a gate (its stdin, one pipe
         // for all) until the services exist: spawned while the coordinator
         // holds few file descriptors and mappings (the close-on-exec of
@@ -172,7 +204,7 @@ impl Processes {
         // issue 20), and starting up while the services are created.
         let (gate, gate_writer) = std::io::pipe()
             .map_err(|e| EngineError::StartGate(format!("creating its pipe: {e}")))?;
-        for cfg in &configs {
+        for cfg in configs {
             let launch = NodeLaunch {
                 gate: true,
                 ..p.launch_of(cfg, false)
@@ -180,26 +212,104 @@ impl Processes {
             let stdin = gate.try_clone().map_err(|e| {
                 EngineError::StartGate(format!("passing it to node {}: {e}", cfg.id))
             })?;
-            p.children
-                .push(Some(spawn_child(prog, &launch, stdin.into())?));
+            p.children.push(Some(NodeProc::Local(spawn_child(
+                prog,
+                &launch,
+                stdin.into(),
+            )?)));
         }
         drop(gate);
-        p.tx = Some(IoxTransport::coordinator(&topo).map_err(EngineError::Transport)?);
+        p.tx = Some(Box::new(
+            IoxTransport::coordinator(topo).map_err(EngineError::Transport)?,
+        ));
         // Open the gate: every node reads end-of-file and opens its ports.
         drop(gate_writer);
-        p.log(format_args!(
-            "spawned {n} node processes (run {})",
-            p.run_id
-        ));
+        Ok(())
+    }
+
+    /// Over zenoh: open the coordinator's router, wait for the agents of a
+    /// placement, then start every node, here or through its agent.
+    #[cfg(feature = "zenoh")]
+    fn start_zenoh(
+        &mut self,
+        topo: &crate::transport::RunTopology,
+        z: &crate::transport::ZenohSettings,
+        configs: &[NodeConfig],
+        opts: &ProcessOptions,
+    ) -> Result<(), EngineError> {
+        let tx = crate::transport::zenoh::ZenohTransport::coordinator(topo, z)
+            .map_err(EngineError::Transport)?;
+        if let Some(pl) = &opts.placement {
+            let fleet = RemoteFleet::open(tx.session(), &self.run_id, pl, configs.len())?;
+            let agents = pl.agents();
+            Processes::log(
+                self,
+                format_args!(
+                    "waiting for the agents of {} on {}",
+                    agents.join(", "),
+                    z.listen.join(", ")
+                ),
+            );
+            let missing = fleet.wait_for(&agents, opts.agent_wait);
+            if !missing.is_empty() {
+                return Err(EngineError::AgentsMissing {
+                    missing,
+                    waited: opts.agent_wait,
+                    run_id: self.run_id.clone(),
+                    listen: z.listen.join(", "),
+                });
+            }
+            self.fleet = Some(fleet);
+        }
+        self.tx = Some(Box::new(tx));
+        for cfg in configs {
+            let launch = self.launch_of(cfg, false);
+            let proc = self.start_node(&launch)?;
+            self.children.push(Some(proc));
+        }
+        Ok(())
+    }
+
+    #[cfg(not(feature = "zenoh"))]
+    fn start_zenoh(
+        &mut self,
+        _topo: &crate::transport::RunTopology,
+        _z: &crate::transport::ZenohSettings,
+        _configs: &[NodeConfig],
+        _opts: &ProcessOptions,
+    ) -> Result<(), EngineError> {
+        Err(EngineError::Transport(TransportError::ZenohUnavailable))
+    }
+
+    /// Start node `launch.node.id`: through its host's agent, or here.
+    fn start_node(&self, launch: &NodeLaunch) -> Result<NodeProc, EngineError> {
+        let host = self
+            .placement
+            .as_ref()
+            .and_then(|pl| pl.host_of(launch.node.id));
+        match (&self.fleet, host) {
+            (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch),
+            _ => Ok(NodeProc::Local(spawn_child(
+                &self.program,
+                launch,
+                std::process::Stdio::null(),
+            )?)),
+        }
+    }
+
+    /// Wait for READY from every node.
+    fn wait_ready(&mut self, start: Instant, timeout: Duration) -> Result<(), EngineError> {
+        let p = self;
+        let n = p.children.len();
         // Wait for READY from everyone.
         let mut ready = vec![false; n];
         let mut count = 0;
         while count < n {
-            if start.elapsed() > opts.startup_timeout {
+            if start.elapsed() > timeout {
                 let missing = (0..n).filter(|&i| !ready[i]).map(|i| i as u32).collect();
                 return Err(EngineError::Startup {
                     missing,
-                    waited: opts.startup_timeout,
+                    waited: timeout,
                 });
             }
             for input in p.poll(Duration::from_millis(50))? {
@@ -213,11 +323,11 @@ impl Processes {
             }
         }
         p.startup_seconds = start.elapsed().as_secs_f64();
-        p.log(format_args!(
-            "all {n} nodes ready after {:.3} s",
-            p.startup_seconds
-        ));
-        Ok(p)
+        Processes::log(
+            p,
+            format_args!("all {n} nodes ready after {:.3} s", p.startup_seconds),
+        );
+        Ok(())
     }
 
     /// What node `cfg.id` is told at start (`resume`: a restart from its
@@ -248,7 +358,7 @@ impl Processes {
                 continue;
             }
             if let Some(child) = c
-                && let Ok(Some(status)) = child.try_wait()
+                && let Some(status) = child.try_wait()
             {
                 *c = None;
                 if self.restarting[i] {
@@ -256,12 +366,12 @@ impl Processes {
                     self.restarting[i] = false;
                     eprintln!(
                         "warning: restarted node {i} exited before it was ready ({})",
-                        status_text(&status)
+                        status
                     );
                     continue;
                 }
                 self.dead[i] = true;
-                return Some((i as u32, status_text(&status)));
+                return Some((i as u32, status));
             }
         }
         None
@@ -348,11 +458,7 @@ impl Processes {
     /// Send signal `sig` to node `node`'s process, if it has one.
     fn signal(&self, node: u32, sig: i32) {
         if let Some(Some(child)) = self.children.get(node as usize) {
-            // SAFETY: kill(2) on the pid of a child we own and have not
-            // reaped (it is `Some` until reaped).
-            unsafe {
-                libc::kill(child.id() as i32, sig);
-            }
+            child.signal(sig);
         }
     }
 
@@ -426,7 +532,7 @@ impl Processes {
         self.children
             .iter()
             .map(|c| {
-                let pid = c.as_ref()?.id();
+                let pid = c.as_ref()?.local_pid()?;
                 let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
                 status
                     .lines()
@@ -444,7 +550,7 @@ impl Processes {
         self.tx()?.flush().map_err(EngineError::Transport)
     }
 
-    fn tx(&mut self) -> Result<&mut IoxTransport, EngineError> {
+    fn tx(&mut self) -> Result<&mut Box<dyn Transport>, EngineError> {
         self.tx.as_mut().ok_or(EngineError::TransportClosed)
     }
 
@@ -470,8 +576,8 @@ impl Processes {
             if self.restarting[i]
                 && let Some(mut child) = self.children[i].take()
             {
-                let _ = child.kill();
-                let _ = child.wait();
+                child.kill();
+                child.wait();
                 self.restarting[i] = false;
             }
         }
@@ -485,8 +591,8 @@ impl Processes {
             for c in self.children.iter_mut() {
                 if let Some(child) = c {
                     match child.try_wait() {
-                        Ok(Some(_)) => *c = None,
-                        _ => alive += 1,
+                        Some(_) => *c = None,
+                        None => alive += 1,
                     }
                 }
             }
@@ -496,8 +602,8 @@ impl Processes {
             if Instant::now() > deadline {
                 for (i, c) in self.children.iter_mut().enumerate() {
                     if let Some(child) = c {
-                        let _ = child.kill();
-                        let _ = child.wait();
+                        child.kill();
+                        child.wait();
                         self.dead[i] = true;
                     }
                     *c = None;
@@ -512,6 +618,10 @@ impl Processes {
                 }
                 None => std::thread::sleep(Duration::from_millis(10)),
             }
+        }
+        // Every node is reaped: the agents may go.
+        if let Some(f) = &self.fleet {
+            f.end(Duration::from_secs(2));
         }
     }
 }
@@ -609,8 +719,8 @@ impl Network for Processes {
         let i = node as usize;
         self.fault_noticed(node);
         if let Some(Some(child)) = self.children.get_mut(i) {
-            let _ = child.kill();
-            let _ = child.wait();
+            child.kill();
+            child.wait();
             Processes::log(
                 self,
                 format_args!("node {node} abandoned: killed and reaped"),
@@ -765,7 +875,11 @@ pub fn run_processes(
     } = layout;
     // The run id is chosen first, so that a run that fails to start still
     // records the namespace it used.
-    let run_id = crate::transport::unique_run_id();
+    let run_id = match (&opts.run_id, &opts.transport) {
+        (Some(id), _) => id.clone(),
+        (None, crate::transport::TransportChoice::Zenoh(_)) => crate::transport::secret_run_id(),
+        (None, crate::transport::TransportChoice::Iceoryx2) => crate::transport::unique_run_id(),
+    };
     // The acoustic channel's water; on the ideal channel, a relay through
     // the coordinator when link faults are scheduled (the nodes cannot
     // apply them to each other) or pauses (a stopped node drains nothing:

@@ -72,6 +72,24 @@ pub struct RunOptions {
     /// they stay with the results. Off: a temporary directory, removed at
     /// the end (runs that are not written, Monte Carlo trials).
     pub write_checkpoints: bool,
+    /// Multi-process engine: the transport, and nodes on other hosts.
+    pub net: NetOptions,
+}
+
+/// How the node processes of a multi-process run reach each other
+/// (`--transport`, `--listen`, `--place`, ...). The default is iceoryx2 with
+/// every node on this host.
+#[derive(Debug, Clone, Default)]
+pub struct NetOptions {
+    /// iceoryx2 or zenoh (with the coordinator's endpoints).
+    pub transport: crate::transport::TransportChoice,
+    /// Nodes on other hosts (`--place`, else the scenario's `[deploy]`).
+    pub placement: Option<crate::scenario::deploy::Placement>,
+    /// How long to wait for the agents of the placement (default 30 s).
+    pub agent_wait: Option<std::time::Duration>,
+    /// The run id (`--run-id`); default: a fresh one (with a random secret
+    /// over zenoh, [`crate::transport::secret_run_id`]).
+    pub run_id: Option<String>,
 }
 
 /// The clock a scenario runs on when the caller does not choose one: its
@@ -102,6 +120,7 @@ impl RunOptions {
             verbose: false,
             stall_timeout: crate::engine::plan::DEFAULT_STALL_TIMEOUT,
             write_checkpoints: false,
+            net: NetOptions::default(),
         }
     }
 
@@ -271,7 +290,25 @@ pub fn execute(
     progress: crate::engine::Progress<'_>,
 ) -> Executed {
     let real = sc.realize();
+    let zenoh = matches!(
+        opts.net.transport,
+        crate::transport::TransportChoice::Zenoh(_)
+    );
     let popts = crate::engine::processes::ProcessOptions {
+        transport: opts.net.transport.clone(),
+        // A placement applies over zenoh only: the scenario's [deploy] is
+        // ignored on iceoryx2 (every node is then on this host).
+        placement: opts
+            .net
+            .placement
+            .clone()
+            .or_else(|| sc.deploy.clone())
+            .filter(|_| zenoh),
+        agent_wait: opts
+            .net
+            .agent_wait
+            .unwrap_or(std::time::Duration::from_secs(30)),
+        run_id: opts.net.run_id.clone(),
         poll_us: opts.poll_us,
         verbose: opts.verbose,
         checkpoint_dir: opts

@@ -450,6 +450,10 @@ impl Scenario {
             ch.validate(geometry.receivers.len())
                 .map_err(|(key, reason)| InputError::at(path, key, reason))?;
         }
+        if let Some(d) = &file.deploy {
+            d.validate(geometry.receivers.len())
+                .map_err(|r| InputError::at(path, "deploy.hosts", r))?;
+        }
         let faults = resolve_faults(&file, geometry.receivers.len())
             .map_err(|(key, reason)| InputError::at(path, key, reason))?;
         // Baselines, bounds, Monte Carlo.
@@ -497,6 +501,7 @@ impl Scenario {
             trials: file.monte_carlo.as_ref().map(|m| m.trials),
             variant: None,
             overrides: Vec::new(),
+            deploy: file.deploy.clone(),
             file,
         };
         sc.check_size()

@@ -6,6 +6,7 @@
 //! schedule files it names (paths relative to the scenario file), and returns
 //! one [`InputError`] that names the file, the key or line, and the reason.
 
+pub mod deploy;
 pub mod expect;
 
 pub use crate::estimators::gossip::Mode;
@@ -140,6 +141,8 @@ pub struct Scenario {
     pub variant: Option<String>,
     /// The `--set KEY=VALUE` overrides applied to the file, as given.
     pub overrides: Vec<String>,
+    /// Which host runs which node (`[deploy]`); `None`: all on this host.
+    pub deploy: Option<deploy::Placement>,
 }
 
 impl Scenario {

@@ -54,6 +54,10 @@ pub struct ScenarioFile {
     /// Repeat the run over seeds `seed..seed+trials` (`[monte_carlo]`).
     #[serde(default)]
     pub monte_carlo: Option<MonteCarloCfg>,
+    /// Which host runs which node over zenoh (`[deploy] hosts = { a = [0, 1],
+    /// b = [2, 3] }`, `scenarios/README.md`); only `--transport zenoh` reads it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deploy: Option<crate::scenario::deploy::Placement>,
     /// Named variants of this scenario (`[[variants]]`): each is a table of
     /// overrides deep-merged into the file (see `scenarios/README.md`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -49,9 +49,120 @@ use crate::transport::wire::Frame;
 pub mod iox;
 mod mem;
 pub mod wire;
+#[cfg(feature = "zenoh")]
+pub mod zenoh;
 
 pub use iox::{CleanupReport, IoxTransport, cleanup_run, cleanup_stale_resources, run_resources};
+
+/// Opens node `id`'s transport as its launch says: iceoryx2 (with `poll`,
+/// see [`IoxTransport::set_poll`]) or zenoh.
+pub fn open_node(
+    choice: &TransportChoice,
+    topology: &RunTopology,
+    id: u32,
+    poll: Duration,
+) -> Result<Box<dyn Transport>, TransportError> {
+    match choice {
+        TransportChoice::Iceoryx2 => {
+            let mut t = IoxTransport::node(topology, id)?;
+            t.set_poll(poll);
+            Ok(Box::new(t))
+        }
+        #[cfg(feature = "zenoh")]
+        TransportChoice::Zenoh(z) => Ok(Box::new(zenoh::ZenohTransport::node(topology, id, z)?)),
+        #[cfg(not(feature = "zenoh"))]
+        TransportChoice::Zenoh(_) => Err(TransportError::ZenohUnavailable),
+    }
+}
 pub use mem::{MemNetwork, MemTransport};
+
+/// Which transport a multi-process run uses, and how to reach its peers.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TransportChoice {
+    /// iceoryx2 shared memory: every node on the coordinator's host.
+    #[default]
+    Iceoryx2,
+    /// zenoh over TCP ([`ZenohSettings`]): nodes on this host or on others.
+    Zenoh(ZenohSettings),
+}
+
+/// Where a zenoh session listens or connects (`tcp/HOST:PORT` endpoints), and
+/// the user's own zenoh configuration file to start from (TLS, access control).
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZenohSettings {
+    /// Endpoints the coordinator listens on, e.g. `tcp/0.0.0.0:7447`.
+    #[serde(default)]
+    pub listen: Vec<String>,
+    /// Endpoints nodes and agents connect to: the coordinator's.
+    #[serde(default)]
+    pub connect: Vec<String>,
+    /// A zenoh configuration file (JSON5) read first; sonarnet then sets the
+    /// mode, the endpoints, scouting and the lease over it.
+    #[serde(default)]
+    pub config_file: Option<std::path::PathBuf>,
+}
+
+impl ZenohSettings {
+    /// What nodes on the coordinator's own host connect to: each listen
+    /// endpoint, with an unspecified address (`0.0.0.0`, `[::]`) replaced by
+    /// the loopback one; the configuration file is kept.
+    pub fn for_local_nodes(&self) -> ZenohSettings {
+        let connect = if self.connect.is_empty() {
+            self.listen
+                .iter()
+                .map(|e| {
+                    e.replace("/0.0.0.0:", "/127.0.0.1:")
+                        .replace("/[::]:", "/[::1]:")
+                })
+                .collect()
+        } else {
+            self.connect.clone()
+        };
+        ZenohSettings {
+            listen: Vec::new(),
+            connect,
+            config_file: self.config_file.clone(),
+        }
+    }
+
+    /// A loopback TCP endpoint on a port the system has free now (the port
+    /// is released before zenoh binds it: another program could take it in
+    /// between, and zenoh's error then names the endpoint).
+    pub fn free_loopback_endpoint() -> Result<String, TransportError> {
+        let l = std::net::TcpListener::bind("127.0.0.1:0")
+            .map_err(|e| TransportError::ipc("finding a free loopback port", e))?;
+        let port = l
+            .local_addr()
+            .map_err(|e| TransportError::ipc("finding a free loopback port", e))?
+            .port();
+        Ok(format!("tcp/127.0.0.1:{port}"))
+    }
+}
+
+/// A run id that also serves as the run's secret over zenoh: [`unique_run_id`]
+/// followed by 64 bits from the operating system's random source
+/// (`/dev/urandom`; not the run seed, which only drives the numbers). A party
+/// that does not know it cannot join the run (the router admits only its
+/// keys, [`zenoh::config`](crate::transport)).
+pub fn secret_run_id() -> String {
+    let mut b = [0u8; 8];
+    let ok = std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut b))
+        .is_ok();
+    let salt = if ok {
+        u64::from_le_bytes(b)
+    } else {
+        // No random source: the clock's nanoseconds, hashed.
+        let n = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos() as u64)
+            .unwrap_or(0);
+        n.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    };
+    format!("{}-{salt:016x}", unique_run_id())
+}
 
 /// One addressable party of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -168,6 +279,17 @@ pub enum TransportError {
         /// Why it is refused.
         reason: String,
     },
+    /// This build has no zenoh transport (cargo feature `zenoh` off).
+    #[error("this sonarnet was built without the zenoh transport (cargo feature `zenoh`)")]
+    ZenohUnavailable,
+    /// A zenoh operation failed.
+    #[error("zenoh failure while {op}: {detail}")]
+    Zenoh {
+        /// What the transport was doing.
+        op: String,
+        /// The underlying error.
+        detail: String,
+    },
     /// An iceoryx2 (or OS) operation failed.
     #[error("IPC failure while {op}: {detail}")]
     Ipc {
@@ -234,6 +356,34 @@ pub trait Transport {
     /// ended a second after the kill was noticed. Nothing by default (frames
     /// delivered at once need no wait).
     fn forget_unread(&mut self, _keep: Option<Endpoint>) {}
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn endpoint(&self) -> Endpoint {
+        (**self).endpoint()
+    }
+    fn send(&mut self, to: Endpoint, frame: &Frame) -> Result<(), TransportError> {
+        (**self).send(to, frame)
+    }
+    fn broadcast(&mut self, frame: &Frame) -> Result<(), TransportError> {
+        (**self).broadcast(frame)
+    }
+    fn flush(&mut self) -> Result<(), TransportError> {
+        (**self).flush()
+    }
+    fn recv(
+        &mut self,
+        out: &mut Vec<Frame>,
+        timeout: Option<Duration>,
+    ) -> Result<usize, TransportError> {
+        (**self).recv(out, timeout)
+    }
+    fn shutdown(&mut self, timeout: Duration) -> Result<(), TransportError> {
+        (**self).shutdown(timeout)
+    }
+    fn forget_unread(&mut self, keep: Option<Endpoint>) {
+        (**self).forget_unread(keep)
+    }
 }
 
 /// Default send timeout, see [`RunTopology::with_send_timeout`].
@@ -433,7 +583,8 @@ impl RunTopology {
     }
 }
 
-fn validate_run_id(run_id: &str) -> Result<(), TransportError> {
+/// Checks a run id: 1 to [`MAX_RUN_ID_LEN`] characters from `[A-Za-z0-9._-]`.
+pub fn validate_run_id(run_id: &str) -> Result<(), TransportError> {
     if run_id.is_empty() || run_id.len() > MAX_RUN_ID_LEN {
         return Err(TransportError::InvalidTopology(format!(
             "run id must have 1 to {MAX_RUN_ID_LEN} characters, got {}",
@@ -523,6 +674,31 @@ mod tests {
         assert!(!t.is_edge(Endpoint::Coordinator, Endpoint::Node(3)));
         assert!(t.is_edge(Endpoint::Node(1), Endpoint::Coordinator));
         assert!(!t.is_edge(Endpoint::Coordinator, Endpoint::Coordinator));
+    }
+
+    #[test]
+    fn local_nodes_connect_to_the_loopback_form_of_the_listen_endpoint() {
+        let z = ZenohSettings {
+            listen: vec!["tcp/0.0.0.0:7447".into(), "tcp/[::]:7448".into()],
+            connect: vec![],
+            config_file: None,
+        };
+        let l = z.for_local_nodes();
+        assert_eq!(l.connect, vec!["tcp/127.0.0.1:7447", "tcp/[::1]:7448"]);
+        assert!(l.listen.is_empty());
+        let e = ZenohSettings::free_loopback_endpoint().unwrap();
+        assert!(e.starts_with("tcp/127.0.0.1:"), "{e}");
+    }
+
+    #[test]
+    fn secret_run_ids_are_valid_and_carry_64_random_bits() {
+        let a = secret_run_id();
+        let b = secret_run_id();
+        assert_ne!(a[a.len() - 16..], b[b.len() - 16..]);
+        assert!(
+            validate_run_id(&a).is_ok() && a.len() <= MAX_RUN_ID_LEN,
+            "{a}"
+        );
     }
 
     #[test]

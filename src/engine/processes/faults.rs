@@ -43,7 +43,7 @@ impl Processes {
                 }
                 FaultStep::Kill(n) => {
                     if let Some(Some(child)) = self.children.get_mut(n as usize) {
-                        let _ = child.kill();
+                        child.kill();
                     }
                 }
                 FaultStep::LinkStart(id, kind) => {
@@ -77,8 +77,8 @@ impl Processes {
             return;
         }
         if let Some(mut child) = self.children[i].take() {
-            let _ = child.kill();
-            let _ = child.wait();
+            child.kill();
+            child.wait();
         }
         // A paused node that restarts is not paused any more.
         if let Some((s, _, _)) = self.faults.as_mut() {
@@ -101,7 +101,7 @@ impl Processes {
             eprintln!("warning: node {node} restart: cleaning up its old ports: {e}");
         }
         let launch = self.launch_of(&self.configs[i], checkpoint);
-        match spawn_child(&self.program, &launch, std::process::Stdio::null()) {
+        match self.start_node(&launch) {
             Ok(child) => {
                 self.children[i] = Some(child);
                 self.restarting[i] = true;

@@ -51,6 +51,10 @@ pub struct NodeLaunch {
     /// services exist).
     #[serde(default)]
     pub gate: bool,
+    /// The transport to open (iceoryx2, or zenoh with the coordinator's
+    /// endpoints).
+    #[serde(default)]
+    pub transport: crate::transport::TransportChoice,
 }
 
 /// In a node process with `launch.gate`: wait until the coordinator opens
@@ -167,6 +171,16 @@ pub struct ProcessOptions {
     /// the results directory). `None`: a temporary directory, removed when
     /// the run ends.
     pub checkpoint_dir: Option<PathBuf>,
+    /// The transport between the processes (`--transport`).
+    pub transport: crate::transport::TransportChoice,
+    /// Nodes on other hosts, started by their agents (`[deploy]`,
+    /// `--place`; zenoh only). `None`: every node on this host.
+    pub placement: Option<super::Placement>,
+    /// How long to wait for the agents of a placement (`--agent-wait`).
+    pub agent_wait: Duration,
+    /// The run id; `None`: a fresh one ([`crate::transport::unique_run_id`],
+    /// or [`crate::transport::secret_run_id`] over zenoh).
+    pub run_id: Option<String>,
 }
 
 impl Default for ProcessOptions {
@@ -177,6 +191,10 @@ impl Default for ProcessOptions {
             startup_timeout: Duration::from_secs(60),
             poll_us: 0,
             checkpoint_dir: None,
+            transport: crate::transport::TransportChoice::Iceoryx2,
+            placement: None,
+            agent_wait: Duration::from_secs(30),
+            run_id: None,
         }
     }
 }
@@ -185,7 +203,7 @@ impl Default for ProcessOptions {
 /// gate, [`NodeLaunch::gate`]): in its own process group (a terminal's
 /// Ctrl-C reaches only the coordinator), stdout to null, stderr inherited. The node asks for SIGTERM if the coordinator dies
 /// itself ([`guard_parent`]).
-pub(super) fn spawn_child(
+pub(crate) fn spawn_child(
     prog: &NodeProgram,
     launch: &NodeLaunch,
     stdin: std::process::Stdio,

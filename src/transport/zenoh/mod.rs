@@ -1,0 +1,334 @@
+//! [`Transport`] over zenoh 1.x (issue 18): the same frames as over
+//! iceoryx2, between processes on one host or on many. The only module of the
+//! crate that uses zenoh.
+//!
+//! # Key expressions
+//!
+//! Every key of a run starts with [`prefix`]`(run_id)` = `sonarnet/<run id>`, so
+//! two runs on one network never cross, and the coordinator's router admits
+//! nothing else ([`config`]).
+//!
+//! | key | what |
+//! |---|---|
+//! | `<prefix>/in/<i>`, `<prefix>/in/c` | frames for node `i` / the coordinator: one put per sender and [`Transport::flush`], the frames' [`FRAME_BYTES`](super::wire::FRAME_BYTES)-byte forms back to back |
+//! | `<prefix>/bcast` | the broadcast group (sync rounds) |
+//! | `<prefix>/alive/node/<i>`, `<prefix>/alive/agent/<name>`, `<prefix>/alive/coordinator` | liveliness tokens: a party's death (its socket closes, or its lease of [`config::LEASE_MS`] runs out) is seen by the others |
+//! | `<prefix>/barrier/<endpoint>` | the coordinator's queryable: a reply means every frame put before the query reached the coordinator's router ([`Transport::shutdown`]) |
+//! | `<prefix>/agent/<name>/cmd`, `<prefix>/agent/<name>/ev` | an agent's commands and events ([`fleet`]) |
+//!
+//! # Semantics
+//!
+//! As the trait says, with these differences from shared memory:
+//! * queues are unbounded on the receiving side (zenoh's reliable channel,
+//!   with `CongestionControl::Block`, gives backpressure on the way), so a
+//!   send never times out;
+//! * a frame for an endpoint that is gone is dropped by the router (the
+//!   coordinator learns of the death from the liveliness token);
+//! * `--poll-us` does not apply: a receiver blocks on a channel fed by zenoh's
+//!   own threads.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use crossbeam::channel::{Receiver, RecvTimeoutError, Sender};
+use zenoh::Wait;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::qos::{CongestionControl, Priority};
+use zenoh::query::Queryable;
+
+use super::wire::Frame;
+use super::{Endpoint, RunTopology, Transport, TransportError, ZenohSettings};
+
+pub mod config;
+pub mod fleet;
+
+pub use config::Role;
+
+/// The key prefix of run `run_id`.
+pub fn prefix(run_id: &str) -> String {
+    format!("sonarnet/{run_id}")
+}
+
+fn endpoint_key(e: Endpoint) -> String {
+    match e {
+        Endpoint::Node(i) => i.to_string(),
+        Endpoint::Coordinator => "c".into(),
+    }
+}
+
+pub(crate) fn zerr(op: impl Into<String>) -> impl FnOnce(zenoh::Error) -> TransportError {
+    let op = op.into();
+    move |e| TransportError::Zenoh {
+        op,
+        detail: e.to_string(),
+    }
+}
+
+/// Opens a session for run `run_id` in `role`.
+pub(crate) fn open_session(
+    settings: &ZenohSettings,
+    role: Role,
+    run_id: &str,
+    connect_timeout: Duration,
+) -> Result<zenoh::Session, TransportError> {
+    let cfg = config::session_config(settings, role, run_id, connect_timeout)?;
+    let what = match role {
+        Role::Router => format!("listening on {}", settings.listen.join(", ")),
+        Role::Client => format!("connecting to {}", settings.connect.join(", ")),
+    };
+    zenoh::open(cfg).wait().map_err(zerr(what))
+}
+
+/// A frame subscriber feeding `tx`; payloads that are not whole frames are
+/// counted in `bad` and dropped.
+fn frame_subscriber(
+    session: &zenoh::Session,
+    key: String,
+    tx: Sender<Frame>,
+) -> Result<Subscriber<()>, TransportError> {
+    session
+        .declare_subscriber(key.clone())
+        .callback(move |sample| {
+            let bytes = sample.payload().to_bytes();
+            if let Some(frames) = Frame::from_bytes(&bytes) {
+                for f in frames {
+                    let _ = tx.send(f);
+                }
+            }
+        })
+        .wait()
+        .map_err(zerr(format!("subscribing to {key}")))
+}
+
+/// [`Transport`] of one endpoint over a zenoh session.
+pub struct ZenohTransport {
+    me: Endpoint,
+    topo: RunTopology,
+    prefix: String,
+    session: zenoh::Session,
+    rx: Receiver<Frame>,
+    _subs: Vec<Subscriber<()>>,
+    publishers: BTreeMap<Endpoint, Publisher<'static>>,
+    bcast: Option<Publisher<'static>>,
+    /// Frames queued per destination since the last flush.
+    pending: BTreeMap<Endpoint, Vec<u8>>,
+    pending_bcast: Vec<u8>,
+    _token: LivelinessToken,
+    _barrier: Option<Queryable<()>>,
+}
+
+impl ZenohTransport {
+    /// The coordinator's endpoint: a router listening on `settings.listen`,
+    /// with the run's barrier and its liveliness token.
+    pub fn coordinator(
+        topology: &RunTopology,
+        settings: &ZenohSettings,
+    ) -> Result<Self, TransportError> {
+        let session = open_session(
+            settings,
+            Role::Router,
+            topology.run_id(),
+            config::CONNECT_TIMEOUT,
+        )?;
+        Self::on(session, topology, Endpoint::Coordinator)
+    }
+
+    /// Node `id`'s endpoint: a client of `settings.connect`.
+    pub fn node(
+        topology: &RunTopology,
+        id: u32,
+        settings: &ZenohSettings,
+    ) -> Result<Self, TransportError> {
+        topology.check_endpoint(Endpoint::Node(id))?;
+        let session = open_session(
+            settings,
+            Role::Client,
+            topology.run_id(),
+            config::CONNECT_TIMEOUT,
+        )?;
+        Self::on(session, topology, Endpoint::Node(id))
+    }
+
+    fn on(
+        session: zenoh::Session,
+        topology: &RunTopology,
+        me: Endpoint,
+    ) -> Result<Self, TransportError> {
+        let prefix = prefix(topology.run_id());
+        let (tx, rx) = crossbeam::channel::unbounded();
+        let mut subs = vec![frame_subscriber(
+            &session,
+            format!("{prefix}/in/{}", endpoint_key(me)),
+            tx.clone(),
+        )?];
+        let is_node = matches!(me, Endpoint::Node(_));
+        if is_node && topology.broadcast() {
+            subs.push(frame_subscriber(&session, format!("{prefix}/bcast"), tx)?);
+        }
+        let barrier = if is_node {
+            None
+        } else {
+            let key = format!("{prefix}/barrier/**");
+            Some(
+                session
+                    .declare_queryable(key.clone())
+                    .callback(|q| {
+                        let _ = q.reply(q.key_expr().clone(), Vec::<u8>::new()).wait();
+                    })
+                    .wait()
+                    .map_err(zerr(format!("declaring {key}")))?,
+            )
+        };
+        let alive = match me {
+            Endpoint::Node(i) => format!("{prefix}/alive/node/{i}"),
+            Endpoint::Coordinator => format!("{prefix}/alive/coordinator"),
+        };
+        // Declared last: whoever sees it may send at once.
+        let token = session
+            .liveliness()
+            .declare_token(alive.clone())
+            .wait()
+            .map_err(zerr(format!("declaring the liveliness token {alive}")))?;
+        Ok(ZenohTransport {
+            me,
+            topo: topology.clone(),
+            prefix,
+            session,
+            rx,
+            _subs: subs,
+            publishers: BTreeMap::new(),
+            bcast: None,
+            pending: BTreeMap::new(),
+            pending_bcast: Vec::new(),
+            _token: token,
+            _barrier: barrier,
+        })
+    }
+
+    /// The zenoh session (for [`fleet`], on the coordinator).
+    pub(crate) fn session(&self) -> &zenoh::Session {
+        &self.session
+    }
+
+    fn publisher(&self, key: String) -> Result<Publisher<'static>, TransportError> {
+        self.session
+            .declare_publisher(key.clone())
+            .congestion_control(CongestionControl::Block)
+            .priority(Priority::Data)
+            .express(true)
+            .wait()
+            .map_err(zerr(format!("declaring a publisher on {key}")))
+    }
+}
+
+impl Transport for ZenohTransport {
+    fn endpoint(&self) -> Endpoint {
+        self.me
+    }
+
+    fn send(&mut self, to: Endpoint, frame: &Frame) -> Result<(), TransportError> {
+        self.topo.check_endpoint(to)?;
+        if !self.topo.is_edge(self.me, to) {
+            return Err(TransportError::NotAPeer { from: self.me, to });
+        }
+        frame.put_bytes(self.pending.entry(to).or_default());
+        Ok(())
+    }
+
+    fn broadcast(&mut self, frame: &Frame) -> Result<(), TransportError> {
+        if !self.topo.broadcast() || self.me == Endpoint::Coordinator {
+            return Err(TransportError::BroadcastUnavailable(self.me));
+        }
+        frame.put_bytes(&mut self.pending_bcast);
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), TransportError> {
+        let pending = std::mem::take(&mut self.pending);
+        for (to, bytes) in pending {
+            if bytes.is_empty() {
+                continue;
+            }
+            if !self.publishers.contains_key(&to) {
+                let p = self.publisher(format!("{}/in/{}", self.prefix, endpoint_key(to)))?;
+                self.publishers.insert(to, p);
+            }
+            if let Some(p) = self.publishers.get(&to) {
+                p.put(bytes)
+                    .wait()
+                    .map_err(zerr(format!("sending to {to}")))?;
+            }
+        }
+        if !self.pending_bcast.is_empty() {
+            if self.bcast.is_none() {
+                self.bcast = Some(self.publisher(format!("{}/bcast", self.prefix))?);
+            }
+            let bytes = std::mem::take(&mut self.pending_bcast);
+            if let Some(p) = &self.bcast {
+                p.put(bytes).wait().map_err(zerr("broadcasting"))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn recv(
+        &mut self,
+        out: &mut Vec<Frame>,
+        timeout: Option<Duration>,
+    ) -> Result<usize, TransportError> {
+        let before = out.len();
+        out.extend(self.rx.try_iter());
+        if out.len() == before {
+            let first = match timeout {
+                Some(t) => self.rx.recv_timeout(t),
+                None => self.rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
+            };
+            match first {
+                Ok(f) => out.push(f),
+                Err(RecvTimeoutError::Timeout) => return Ok(0),
+                Err(RecvTimeoutError::Disconnected) => {
+                    return Err(TransportError::Closed(self.me));
+                }
+            }
+            out.extend(self.rx.try_iter());
+        }
+        Ok(out.len() - before)
+    }
+
+    /// Flushes, then (on a node) asks the coordinator's barrier: its reply
+    /// comes after every frame this node put before it, so the coordinator's
+    /// router holds them and the node may exit.
+    fn shutdown(&mut self, timeout: Duration) -> Result<(), TransportError> {
+        self.flush()?;
+        if self.me == Endpoint::Coordinator {
+            return Ok(());
+        }
+        let key = format!("{}/barrier/{}", self.prefix, endpoint_key(self.me));
+        let replies = self
+            .session
+            .get(key.clone())
+            .congestion_control(CongestionControl::Block)
+            .priority(Priority::Data)
+            .express(true)
+            .timeout(timeout)
+            .wait()
+            .map_err(zerr(format!("querying {key}")))?;
+        match replies.recv_timeout(timeout) {
+            Ok(Some(_)) => Ok(()),
+            _ => Err(TransportError::ShutdownTimeout {
+                from: self.me,
+                pending: vec![Endpoint::Coordinator],
+                broadcast: false,
+                waited: timeout,
+            }),
+        }
+    }
+}
+
+impl Drop for ZenohTransport {
+    fn drop(&mut self) {
+        let _ = self.flush();
+        let _ = self.session.close().wait();
+    }
+}
