@@ -405,6 +405,13 @@ pub struct RunJson {
     /// `ok`, `failed` or `interrupted`.
     #[serde(default)]
     pub status: Option<String>,
+    /// Multi-process: `iceoryx2` or `zenoh` (absent for in-process engines).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transport: Option<String>,
+    /// Multi-process over zenoh: which host ran which node (`--place`,
+    /// `[deploy]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub placement: Option<crate::scenario::deploy::Placement>,
 }
 
 /// A mean curve with its 5th and 95th percentiles across Monte Carlo trials,

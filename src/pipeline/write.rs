@@ -433,6 +433,16 @@ fn write_run_json(
         inputs: super::provenance::input_paths(sc),
         overrides: sc.overrides.clone(),
         started_utc: Some(super::provenance::utc_iso(started)),
+        transport: (opts.engine == EngineKind::Processes).then(|| match opts.net.transport {
+            crate::transport::TransportChoice::Iceoryx2 => "iceoryx2".into(),
+            crate::transport::TransportChoice::Zenoh(_) => "zenoh".into(),
+        }),
+        placement: match opts.net.transport {
+            crate::transport::TransportChoice::Zenoh(_) => {
+                opts.net.placement.clone().or_else(|| sc.deploy.clone())
+            }
+            crate::transport::TransportChoice::Iceoryx2 => None,
+        },
     };
     write_json(&dir.join("run.json"), &v)
 }

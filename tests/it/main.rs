@@ -19,3 +19,4 @@ mod sweep;
 mod transport;
 mod util;
 mod workflow;
+mod zenoh;

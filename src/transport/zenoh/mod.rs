@@ -332,3 +332,6 @@ impl Drop for ZenohTransport {
         let _ = self.session.close().wait();
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,168 @@
+//! The zenoh transport on loopback TCP: frames, order, broadcast, the
+//! barrier, liveliness, and that a party without the run id is shut out.
+
+use super::fleet::{FleetEvent, FleetLink, Member};
+use super::*;
+use crate::transport::ZenohSettings;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+fn router() -> ZenohSettings {
+    ZenohSettings {
+        listen: vec![ZenohSettings::free_loopback_endpoint().expect("a free port")],
+        connect: vec![],
+        config_file: None,
+    }
+}
+
+fn frame(from: u32, seq: u64) -> Frame {
+    Frame {
+        kind: 7,
+        from,
+        seq,
+        data: [seq as f64, -0.0, f64::MAX, 1e-300, 3.5],
+        ..Frame::default()
+    }
+}
+
+/// Receive until `n` frames arrived or 5 s passed (the watchdog).
+fn take(t: &mut ZenohTransport, n: usize) -> Vec<Frame> {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut out = Vec::new();
+    while out.len() < n && Instant::now() < deadline {
+        t.recv(&mut out, Some(Duration::from_millis(100))).unwrap();
+    }
+    out
+}
+
+#[test]
+fn frames_cross_in_order_both_ways_and_broadcasts_reach_every_member_and_the_sender() {
+    let z = router();
+    let topo = RunTopology::ring("zt-order", 3, 4)
+        .unwrap()
+        .with_broadcast(2)
+        .unwrap();
+    let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
+    let local = z.for_local_nodes();
+    let mut nodes: Vec<ZenohTransport> = (0..3)
+        .map(|i| ZenohTransport::node(&topo, i, &local).unwrap())
+        .collect();
+    for s in 0..200u64 {
+        c.send(Endpoint::Node(1), &frame(u32::MAX, s)).unwrap();
+        if s % 7 == 0 {
+            c.flush().unwrap();
+        }
+    }
+    c.flush().unwrap();
+    let got = take(&mut nodes[1], 200);
+    assert_eq!(got.len(), 200);
+    for (s, f) in got.iter().enumerate() {
+        assert_eq!(f.seq, s as u64);
+        assert_eq!(
+            f.data.map(f64::to_bits),
+            frame(0, s as u64).data.map(f64::to_bits)
+        );
+    }
+    nodes[2].send(Endpoint::Coordinator, &frame(2, 9)).unwrap();
+    nodes[2].send(Endpoint::Node(0), &frame(2, 10)).unwrap();
+    nodes[2].broadcast(&frame(2, 11)).unwrap();
+    nodes[2].shutdown(Duration::from_secs(5)).unwrap();
+    assert_eq!(take(&mut c, 1)[0].seq, 9);
+    let at0: Vec<u64> = take(&mut nodes[0], 2).iter().map(|f| f.seq).collect();
+    assert!(at0.contains(&10) && at0.contains(&11), "{at0:?}");
+    assert_eq!(
+        take(&mut nodes[2], 1)[0].seq,
+        11,
+        "the sender hears its broadcast"
+    );
+    assert!(matches!(
+        nodes[0].send(Endpoint::Node(0), &frame(0, 0)),
+        Err(TransportError::NotAPeer { .. })
+    ));
+    assert!(matches!(
+        c.broadcast(&frame(0, 0)),
+        Err(TransportError::BroadcastUnavailable(_))
+    ));
+}
+
+#[test]
+fn a_party_that_does_not_know_the_run_id_hears_nothing_and_reaches_no_one() {
+    let z = router();
+    let topo = RunTopology::ring("zt-secret-1f2e", 2, 4).unwrap();
+    let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
+    let local = z.for_local_nodes();
+    let mut n0 = ZenohTransport::node(&topo, 0, &local).unwrap();
+    // An eavesdropper on the same router, subscribed to every run.
+    let spy = open_session(&local, Role::Client, "other", Duration::from_secs(5)).unwrap();
+    let heard = Arc::new(Mutex::new(Vec::<String>::new()));
+    let h = Arc::clone(&heard);
+    let _sub = spy
+        .declare_subscriber("sonarnet/**")
+        .allowed_origin(zenoh::sample::Locality::Remote)
+        .callback(move |s| h.lock().unwrap().push(s.key_expr().to_string()))
+        .wait()
+        .unwrap();
+    // A node of another run, and a wildcard put into every run's inbox.
+    let other = RunTopology::ring("zt-guess", 2, 4).unwrap();
+    let mut intruder = ZenohTransport::node(&other, 0, &local).unwrap();
+    intruder
+        .send(Endpoint::Coordinator, &frame(0, 666))
+        .unwrap();
+    intruder.flush().unwrap();
+    spy.put("sonarnet/*/in/c", {
+        let mut b = Vec::new();
+        frame(0, 667).put_bytes(&mut b);
+        b
+    })
+    .wait()
+    .unwrap();
+    // The run itself works meanwhile.
+    n0.send(Endpoint::Coordinator, &frame(0, 1)).unwrap();
+    n0.shutdown(Duration::from_secs(5)).unwrap();
+    let got = take(&mut c, 1);
+    std::thread::sleep(Duration::from_millis(300));
+    c.recv(&mut Vec::new(), Some(Duration::from_millis(1)))
+        .unwrap();
+    let mut rest = Vec::new();
+    c.recv(&mut rest, Some(Duration::from_millis(200))).unwrap();
+    assert_eq!(got.iter().map(|f| f.seq).collect::<Vec<_>>(), vec![1]);
+    assert!(
+        rest.is_empty(),
+        "intruders reached the coordinator: {rest:?}"
+    );
+    let heard = heard.lock().unwrap();
+    assert!(heard.is_empty(), "the eavesdropper heard {heard:?}");
+}
+
+#[test]
+fn the_coordinator_sees_a_node_come_and_go_within_a_second() {
+    let z = router();
+    let topo = RunTopology::ring("zt-alive", 2, 4).unwrap();
+    let c = ZenohTransport::coordinator(&topo, &z).unwrap();
+    let events = Arc::new(Mutex::new(Vec::new()));
+    let e = Arc::clone(&events);
+    let _fleet = FleetLink::open(c.session(), "zt-alive", move |ev| {
+        e.lock().unwrap().push((Instant::now(), ev))
+    })
+    .unwrap();
+    let n1 = ZenohTransport::node(&topo, 1, &z.for_local_nodes()).unwrap();
+    let wait_for = |want: &FleetEvent| {
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Some((t, _)) = events.lock().unwrap().iter().find(|(_, x)| x == want) {
+                return Some(*t);
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        None
+    };
+    assert!(wait_for(&FleetEvent::Presence(Member::Node(1), true)).is_some());
+    let dropped = Instant::now();
+    drop(n1);
+    let seen = wait_for(&FleetEvent::Presence(Member::Node(1), false)).expect("seen to go");
+    assert!(
+        seen - dropped < Duration::from_secs(1),
+        "{:?}",
+        seen - dropped
+    );
+}

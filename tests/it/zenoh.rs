@@ -1,0 +1,432 @@
+//! Runs over zenoh (issue 18): the coordinator and two agents as separate
+//! processes, each with its own zenoh session on loopback TCP, iceoryx2 out
+//! of the path.
+
+use crate::util::*;
+use sonarnet::transport::ZenohSettings;
+use std::path::Path;
+use std::process::Child;
+use std::time::{Duration, Instant};
+
+const LIMIT: Duration = Duration::from_secs(120);
+
+fn endpoint() -> String {
+    ZenohSettings::free_loopback_endpoint().expect("a free loopback port")
+}
+
+/// `sonarnet run FILE --transport zenoh` with nodes 0-2 on agent `a` and 3-5
+/// on agent `b`, listening on `ep`.
+fn start_run(file: &Path, out: &Path, ep: &str, run_id: &str, extra: &[&str]) -> Child {
+    start_placed(file, out, ep, run_id, &["a=0-2", "b=3-5"], extra)
+}
+
+fn start_placed(
+    file: &Path,
+    out: &Path,
+    ep: &str,
+    run_id: &str,
+    places: &[&str],
+    extra: &[&str],
+) -> Child {
+    let mut args = vec![
+        "run",
+        file.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+        "--transport",
+        "zenoh",
+        "--listen",
+        ep,
+        "--run-id",
+        run_id,
+        "--quiet",
+    ];
+    for p in places {
+        args.extend_from_slice(&["--place", p]);
+    }
+    args.extend_from_slice(extra);
+    spawn_sonarnet(&args)
+}
+
+fn start_agent(ep: &str, run_id: &str, host: &str) -> Child {
+    spawn_sonarnet(&[
+        "agent",
+        "--connect",
+        ep,
+        "--run-id",
+        run_id,
+        "--host",
+        host,
+        "--wait",
+        "60",
+    ])
+}
+
+fn same_file(a: &Path, b: &Path, name: &str) {
+    let x = std::fs::read(a.join(name)).expect("first file");
+    let y = std::fs::read(b.join(name)).expect("second file");
+    assert!(
+        x == y,
+        "{name} differs between {} and {}",
+        a.display(),
+        b.display()
+    );
+}
+
+fn run_id(tag: &str) -> String {
+    format!("zt-{tag}-{}", std::process::id())
+}
+
+#[test]
+fn a_run_spread_over_two_agents_equals_the_inprocess_engine_in_sync_and_async() {
+    let spiral = scenario("mourya2017-spiral.toml");
+    for mode in ["async", "sync"] {
+        let reference = TempDir::new("zenoh-ref");
+        let out = run_file(
+            &spiral,
+            reference.path(),
+            &["--engine", "inprocess", "--mode", mode, "--quiet"],
+            LIMIT,
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let dir = TempDir::new("zenoh-agents");
+        let ep = endpoint();
+        let id = run_id(mode);
+        let coordinator = start_run(&spiral, dir.path(), &ep, &id, &["--mode", mode]);
+        let a = start_agent(&ep, &id, "a");
+        let b = start_agent(&ep, &id, "b");
+        let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        for (agent, name) in [(a, "a"), (b, "b")] {
+            let o = wait_watchdog(agent, name, LIMIT);
+            assert!(
+                o.status.success(),
+                "agent {name}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        for f in ["track.csv", "nodes.csv", "measurements.csv"] {
+            same_file(reference.path(), dir.path(), f);
+        }
+        assert_eq!(run_id_of(dir.path()), id);
+        assert_nothing_left(&id);
+    }
+}
+
+#[test]
+fn killing_an_agent_mid_run_reports_its_nodes_dead_and_leaves_nothing() {
+    let dir = TempDir::new("zenoh-kill");
+    let ep = endpoint();
+    let id = run_id("kill");
+    let coordinator = start_run(
+        &scenario("mourya2017-spiral.toml"),
+        dir.path(),
+        &ep,
+        &id,
+        &["--iterations-per-sample", "4000"],
+    );
+    let a = start_agent(&ep, &id, "a");
+    let mut b = start_agent(&ep, &id, "b");
+    // Once b runs its three nodes, and they have worked a little.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while children_of(b.id()).len() < 3 {
+        assert!(Instant::now() < deadline, "agent b never started its nodes");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    b.kill().expect("SIGKILL agent b");
+    let killed = Instant::now();
+    let _ = b.wait();
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    let noticed = killed.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("died") && stderr.contains("host b"),
+        "the death names the host: {stderr}"
+    );
+    assert!(
+        noticed < Duration::from_secs(5),
+        "the run ended {noticed:?} after the kill"
+    );
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("run.json")).unwrap())
+            .unwrap();
+    assert_eq!(run["status"], "failed");
+    assert!(
+        dir.path().join("track.csv").exists(),
+        "partial results written"
+    );
+    let o = wait_watchdog(a, "agent a", LIMIT);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_nothing_left(&id);
+}
+
+#[test]
+fn a_missing_agent_is_named_and_the_coordinator_gives_up_in_bounded_time() {
+    let dir = TempDir::new("zenoh-missing");
+    let ep = endpoint();
+    let id = run_id("missing");
+    let coordinator = start_run(
+        &scenario("mourya2017-spiral.toml"),
+        dir.path(),
+        &ep,
+        &id,
+        &["--agent-wait", "1.5"],
+    );
+    let a = start_agent(&ep, &id, "a");
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("no agent connected for host(s) b") && stderr.contains(&id),
+        "{stderr}"
+    );
+    // Agent a saw its coordinator come and go.
+    let o = wait_watchdog(a, "agent a", LIMIT);
+    assert!(!o.status.success());
+    assert_nothing_left(&id);
+}
+
+#[test]
+fn an_agent_with_the_wrong_run_id_is_not_admitted() {
+    let dir = TempDir::new("zenoh-wrong");
+    let ep = endpoint();
+    let id = run_id("right");
+    let coordinator = start_placed(
+        &scenario("mourya2017-spiral.toml"),
+        dir.path(),
+        &ep,
+        &id,
+        &["a=0-5"],
+        &["--agent-wait", "2"],
+    );
+    let intruder = spawn_sonarnet(&[
+        "agent",
+        "--connect",
+        &ep,
+        "--run-id",
+        "zt-guessed",
+        "--host",
+        "a",
+        "--wait",
+        "3",
+    ]);
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no agent connected for host(s) a"));
+    let o = wait_watchdog(intruder, "the intruder", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("no coordinator of run zt-guessed"),
+        "{stderr}"
+    );
+    assert_nothing_left(&id);
+}
+
+#[test]
+fn local_nodes_over_zenoh_give_the_inprocess_numbers_and_leave_nothing() {
+    let spiral = scenario("mourya2017-spiral.toml");
+    let reference = TempDir::new("zenoh-local-ref");
+    let out = run_file(
+        &spiral,
+        reference.path(),
+        &["--engine", "inprocess", "--quiet"],
+        LIMIT,
+    );
+    assert!(out.status.success());
+    let dir = TempDir::new("zenoh-local");
+    let out = run_file(
+        &spiral,
+        dir.path(),
+        &["--transport", "zenoh", "--quiet"],
+        LIMIT,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    same_file(reference.path(), dir.path(), "track.csv");
+    let id = run_id_of(dir.path());
+    assert!(id.len() > 17, "a secret run id: {id}");
+    assert_nothing_left(&id);
+}
+
+#[test]
+fn the_acoustic_channel_runs_over_zenoh_as_over_shared_memory() {
+    let _cpu = cpu_exclusive();
+    let dir = TempDir::new("zenoh-acoustic");
+    let out = run_file(
+        &scenario("mourya2017-spiral-acoustic.toml"),
+        dir.path(),
+        &[
+            "--transport",
+            "zenoh",
+            "--variant",
+            "delay",
+            "--samples",
+            "12",
+            "--quiet",
+        ],
+        LIMIT,
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("run.json")).unwrap())
+            .unwrap();
+    assert_eq!(run["engine"], "processes");
+    assert_eq!(run["transport"], "zenoh");
+    let messages = read_rows(&dir.path().join("messages.csv"));
+    assert!(!messages.is_empty(), "the water recorded its messages");
+    assert_nothing_left(&run_id_of(dir.path()));
+}
+
+#[test]
+fn zenoh_flags_are_refused_without_zenoh_and_a_bad_placement_is_named() {
+    let spiral = scenario("mourya2017-spiral.toml");
+    let dir = TempDir::new("zenoh-flags");
+    let out = run_file(&spiral, dir.path(), &["--listen", "tcp/127.0.0.1:1"], LIMIT);
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("--listen") && e.contains("--transport zenoh"),
+        "{e}"
+    );
+    let out = run_file(
+        &spiral,
+        dir.path(),
+        &[
+            "--transport",
+            "zenoh",
+            "--place",
+            "a=0-2",
+            "--place",
+            "b=2-5",
+        ],
+        LIMIT,
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("--place") && e.contains("node 2"), "{e}");
+    let out = run_file(
+        &spiral,
+        dir.path(),
+        &["--transport", "zenoh", "--engine", "inprocess"],
+        LIMIT,
+    );
+    assert_eq!(out.status.code(), Some(2));
+}
+
+/// One agent in its own network namespace, joined to this one by a veth
+/// pair: its nodes reach the coordinator only over TCP across the pair.
+/// Needs root and iproute2; says so and passes where they are missing.
+#[test]
+fn an_agent_in_its_own_network_namespace_joins_over_a_veth_pair() {
+    let ns = format!("sn{}", std::process::id());
+    let ip = |args: &[&str]| {
+        std::process::Command::new("ip")
+            .args(args)
+            .output()
+            .map(|o| o.status.success())
+            .unwrap_or(false)
+    };
+    if !ip(&["netns", "add", &ns]) {
+        eprintln!("skipped: cannot create a network namespace here (needs root and iproute2)");
+        return;
+    }
+    struct Cleanup(String);
+    impl Drop for Cleanup {
+        fn drop(&mut self) {
+            let _ = std::process::Command::new("ip")
+                .args(["link", "del", &format!("{}h", self.0)])
+                .output();
+            let _ = std::process::Command::new("ip")
+                .args(["netns", "del", &self.0])
+                .output();
+        }
+    }
+    let _cleanup = Cleanup(ns.clone());
+    let (host_if, ns_if) = (format!("{ns}h"), format!("{ns}n"));
+    // A /30 per test process, from the benchmarking range 198.18.0.0/15.
+    let octet = 4 * (std::process::id() % 60) + 4;
+    let (host_ip, ns_ip) = (
+        format!("198.18.0.{}", octet + 1),
+        format!("198.18.0.{}", octet + 2),
+    );
+    for step in [
+        vec![
+            "link", "add", &host_if, "type", "veth", "peer", "name", &ns_if,
+        ],
+        vec!["link", "set", &ns_if, "netns", &ns],
+        vec!["addr", "add", &format!("{host_ip}/30"), "dev", &host_if],
+        vec!["link", "set", &host_if, "up"],
+        vec![
+            "-n",
+            &ns,
+            "addr",
+            "add",
+            &format!("{ns_ip}/30"),
+            "dev",
+            &ns_if,
+        ],
+        vec!["-n", &ns, "link", "set", &ns_if, "up"],
+        vec!["-n", &ns, "link", "set", "lo", "up"],
+    ] {
+        assert!(ip(&step), "ip {}", step.join(" "));
+    }
+    let port = endpoint().rsplit(':').next().unwrap().to_string();
+    let ep = format!("tcp/{host_ip}:{port}");
+    let id = run_id("netns");
+    let spiral = scenario("mourya2017-spiral.toml");
+    let reference = TempDir::new("zenoh-netns-ref");
+    let out = run_file(
+        &spiral,
+        reference.path(),
+        &["--engine", "inprocess", "--quiet"],
+        LIMIT,
+    );
+    assert!(out.status.success());
+    let dir = TempDir::new("zenoh-netns");
+    let coordinator = start_run(&spiral, dir.path(), &ep, &id, &[]);
+    let a = start_agent(&ep, &id, "a");
+    let b = std::process::Command::new("ip")
+        .args(["netns", "exec", &ns, env!("CARGO_BIN_EXE_sonarnet")])
+        .args([
+            "agent",
+            "--connect",
+            &ep,
+            "--run-id",
+            &id,
+            "--host",
+            "b",
+            "--wait",
+            "60",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start agent b in the namespace");
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for (agent, name) in [(a, "a"), (b, "b")] {
+        let o = wait_watchdog(agent, name, LIMIT);
+        assert!(
+            o.status.success(),
+            "agent {name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    same_file(reference.path(), dir.path(), "track.csv");
+    assert_nothing_left(&id);
+}
