@@ -1,11 +1,13 @@
 //! `sonarnet-node`: one sonar receiver as an OS process.
 //!
 //! Thin: it parses its launch description, installs the SIGTERM/SIGINT flag,
-//! opens the run's iceoryx2 transport and runs the library's node loop
+//! opens the run's transport (iceoryx2, or zenoh when the launch says so:
+//! [`sonarnet::transport::open_node`]) and runs the library's node loop
 //! ([`sonarnet::engine::node::run_node`]) over it. The loop feeds the I/O-free
 //! [`NodeCore`](sonarnet::protocol::NodeCore) and blocks in the transport's
 //! WaitSet when idle (no busy-spinning). It exits on STOP, on SIGTERM (sent by
-//! the kernel if the coordinator dies), or when its parent is gone.
+//! the kernel if its parent, the coordinator or a `sonarnet agent`, dies), or
+//! when its parent is gone.
 //!
 //! Usage: `sonarnet-node --launch '<NodeLaunch JSON>'` (the coordinator
 //! builds it; see `sonarnet::engine::processes::NodeLaunch`). Bad arguments

@@ -13,6 +13,10 @@ fn cli_error(key: &str, reason: impl Into<String>) -> CliError {
     InputError::at(Path::new("<command line>"), key, reason.into()).into()
 }
 
+/// What a build without the `zenoh` feature says to `--transport zenoh`
+/// and `sonarnet agent`.
+pub const WITHOUT_ZENOH: &str = "this sonarnet was built without zenoh: build it with `cargo build --release --features zenoh` (on every host)";
+
 /// The port a coordinator with nodes on other hosts listens on by default
 /// (zenoh's own default port).
 pub const DEFAULT_PORT: u16 = 7447;
@@ -35,6 +39,9 @@ pub(super) fn net_options(
             }
         }
         return Ok(NetOptions::default());
+    }
+    if !cfg!(feature = "zenoh") {
+        return Err(cli_error("--transport", WITHOUT_ZENOH));
     }
     if engine != EngineKind::Processes {
         return Err(cli_error(
@@ -164,8 +171,5 @@ pub(super) fn agent_command(args: &AgentArgs) -> Result<(), CliError> {
 /// `sonarnet agent` without zenoh compiled in.
 #[cfg(not(feature = "zenoh"))]
 pub(super) fn agent_command(_args: &AgentArgs) -> Result<(), CliError> {
-    Err(cli_error(
-        "agent",
-        crate::transport::TransportError::ZenohUnavailable.to_string(),
-    ))
+    Err(cli_error("agent", WITHOUT_ZENOH))
 }

@@ -332,6 +332,9 @@ mod tests {
                 signal: 19
             }
         );
-        assert!(serde_json::from_str::<AgentCommand>(r#"{"cmd":"end","x":1}"#).is_err());
+        assert!(
+            serde_json::from_str::<AgentCommand>(r#"{"cmd":"signal","node":1,"signal":9,"x":1}"#)
+                .is_err()
+        );
     }
 }

@@ -17,6 +17,8 @@
 //!   second, peak RSS per node, and the coordinator's own peak RSS.
 //! * **Realtime throughput**: network-wide exchanges per second of the
 //!   free-running emulator on the spiral.
+//! * **zenoh** (issue 18): the spiral async and sync over zenoh on loopback
+//!   TCP against the blocking iceoryx2 figures, and zenoh's one hop.
 //!
 //! Results go to stdout as a table and to `bench.json` in the output directory.
 
@@ -137,6 +139,110 @@ pub struct BenchReport {
     pub realtime_iterations_per_second: Option<f64>,
     /// Realtime median exchanges per sample period.
     pub realtime_iterations_per_sample_median: Option<f64>,
+    /// The same node processes over zenoh on loopback TCP (issue 18).
+    pub zenoh: Vec<ZenohFigures>,
+}
+
+/// The spiral over zenoh against iceoryx2, and zenoh's one hop (issue 18).
+#[derive(Debug, Clone, Serialize)]
+pub struct ZenohFigures {
+    /// `async` or `sync`.
+    pub mode: String,
+    /// Best wall time over zenoh, start-up excluded (s).
+    pub zenoh_seconds: f64,
+    /// Best wall time over iceoryx2, start-up excluded (s), from the same
+    /// bench run (the blocking overhead figure).
+    pub iceoryx2_seconds: f64,
+    /// `zenoh_seconds / iceoryx2_seconds`.
+    pub ratio: f64,
+    /// Start-up over zenoh (s).
+    pub startup_seconds: f64,
+    /// One hop over zenoh: half a coordinator-node ping-pong, median (s).
+    /// Coordinator to node is one TCP hop into the node's session; node to
+    /// node is two (through the coordinator's router).
+    pub hop_median_s: f64,
+    /// The same, 10th percentile (s).
+    pub hop_p10_s: f64,
+    /// The same, 90th percentile (s).
+    pub hop_p90_s: f64,
+}
+
+/// zenoh on a free loopback port, every node on this host.
+fn zenoh_here() -> Result<crate::transport::TransportChoice, BenchError> {
+    let ep = crate::transport::ZenohSettings::free_loopback_endpoint().map_err(|e| {
+        BenchError::Run(pipeline::RunError::Output {
+            path: "<loopback port>".into(),
+            source: std::io::Error::other(e.to_string()),
+        })
+    })?;
+    Ok(crate::transport::TransportChoice::Zenoh(
+        crate::transport::ZenohSettings {
+            listen: vec![ep],
+            connect: Vec::new(),
+            config_file: None,
+        },
+    ))
+}
+
+/// The zenoh figures: the spiral async and sync over zenoh (best of
+/// `repeats`), against the blocking iceoryx2 figures of `overhead`, and
+/// zenoh's hop.
+fn zenoh_figures(
+    scenarios: &Path,
+    overhead: &[Overhead],
+    repeats: usize,
+    out: &Path,
+) -> Result<Vec<ZenohFigures>, BenchError> {
+    if !cfg!(feature = "zenoh") {
+        return Ok(Vec::new());
+    }
+    let mut rows = Vec::new();
+    for mode in [Mode::Async, Mode::Sync] {
+        let sc = spiral(scenarios)?.with_mode(mode)?;
+        let mut best = (f64::INFINITY, 0.0);
+        for _ in 0..repeats.max(1) {
+            let opts = RunOptions {
+                net: pipeline::NetOptions {
+                    transport: zenoh_here()?,
+                    ..Default::default()
+                },
+                ..RunOptions::inprocess().with_engine(EngineKind::Processes)
+            };
+            let rec = timed(&sc, &opts, out)?;
+            if rec.wall_seconds < best.0 {
+                best = (rec.wall_seconds, rec.startup_seconds.unwrap_or(0.0));
+            }
+        }
+        let plan =
+            crate::engine::RunPlan::new(&sc, Clock::Logical).map_err(|e| run_failed(e, out))?;
+        let popts = crate::engine::processes::ProcessOptions {
+            transport: zenoh_here()?,
+            ..Default::default()
+        };
+        let (hops, _) = crate::engine::processes::measure_hop(&plan, &popts, HOPS)
+            .map_err(|e| run_failed(e, out))?;
+        let iox = overhead
+            .iter()
+            .find(|o| o.mode == mode.as_str() && o.poll_us == 0)
+            .map_or(f64::NAN, |o| o.processes_seconds);
+        let q = |p: f64| crate::model::metrics::quantile(&hops, p).unwrap_or(f64::NAN);
+        eprintln!(
+            "zenoh {}: {:.4} s (iceoryx2 {iox:.4} s)",
+            mode.as_str(),
+            best.0
+        );
+        rows.push(ZenohFigures {
+            mode: mode.as_str().into(),
+            zenoh_seconds: best.0,
+            iceoryx2_seconds: iox,
+            ratio: best.0 / iox,
+            startup_seconds: best.1,
+            hop_median_s: q(0.5),
+            hop_p10_s: q(0.1),
+            hop_p90_s: q(0.9),
+        });
+    }
+    Ok(rows)
 }
 
 /// The `--poll-us` of the second pair of overhead figures.
@@ -324,7 +430,9 @@ pub fn run_bench(
             (None, None)
         }
     };
+    let zenoh = zenoh_figures(scenarios, &overhead, repeats, out)?;
     let report = BenchReport {
+        zenoh,
         overhead,
         scale,
         realtime_iterations_per_second: rt_ips,
@@ -404,6 +512,22 @@ fn print_report(r: &BenchReport, out: &Path) {
             s.coordinator_rss_mib
                 .map_or("n/a".to_string(), |m| format!("{m:.1} MiB")),
             if s.completed { "" } else { "   (FAILED)" }
+        );
+    }
+    if !r.zenoh.is_empty() {
+        println!("over zenoh on loopback TCP (--transport zenoh; hop = half a ping-pong):");
+    }
+    for z in &r.zenoh {
+        println!(
+            "  {:5}  zenoh {:8.4} s   iceoryx2 {:8.4} s   zenoh / iceoryx2 {:5.2}x   hop p10 {:6.1} us median {:6.1} us p90 {:6.1} us   (start-up {:.3} s)",
+            z.mode,
+            z.zenoh_seconds,
+            z.iceoryx2_seconds,
+            z.ratio,
+            z.hop_p10_s * 1e6,
+            z.hop_median_s * 1e6,
+            z.hop_p90_s * 1e6,
+            z.startup_seconds
         );
     }
     if let (Some(ips), Some(med)) = (

@@ -626,3 +626,33 @@ fn a_bad_channel_or_clock_is_refused_naming_the_key() {
     let (code, stderr, p) = run_bad(&sync, &[]);
     assert_clear(code, &stderr, &p, &["algorithm.clock", "async"]);
 }
+
+#[test]
+fn a_deploy_table_that_leaves_a_node_on_no_host_or_names_a_stranger_is_refused() {
+    for (deploy, needles) in [
+        (
+            "hosts = { a = [0, 1] }",
+            ["deploy.hosts", "nodes [2] are on no host"],
+        ),
+        (
+            "hosts = { a = [0, 1], b = [1, 2] }",
+            ["deploy.hosts", "node 1 is placed on both"],
+        ),
+        (
+            "hosts = { a = [0, 1, 2, 7] }",
+            ["deploy.hosts", "lists node 7"],
+        ),
+        (
+            r#"hosts = { "a b" = [0, 1, 2] }"#,
+            ["deploy.hosts", "host name"],
+        ),
+        (
+            "hosts = { a = [0, 1, 2] }\nport = 7",
+            ["line 23", "unknown field `port`"],
+        ),
+    ] {
+        let text = format!("{GOOD}\n[deploy]\n{deploy}\n");
+        let (code, stderr, p) = run_bad(&text, &[]);
+        assert_clear(code, &stderr, &p, &needles);
+    }
+}

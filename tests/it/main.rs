@@ -19,4 +19,5 @@ mod sweep;
 mod transport;
 mod util;
 mod workflow;
+#[cfg(feature = "zenoh")]
 mod zenoh;

@@ -430,3 +430,37 @@ fn an_agent_in_its_own_network_namespace_joins_over_a_veth_pair() {
     same_file(reference.path(), dir.path(), "track.csv");
     assert_nothing_left(&id);
 }
+
+#[test]
+fn killing_the_coordinator_makes_every_agent_stop_its_nodes_and_exit() {
+    let dir = TempDir::new("zenoh-kill-coordinator");
+    let ep = endpoint();
+    let id = run_id("killc");
+    let mut coordinator = start_run(
+        &scenario("mourya2017-spiral.toml"),
+        dir.path(),
+        &ep,
+        &id,
+        &["--iterations-per-sample", "4000"],
+    );
+    let a = start_agent(&ep, &id, "a");
+    let b = start_agent(&ep, &id, "b");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while children_of(a.id()).len() < 3 || children_of(b.id()).len() < 3 {
+        assert!(
+            Instant::now() < deadline,
+            "the agents never started their nodes"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    coordinator.kill().expect("SIGKILL the coordinator");
+    let _ = coordinator.wait();
+    for (agent, name) in [(a, "a"), (b, "b")] {
+        let o = wait_watchdog(agent, name, LIMIT);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "agent {name}: {stderr}");
+        assert!(stderr.contains("went away"), "agent {name}: {stderr}");
+    }
+    assert_nothing_left(&id);
+}

@@ -278,7 +278,7 @@ fn status_text(s: &ExitStatus) -> String {
 }
 
 /// How long [`NodeProc::wait`] waits for an agent's report.
-const REMOTE_WAIT: Duration = Duration::from_secs(5);
+pub const REMOTE_WAIT: Duration = Duration::from_secs(5);
 
 impl NodeProc {
     /// How the process ended, if it has (once: the status is taken).
