@@ -464,3 +464,94 @@ fn killing_the_coordinator_makes_every_agent_stop_its_nodes_and_exit() {
     }
     assert_nothing_left(&id);
 }
+
+#[test]
+fn ctrl_c_of_the_coordinator_stops_every_host_and_writes_partial_results() {
+    let dir = TempDir::new("zenoh-sigint");
+    let ep = endpoint();
+    let id = run_id("sigint");
+    let coordinator = start_run(
+        &scenario("mourya2017-spiral.toml"),
+        dir.path(),
+        &ep,
+        &id,
+        &["--iterations-per-sample", "4000"],
+    );
+    let a = start_agent(&ep, &id, "a");
+    let b = start_agent(&ep, &id, "b");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while children_of(a.id()).len() < 3 || children_of(b.id()).len() < 3 {
+        assert!(
+            Instant::now() < deadline,
+            "the agents never started their nodes"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    wait_for_sigint_handler(coordinator.id(), LIMIT);
+    std::thread::sleep(Duration::from_millis(300));
+    // SAFETY: kill(2) on our own child.
+    unsafe {
+        libc::kill(coordinator.id() as i32, libc::SIGINT);
+    }
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("run.json")).unwrap())
+            .unwrap();
+    assert_eq!(run["status"], "interrupted");
+    // What was produced is written (how many samples depends on the load).
+    assert!(dir.path().join("track.csv").exists(), "partial track");
+    for (agent, name) in [(a, "a"), (b, "b")] {
+        let o = wait_watchdog(agent, name, LIMIT);
+        assert!(
+            o.status.success(),
+            "agent {name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    assert_nothing_left(&id);
+}
+
+#[test]
+fn a_crash_fault_on_an_agents_host_is_a_real_signal_there_and_the_run_goes_on() {
+    let _cpu = cpu_exclusive();
+    let dir = TempDir::new("zenoh-fault");
+    let ep = endpoint();
+    let id = run_id("fault");
+    let coordinator = start_run(
+        &scenario("mourya2017-spiral.toml"),
+        dir.path(),
+        &ep,
+        &id,
+        &[
+            "--clock",
+            "realtime",
+            "--samples",
+            "40",
+            "--fault",
+            "crash:node=4,at_sample=15",
+        ],
+    );
+    let a = start_agent(&ep, &id, "a");
+    let b = start_agent(&ep, &id, "b");
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let m = metrics(dir.path());
+    let deaths = m["deaths"].to_string();
+    assert!(
+        deaths.contains('4') && deaths.contains("host b"),
+        "{deaths}"
+    );
+    for (agent, name) in [(a, "a"), (b, "b")] {
+        let o = wait_watchdog(agent, name, LIMIT);
+        assert!(
+            o.status.success(),
+            "agent {name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    assert_nothing_left(&id);
+}
