@@ -139,7 +139,7 @@ impl Nodes {
             Ok(Some(s)) => {
                 out.push(AgentEvent::Exited {
                     node,
-                    how: exit_text(&s),
+                    how: super::processes::fleet::status_text(&s),
                 });
                 false
             }
@@ -175,21 +175,11 @@ impl Nodes {
             let _ = c.kill();
             let how = c
                 .wait()
-                .map(|s| exit_text(&s))
+                .map(|s| super::processes::fleet::status_text(&s))
                 .unwrap_or_else(|e| e.to_string());
             out.push(AgentEvent::Exited { node, how });
         }
         out
-    }
-}
-
-fn exit_text(s: &std::process::ExitStatus) -> String {
-    use std::os::unix::process::ExitStatusExt;
-    match (s.code(), s.signal()) {
-        (Some(143), _) => "exit code 143: stopped by SIGTERM or SIGINT".into(),
-        (Some(c), _) => format!("exit code {c}"),
-        (None, Some(sig)) => format!("killed by signal {sig}"),
-        _ => "unknown status".into(),
     }
 }
 

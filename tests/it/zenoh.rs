@@ -73,6 +73,18 @@ fn same_file(a: &Path, b: &Path, name: &str) {
     );
 }
 
+/// Wait (watchdog 30 s) until every agent of `agents` runs `each` nodes.
+fn wait_for_nodes(agents: &[&Child], each: usize) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while agents.iter().any(|a| children_of(a.id()).len() < each) {
+        assert!(
+            Instant::now() < deadline,
+            "the agents never started their nodes"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 fn run_id(tag: &str) -> String {
     format!("zt-{tag}-{}", std::process::id())
 }
@@ -133,11 +145,7 @@ fn killing_an_agent_mid_run_reports_its_nodes_dead_and_leaves_nothing() {
     let a = start_agent(&ep, &id, "a");
     let mut b = start_agent(&ep, &id, "b");
     // Once b runs its three nodes, and they have worked a little.
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while children_of(b.id()).len() < 3 {
-        assert!(Instant::now() < deadline, "agent b never started its nodes");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_nodes(&[&b], 3);
     std::thread::sleep(Duration::from_millis(500));
     b.kill().expect("SIGKILL agent b");
     let killed = Instant::now();
@@ -445,14 +453,7 @@ fn killing_the_coordinator_makes_every_agent_stop_its_nodes_and_exit() {
     );
     let a = start_agent(&ep, &id, "a");
     let b = start_agent(&ep, &id, "b");
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while children_of(a.id()).len() < 3 || children_of(b.id()).len() < 3 {
-        assert!(
-            Instant::now() < deadline,
-            "the agents never started their nodes"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_nodes(&[&a, &b], 3);
     std::thread::sleep(Duration::from_millis(300));
     coordinator.kill().expect("SIGKILL the coordinator");
     let _ = coordinator.wait();
@@ -479,14 +480,7 @@ fn ctrl_c_of_the_coordinator_stops_every_host_and_writes_partial_results() {
     );
     let a = start_agent(&ep, &id, "a");
     let b = start_agent(&ep, &id, "b");
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while children_of(a.id()).len() < 3 || children_of(b.id()).len() < 3 {
-        assert!(
-            Instant::now() < deadline,
-            "the agents never started their nodes"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    wait_for_nodes(&[&a, &b], 3);
     wait_for_sigint_handler(coordinator.id(), LIMIT);
     std::thread::sleep(Duration::from_millis(300));
     // SAFETY: kill(2) on our own child.

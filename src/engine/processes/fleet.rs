@@ -267,7 +267,8 @@ pub enum NodeProc {
     },
 }
 
-fn status_text(s: &ExitStatus) -> String {
+/// How a process ended, in words (`exit code 3`, `killed by signal 9`).
+pub fn status_text(s: &ExitStatus) -> String {
     use std::os::unix::process::ExitStatusExt;
     match (s.code(), s.signal()) {
         (Some(143), _) => "exit code 143: stopped by SIGTERM or SIGINT".into(),

@@ -14,7 +14,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::SampleKind;
 
-use super::{Role, open_session, prefix, zerr};
+use super::{Role, declare_token, open_session, prefix, publisher, zerr};
 use crate::transport::{TransportError, ZenohSettings};
 
 /// A party of the run whose liveliness token appeared or vanished.
@@ -72,16 +72,6 @@ fn liveliness_subscriber(
         })
         .wait()
         .map_err(zerr(format!("subscribing to liveliness {key}")))
-}
-
-fn publisher(session: &zenoh::Session, key: String) -> Result<Publisher<'static>, TransportError> {
-    session
-        .declare_publisher(key.clone())
-        .congestion_control(CongestionControl::Block)
-        .priority(Priority::Data)
-        .express(true)
-        .wait()
-        .map_err(zerr(format!("declaring a publisher on {key}")))
 }
 
 /// The coordinator's side: sends commands to agents; every agent message and
@@ -185,11 +175,7 @@ impl AgentLink {
         })?;
         let events = publisher(&session, format!("{prefix}/agent/{name}/ev"))?;
         let token_key = format!("{prefix}/alive/agent/{name}");
-        let token = session
-            .liveliness()
-            .declare_token(token_key.clone())
-            .wait()
-            .map_err(zerr(format!("declaring the liveliness token {token_key}")))?;
+        let token = declare_token(&session, token_key)?;
         Ok(AgentLink {
             session,
             cmds,

@@ -80,6 +80,34 @@ pub(crate) fn open_session(
     zenoh::open(cfg).wait().map_err(zerr(what))
 }
 
+/// A reliable publisher on `key`: blocks rather than drops when congested,
+/// data priority, no batching (sonarnet batches its own frames per flush).
+pub(crate) fn publisher(
+    session: &zenoh::Session,
+    key: String,
+) -> Result<Publisher<'static>, TransportError> {
+    session
+        .declare_publisher(key.clone())
+        .congestion_control(CongestionControl::Block)
+        .priority(Priority::Data)
+        .express(true)
+        .wait()
+        .map_err(zerr(format!("declaring a publisher on {key}")))
+}
+
+/// A liveliness token on `key`: it vanishes for the others when this
+/// session closes or its lease runs out.
+pub(crate) fn declare_token(
+    session: &zenoh::Session,
+    key: String,
+) -> Result<LivelinessToken, TransportError> {
+    session
+        .liveliness()
+        .declare_token(key.clone())
+        .wait()
+        .map_err(zerr(format!("declaring the liveliness token {key}")))
+}
+
 /// A frame subscriber feeding `tx`; payloads that are not whole frames are
 /// counted in `bad` and dropped.
 fn frame_subscriber(
@@ -185,11 +213,7 @@ impl ZenohTransport {
             Endpoint::Coordinator => format!("{prefix}/alive/coordinator"),
         };
         // Declared last: whoever sees it may send at once.
-        let token = session
-            .liveliness()
-            .declare_token(alive.clone())
-            .wait()
-            .map_err(zerr(format!("declaring the liveliness token {alive}")))?;
+        let token = declare_token(&session, alive)?;
         Ok(ZenohTransport {
             me,
             topo: topology.clone(),
@@ -212,13 +236,7 @@ impl ZenohTransport {
     }
 
     fn publisher(&self, key: String) -> Result<Publisher<'static>, TransportError> {
-        self.session
-            .declare_publisher(key.clone())
-            .congestion_control(CongestionControl::Block)
-            .priority(Priority::Data)
-            .express(true)
-            .wait()
-            .map_err(zerr(format!("declaring a publisher on {key}")))
+        publisher(&self.session, key)
     }
 }
 
