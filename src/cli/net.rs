@@ -21,6 +21,58 @@ pub const WITHOUT_ZENOH: &str = "this sonarnet was built without zenoh: build it
 /// (zenoh's own default port).
 pub const DEFAULT_PORT: u16 = 7447;
 
+/// The link protocols of zenoh endpoints (`PROTO/HOST:PORT`) that this
+/// build carries: `tcp` always, `quic` and `tls` with the `zenoh-tls`
+/// feature.
+pub const LINKS: &[&str] = if cfg!(feature = "zenoh-tls") {
+    &["tcp", "quic", "tls"]
+} else {
+    &["tcp"]
+};
+
+/// What `--listen tls/...` prints: zenoh 1.10's TLS link loses frames.
+pub const TLS_LINK_WARNING: &str = "warning: zenoh's tls/ link reads and writes one rustls stream from two threads at once (zenoh issue 2557): under a run's traffic it fails with \"handshake not complete\", reconnects and loses frames, and the run stalls. Use quic/HOST:PORT: TLS 1.3 with the same certificates (README, \"Across hosts\")";
+
+/// Checks the endpoints given to `flag`: `PROTO/HOST:PORT` with a link this
+/// build carries ([`LINKS`]).
+fn check_endpoints(flag: &str, endpoints: &[String]) -> Result<(), CliError> {
+    for e in endpoints {
+        let Some((proto, addr)) = e.split_once('/') else {
+            return Err(cli_error(
+                flag,
+                format!(
+                    "{e:?} is not an endpoint: give PROTO/HOST:PORT, e.g. tcp/0.0.0.0:{DEFAULT_PORT}"
+                ),
+            ));
+        };
+        let addr = addr.split('#').next().unwrap_or(addr);
+        if !addr.contains(':') {
+            return Err(cli_error(
+                flag,
+                format!("{e:?} has no port: give PROTO/HOST:PORT"),
+            ));
+        }
+        if !LINKS.contains(&proto) {
+            let hint = if matches!(proto, "quic" | "tls") {
+                " (build with `--features zenoh-tls` for quic and tls)"
+            } else {
+                ""
+            };
+            return Err(cli_error(
+                flag,
+                format!(
+                    "link {proto:?} of {e:?} is not in this build, which carries {}{hint}",
+                    LINKS.join(", ")
+                ),
+            ));
+        }
+    }
+    if endpoints.iter().any(|e| e.starts_with("tls/")) {
+        eprintln!("{TLS_LINK_WARNING}");
+    }
+    Ok(())
+}
+
 /// The network options of a run, checked before anything starts.
 pub(super) fn net_options(
     args: &RunArgs,
@@ -43,6 +95,7 @@ pub(super) fn net_options(
     if !cfg!(feature = "zenoh") {
         return Err(cli_error("--transport", WITHOUT_ZENOH));
     }
+    check_endpoints("--listen", &args.listen)?;
     if engine != EngineKind::Processes {
         return Err(cli_error(
             "--transport",
@@ -101,10 +154,14 @@ pub(super) fn net_options(
         (None, false) => None,
     };
     if let (true, Some(p), Some(id)) = (remote, &placement, &run_id) {
-        let port = listen
-            .first()
-            .and_then(|l| l.rsplit(':').next())
-            .unwrap_or("7447");
+        let first = listen.first().map(String::as_str).unwrap_or("tcp/:7447");
+        let port = first.rsplit(':').next().unwrap_or("7447");
+        let proto = first.split('/').next().unwrap_or("tcp");
+        // An encrypted link needs the CA on the agent's side too.
+        let config = match (&args.zenoh_config, proto) {
+            (Some(_), "quic" | "tls") => " --zenoh-config <a file with root_ca_certificate>",
+            _ => "",
+        };
         eprintln!(
             "run id {id}: waiting up to {} s for the agents of {} on {}; on each host run",
             args.agent_wait,
@@ -113,7 +170,7 @@ pub(super) fn net_options(
         );
         for h in p.agents() {
             eprintln!(
-                "  sonarnet agent --connect tcp/<this host's address>:{port} --run-id {id} --host {h}"
+                "  sonarnet agent --connect {proto}/<this host's address>:{port} --run-id {id} --host {h}{config}"
             );
         }
     }
@@ -148,6 +205,7 @@ pub(super) fn agent_command(args: &AgentArgs) -> Result<(), CliError> {
             format!("{} is not a readable file", f.display()),
         ));
     }
+    check_endpoints("--connect", &args.connect)?;
     let term = crate::engine::interrupt::flag();
     let opts = AgentOptions {
         zenoh: ZenohSettings {

@@ -174,6 +174,9 @@ impl AgentLink {
             }
         })?;
         let events = publisher(&session, format!("{prefix}/agent/{name}/ev"))?;
+        // The coordinator subscribed before any agent could connect: wait
+        // until this session knows it, so that the first event is not lost.
+        super::await_match(&events, super::MATCH_WAIT);
         let token_key = format!("{prefix}/alive/agent/{name}");
         let token = declare_token(&session, token_key)?;
         Ok(AgentLink {

@@ -72,6 +72,9 @@ pub(crate) fn open_session(
     run_id: &str,
     connect_timeout: Duration,
 ) -> Result<zenoh::Session, TransportError> {
+    // zenoh's own log, on standard output, when RUST_LOG asks for it
+    // (README, "Across hosts": `RUST_LOG=zenoh=debug`).
+    zenoh::try_init_log_from_env();
     let cfg = config::session_config(settings, role, run_id, connect_timeout)?;
     let what = match role {
         Role::Router => format!("listening on {}", settings.listen.join(", ")),
@@ -93,6 +96,56 @@ pub(crate) fn publisher(
         .express(true)
         .wait()
         .map_err(zerr(format!("declaring a publisher on {key}")))
+}
+
+/// How long a new publisher waits for zenoh to report a subscriber on its
+/// key before its first put ([`await_match`]).
+pub const MATCH_WAIT: Duration = Duration::from_secs(2);
+
+/// Waits until zenoh reports a subscriber matching `publisher`, at most
+/// `within`; returns whether one was seen.
+///
+/// A client learns of the router's subscribers asynchronously, after its
+/// session opens: a put on a publisher declared before that news arrives is
+/// dropped at the source, as nothing is known to want it. Over TCP on
+/// loopback the news is nearly always first; over QUIC or a slow network
+/// the first frames of a run were lost and the run stalled at sample 0.
+/// Each publisher is declared once per destination, so this waits once.
+/// After `within` the put goes ahead: the destination may be dead, which
+/// liveliness reports.
+pub fn await_match(publisher: &Publisher<'_>, within: Duration) -> bool {
+    let matched = || {
+        publisher
+            .matching_status()
+            .wait()
+            .is_ok_and(|m| m.matching())
+    };
+    if matched() {
+        return true;
+    }
+    let (tx, rx) = crossbeam::channel::bounded::<bool>(1);
+    let listener = publisher
+        .matching_listener()
+        .callback(move |m| {
+            let _ = tx.try_send(m.matching());
+        })
+        .wait();
+    let Ok(_listener) = listener else {
+        return false;
+    };
+    // The status may have changed between the check and the listener.
+    if matched() {
+        return true;
+    }
+    let deadline = std::time::Instant::now() + within;
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(true) => return true,
+            Ok(false) => continue,
+            Err(_) => return matched(),
+        }
+    }
 }
 
 /// A liveliness token on `key`: it vanishes for the others when this
@@ -270,6 +323,7 @@ impl Transport for ZenohTransport {
             }
             if !self.publishers.contains_key(&to) {
                 let p = self.publisher(format!("{}/in/{}", self.prefix, endpoint_key(to)))?;
+                await_match(&p, MATCH_WAIT);
                 self.publishers.insert(to, p);
             }
             if let Some(p) = self.publishers.get(&to) {
@@ -280,7 +334,9 @@ impl Transport for ZenohTransport {
         }
         if !self.pending_bcast.is_empty() {
             if self.bcast.is_none() {
-                self.bcast = Some(self.publisher(format!("{}/bcast", self.prefix))?);
+                let p = self.publisher(format!("{}/bcast", self.prefix))?;
+                await_match(&p, MATCH_WAIT);
+                self.bcast = Some(p);
             }
             let bytes = std::mem::take(&mut self.pending_bcast);
             if let Some(p) = &self.bcast {

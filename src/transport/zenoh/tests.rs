@@ -166,3 +166,128 @@ fn the_coordinator_sees_a_node_come_and_go_within_a_second() {
         seen - dropped
     );
 }
+
+#[test]
+fn a_nodes_first_frame_put_as_its_session_opens_reaches_the_coordinator() {
+    // A client learns of the router's subscribers after its session opens;
+    // a put before that news is dropped at the source (see `await_match`).
+    // In one process the news is fast; the race itself shows between
+    // processes over QUIC (tests/it/zenoh.rs, the encrypted run).
+    let z = router();
+    let topo = RunTopology::ring("zt-first", 2, 4).unwrap();
+    let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
+    let local = z.for_local_nodes();
+    for round in 0..5u64 {
+        let mut n = ZenohTransport::node(&topo, 1, &local).unwrap();
+        n.send(Endpoint::Coordinator, &frame(1, round)).unwrap();
+        n.flush().unwrap();
+        let got = take(&mut c, 1);
+        assert_eq!(
+            got.iter().map(|f| f.seq).collect::<Vec<_>>(),
+            vec![round],
+            "round {round}"
+        );
+    }
+}
+
+/// Encrypted links (`zenoh-tls`): QUIC with the test certificates of
+/// `tests/fixtures/tls`.
+#[cfg(feature = "zenoh-tls")]
+mod quic {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn fixture(name: &str) -> String {
+        let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/tls")
+            .join(name);
+        p.to_string_lossy().into_owned()
+    }
+
+    /// A zenoh configuration file trusting `ca`, with the server's
+    /// certificate and key when `server`.
+    fn config(tag: &str, ca: &str, server: bool) -> PathBuf {
+        let keys = if server {
+            format!(
+                "listen_private_key: {:?}, listen_certificate: {:?},",
+                fixture("server.key"),
+                fixture("server.pem")
+            )
+        } else {
+            String::new()
+        };
+        let text = format!(
+            "{{ transport: {{ link: {{ tls: {{ root_ca_certificate: {:?}, {keys} }} }} }} }}",
+            fixture(ca)
+        );
+        let path =
+            std::env::temp_dir().join(format!("sonarnet-zt-{tag}-{}.json5", std::process::id()));
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    fn quic_router(tag: &str) -> ZenohSettings {
+        let tcp = ZenohSettings::free_loopback_endpoint().expect("a free port");
+        let port = tcp.rsplit(':').next().unwrap_or("0").to_string();
+        ZenohSettings {
+            listen: vec![format!("quic/127.0.0.1:{port}")],
+            connect: vec![],
+            config_file: Some(config(&format!("{tag}-server"), "ca.pem", true)),
+        }
+    }
+
+    #[test]
+    fn frames_cross_a_quic_link_in_order_from_the_first_put_on() {
+        let z = quic_router("order");
+        let topo = RunTopology::ring("zt-quic", 3, 4).unwrap();
+        let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
+        let client = ZenohSettings {
+            config_file: Some(config("order-client", "ca.pem", false)),
+            ..z.for_local_nodes()
+        };
+        let mut n1 = ZenohTransport::node(&topo, 1, &client).unwrap();
+        let mut n2 = ZenohTransport::node(&topo, 2, &client).unwrap();
+        // At once, before anything else: the first put must not be lost.
+        n1.send(Endpoint::Coordinator, &frame(1, 0)).unwrap();
+        n1.flush().unwrap();
+        assert_eq!(take(&mut c, 1).len(), 1, "the first frame over QUIC");
+        for s in 0..200u64 {
+            n1.send(Endpoint::Node(0), &frame(1, s)).unwrap();
+            c.send(Endpoint::Node(2), &frame(u32::MAX, s)).unwrap();
+            if s % 5 == 0 {
+                n1.flush().unwrap();
+                c.flush().unwrap();
+            }
+        }
+        n1.flush().unwrap();
+        c.flush().unwrap();
+        let got = take(&mut n2, 200);
+        assert_eq!(got.len(), 200);
+        assert!(got.iter().enumerate().all(|(s, f)| f.seq == s as u64));
+        assert_eq!(
+            got[7].data.map(f64::to_bits),
+            frame(0, 7).data.map(f64::to_bits),
+            "bit for bit"
+        );
+    }
+
+    #[test]
+    fn a_party_that_does_not_trust_the_runs_certificate_cannot_connect() {
+        let z = quic_router("distrust");
+        let topo = RunTopology::ring("zt-quic-2", 2, 4).unwrap();
+        let _c = ZenohTransport::coordinator(&topo, &z).unwrap();
+        let stranger = ZenohSettings {
+            config_file: Some(config("distrust-client", "other-ca.pem", false)),
+            ..z.for_local_nodes()
+        };
+        let t0 = Instant::now();
+        let e = open_session(&stranger, Role::Client, "zt-quic-2", Duration::from_secs(2));
+        assert!(e.is_err(), "a client trusting another CA connected");
+        assert!(t0.elapsed() < Duration::from_secs(30));
+        let friend = ZenohSettings {
+            config_file: Some(config("distrust-friend", "ca.pem", false)),
+            ..z.for_local_nodes()
+        };
+        assert!(open_session(&friend, Role::Client, "zt-quic-2", Duration::from_secs(5)).is_ok());
+    }
+}
