@@ -6,8 +6,12 @@
 //!
 //! The figures are measured on this engine (Linux, iceoryx2 0.10): one
 //! publisher's data segment holds [`SLOT_BYTES`] per frame of its
-//! subscriber's buffer; the coordinator holds about 12 descriptors per node,
-//! a node about 7 per node of the run; a node process takes up to
+//! subscriber's buffer; the coordinator holds 9 descriptors per node
+//! (measured 598 at N = 64: per node an inbox service, its dynamic segment,
+//! the publisher's port tag, the two data segments and two connections of
+//! the coordinator-node pair, and the socket and management segment of the
+//! node's listener on the shared down service), a node about 7 per node of
+//! the run; a node process takes up to
 //! [`NODE_RSS_BYTES`] besides the shared memory it maps.
 
 use super::RunPlan;
@@ -76,7 +80,7 @@ pub(crate) fn needs_of(l: &NetworkLayout) -> Needs {
         nodes: n,
         inbox_frames: inbox,
         shm_bytes,
-        coordinator_fds: 12 * n + 64,
+        coordinator_fds: 9 * n + 64,
         node_fds: 7 * n + 64,
         memory_bytes: n.saturating_mul(NODE_RSS_BYTES).saturating_add(shm_bytes),
     }
@@ -104,7 +108,7 @@ pub fn check(needs: &Needs, m: &Machine) -> Result<(), (&'static str, String)> {
             return Err((
                 "geometry.receivers",
                 format!(
-                    "{n} node processes need about {need} open files each (the coordinator 12 per node), \
+                    "{n} node processes need about {need} open files each (the coordinator 9 per node), \
                      above this machine's limit of {hard} (ulimit -Hn)"
                 ),
             ));

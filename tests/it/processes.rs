@@ -281,6 +281,49 @@ fn a_64_node_ring_completes_over_processes() {
     assert_nothing_left(&run_id_of(&out));
 }
 
+/// The coordinator of a running 64-node ring holds no more open files than
+/// preflight counts on (9 per node plus 64; it held 12 per node before the
+/// shared down service, which kept 2048 nodes from starting: issue 20).
+#[test]
+fn the_coordinator_of_a_64_node_ring_holds_at_most_9_files_per_node() {
+    let tmp = TempDir::new("ring64-fds");
+    let text = sonarnet::pipeline::bench::ring_toml(64, 400, 2000);
+    let p = tmp.write("ring64.toml", &text);
+    let out = tmp.path().join("out");
+    let child = spawn_sonarnet(&[
+        "run",
+        p.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let pid = child.id();
+    let files = || std::fs::read_dir(format!("/proc/{pid}/fd")).map_or(0, |d| d.count());
+    // Once every node is up and the samples flow (the count stops rising),
+    // take the largest count over half a second.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while children_of(pid).len() < 64 || files() < 8 * 64 {
+        assert!(Instant::now() < deadline, "the ring never came up");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut most = 0;
+    for _ in 0..25 {
+        most = most.max(files());
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // SAFETY: kill(2) on our own child.
+    unsafe {
+        libc::kill(pid as i32, libc::SIGINT);
+    }
+    let _ = wait_watchdog(child, "the ring", LIMIT);
+    assert!(
+        most <= 9 * 64 + 64,
+        "the coordinator held {most} files for 64 nodes"
+    );
+    assert!(most >= 8 * 64, "measured while running: {most}");
+    assert_nothing_left(&run_id_of(&out));
+}
+
 #[test]
 fn two_concurrent_runs_on_one_host_both_succeed() {
     let tmp = TempDir::new("concurrent");

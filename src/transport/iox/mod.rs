@@ -20,11 +20,17 @@
 //! | `sonarnet/<run>/node/<i>/wake` | event | `1 + in_deg(i)` | 1 | `2 + in_deg(i)` | - |
 //! | `sonarnet/<run>/coordinator/inbox` | pub-sub | `N` | 1 | `N + 1` | `inbox_buffer` |
 //! | `sonarnet/<run>/coordinator/wake` | event | `N` | 1 | `N + 1` | - |
+//! | `sonarnet/<run>/coordinator/down` | event | 1 | `N` (listener `n<i>`) | `N + 1` | - |
 //! | `sonarnet/<run>/broadcast/frames` (optional) | pub-sub | `N` | `N` | `N + 1` | `broadcast_buffer` |
 //! | `sonarnet/<run>/broadcast/wake` (optional) | event | `N` | `N` | `N + 1` | - |
 //!
 //! `in_deg(i)` is the number of nodes listing `i` as a neighbour; the `+1`s are the
-//! coordinator (which creates and holds every service) and the owner. All pub-sub
+//! coordinator and the owner. The coordinator creates and holds every service but
+//! the nodes' wake-up services: a node and its in-neighbours open those, whoever
+//! comes first creating it. The coordinator wakes node `i` through `i`'s listener
+//! on its one `down` service (iceoryx2's `notify_single_listener`), so it holds one
+//! notifier for the run and no event service per node (issue 20: 9 descriptors per
+//! node instead of 12). All pub-sub
 //! services have history 0, one borrowed sample per subscriber, publishers loan one
 //! sample at a time, and event ids go up to 1 (only id 0 is used). iceoryx2 nodes
 //! are named `sonarnet/<run>/coordinator` and `sonarnet/<run>/node/<i>`.
@@ -105,7 +111,7 @@ use std::time::{Duration, Instant};
 use iceoryx2::config::Config;
 use iceoryx2::node::NodeState;
 use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::notifier::{ListenerKey, Notifier, NotifierNotifyError};
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
@@ -141,11 +147,21 @@ impl Backoff {
     }
 }
 
+/// How an endpoint wakes a destination after sending to it.
+enum Wake {
+    /// A notifier of the destination's own wake-up service (a node waking
+    /// the coordinator or a neighbour).
+    Own(Box<Notifier<Svc>>),
+    /// The destination node's listener on the coordinator's down service
+    /// (the coordinator waking a node), once found by its name.
+    Down(Option<ListenerKey>),
+}
+
 /// A destination this endpoint may send to.
 struct Peer {
     endpoint: Endpoint,
     publisher: Publisher<Svc, Frame, ()>,
-    notifier: Notifier<Svc>,
+    wake: Wake,
     pool: usize,
     /// Sent to since the last wake-up.
     pending: bool,
@@ -172,8 +188,9 @@ struct BroadcastPorts {
 
 /// One endpoint (coordinator or node) of a run, over iceoryx2 shared memory.
 ///
-/// Create the coordinator's first ([`IoxTransport::coordinator`] creates all
-/// services), then the nodes' ([`IoxTransport::node`] opens them). Not `Send`: use it
+/// Create the coordinator's first ([`IoxTransport::coordinator`] creates the
+/// services but the nodes' wake-ups), then the nodes' ([`IoxTransport::node`]
+/// opens them). Not `Send`: use it
 /// from the thread that created it.
 pub struct IoxTransport {
     // Field order is drop order: the wait set goes before the listeners it watches,
@@ -190,6 +207,10 @@ pub struct IoxTransport {
     stash: Vec<Frame>,
     inbox: Subscriber<Svc, Frame, ()>,
     wake: Listener<Svc>,
+    /// A node's listener on the coordinator's down service.
+    down_listener: Option<Listener<Svc>>,
+    /// The coordinator's notifier of the down service.
+    down: Option<Notifier<Svc>>,
     bcast: Option<BroadcastPorts>,
     /// Bounded polling before blocking in `recv` (zero: block at once).
     poll: Duration,
@@ -210,9 +231,9 @@ impl std::fmt::Debug for IoxTransport {
 }
 
 impl IoxTransport {
-    /// The coordinator's endpoint. Creates every service of the run with limits sized
-    /// from `topology` (see the [module docs](self)), so call it before starting the
-    /// node processes. Fails if services of this run id already exist.
+    /// The coordinator's endpoint. Creates the services of the run (all but the
+    /// nodes' own wake-ups) with limits sized from `topology` (see the
+    /// [module docs](self)), so call it before starting the node processes. Fails if services of this run id already exist.
     pub fn coordinator(topology: &RunTopology) -> Result<Self, TransportError> {
         let t = topology;
         let node = make_node(
@@ -221,21 +242,22 @@ impl IoxTransport {
             Endpoint::Coordinator,
         )?;
         let inbox_svc = pubsub(&node, &coordinator_inbox_spec(t), true)?;
-        let wake_svc = event_service(&node, &coordinator_wake_spec(t), true)?;
+        let wake_svc = event_service(&node, &coordinator_wake_spec(t), Access::Create)?;
         let wake = listener(&wake_svc, "coordinator")?;
         let inbox = subscriber(&inbox_svc, "coordinator")?;
+        let down_svc = event_service(&node, &down_wake_spec(t), Access::Create)?;
+        let down = notifier(&down_svc, "every node")?;
         let mut pubsub_services = vec![inbox_svc];
-        let mut event_services = vec![wake_svc];
+        let mut event_services = vec![wake_svc, down_svc];
         let pool = pool_size(1, t.inbox_buffer());
         let mut peers = Vec::with_capacity(t.n_nodes());
         for i in 0..t.n_nodes() as u32 {
             let to = Endpoint::Node(i);
             let s = pubsub(&node, &node_inbox_spec(t, i), true)?;
-            let e = event_service(&node, &node_wake_spec(t, i), true)?;
             peers.push(Peer {
                 endpoint: to,
                 publisher: inbox_publisher(&s, to, pool)?,
-                notifier: notifier(&e, &to.to_string())?,
+                wake: Wake::Down(None),
                 pool,
                 pending: false,
                 unconfirmed: false,
@@ -243,20 +265,27 @@ impl IoxTransport {
                 connected: false,
             });
             pubsub_services.push(s);
-            event_services.push(e);
         }
         if t.broadcast() {
             pubsub_services.push(pubsub(&node, &broadcast_spec(t), true)?);
-            event_services.push(event_service(&node, &broadcast_wake_spec(t), true)?);
+            event_services.push(event_service(
+                &node,
+                &broadcast_wake_spec(t),
+                Access::Create,
+            )?);
         }
         Self::assemble(
             t,
             Endpoint::Coordinator,
             node,
             peers,
-            inbox,
-            wake,
-            None,
+            Receivers {
+                inbox,
+                wake,
+                down_listener: None,
+                down: Some(down),
+                bcast: None,
+            },
             pubsub_services,
             event_services,
         )
@@ -272,16 +301,18 @@ impl IoxTransport {
         t.check_endpoint(me)?;
         let node = make_node(t, &format!("sonarnet/{}/node/{id}", t.run_id()), me)?;
         let inbox_svc = pubsub(&node, &node_inbox_spec(t, id), false)?;
-        let wake_svc = event_service(&node, &node_wake_spec(t, id), false)?;
-        // Listener before subscriber: whoever sees our subscriber can also wake us.
+        let wake_svc = event_service(&node, &node_wake_spec(t, id), Access::OpenOrCreate)?;
+        let down_svc = event_service(&node, &down_wake_spec(t), Access::Open)?;
+        // Listeners before subscriber: whoever sees our subscriber can also wake us.
         let wake = listener(&wake_svc, &me.to_string())?;
+        let down_listener = down_listener(&down_svc, id)?;
         let inbox = subscriber(&inbox_svc, &me.to_string())?;
         let mut pubsub_services = vec![inbox_svc];
-        let mut event_services = vec![wake_svc];
+        let mut event_services = vec![wake_svc, down_svc];
 
         let bcast = if t.broadcast() {
             let service = pubsub(&node, &broadcast_spec(t), false)?;
-            let ev = event_service(&node, &broadcast_wake_spec(t), false)?;
+            let ev = event_service(&node, &broadcast_wake_spec(t), Access::Open)?;
             let listener = listener(&ev, "broadcast group")?;
             let subscriber = subscriber(&service, "broadcast group")?;
             let timeout = t.send_timeout();
@@ -321,11 +352,11 @@ impl IoxTransport {
         {
             let to = Endpoint::Coordinator;
             let s = pubsub(&node, &coordinator_inbox_spec(t), false)?;
-            let e = event_service(&node, &coordinator_wake_spec(t), false)?;
+            let e = event_service(&node, &coordinator_wake_spec(t), Access::Open)?;
             peers.push(Peer {
                 endpoint: to,
                 publisher: inbox_publisher(&s, to, pool)?,
-                notifier: notifier(&e, "coordinator")?,
+                wake: Wake::Own(Box::new(notifier(&e, "coordinator")?)),
                 pool,
                 pending: false,
                 unconfirmed: false,
@@ -338,11 +369,11 @@ impl IoxTransport {
         for &j in t.neighbours(id) {
             let to = Endpoint::Node(j);
             let s = pubsub(&node, &node_inbox_spec(t, j), false)?;
-            let e = event_service(&node, &node_wake_spec(t, j), false)?;
+            let e = event_service(&node, &node_wake_spec(t, j), Access::OpenOrCreate)?;
             peers.push(Peer {
                 endpoint: to,
                 publisher: inbox_publisher(&s, to, pool)?,
-                notifier: notifier(&e, &to.to_string())?,
+                wake: Wake::Own(Box::new(notifier(&e, &to.to_string())?)),
                 pool,
                 pending: false,
                 unconfirmed: false,
@@ -357,26 +388,34 @@ impl IoxTransport {
             me,
             node,
             peers,
-            inbox,
-            wake,
-            bcast,
+            Receivers {
+                inbox,
+                wake,
+                down_listener: Some(down_listener),
+                down: None,
+                bcast,
+            },
             pubsub_services,
             event_services,
         )
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn assemble(
         t: &RunTopology,
         me: Endpoint,
         node: Node<Svc>,
         peers: Vec<Peer>,
-        inbox: Subscriber<Svc, Frame, ()>,
-        wake: Listener<Svc>,
-        bcast: Option<BroadcastPorts>,
+        ports: Receivers,
         pubsub_services: Vec<PubSub>,
         event_services: Vec<EventSvc>,
     ) -> Result<Self, TransportError> {
+        let Receivers {
+            inbox,
+            wake,
+            down_listener,
+            down,
+            bcast,
+        } = ports;
         let waitset = WaitSetBuilder::new()
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<Svc>()
@@ -389,6 +428,12 @@ impl IoxTransport {
             .attach_notification(&wake)
             .map_err(|e| TransportError::ipc("attaching wake-up listener", e))?;
         std::mem::forget(guard);
+        if let Some(l) = &down_listener {
+            let guard = waitset.attach_notification(l).map_err(|e| {
+                TransportError::ipc("attaching the coordinator's wake-up listener", e)
+            })?;
+            std::mem::forget(guard);
+        }
         if let Some(b) = &bcast {
             let guard = waitset
                 .attach_notification(&b.listener)
@@ -409,6 +454,8 @@ impl IoxTransport {
             stash: Vec::new(),
             inbox,
             wake,
+            down_listener,
+            down,
             bcast,
             poll: Duration::ZERO,
             pubsub_services,
@@ -481,6 +528,10 @@ impl IoxTransport {
         self.wake
             .try_wait(|_| {})
             .map_err(|e| TransportError::ipc("reading wake-up events", e))?;
+        if let Some(l) = &self.down_listener {
+            l.try_wait(|_| {})
+                .map_err(|e| TransportError::ipc("reading the coordinator's wake-up events", e))?;
+        }
         if let Some(b) = &self.bcast {
             b.listener
                 .try_wait(|_| {})
@@ -564,6 +615,58 @@ impl IoxTransport {
             }
         }
         Ok((waiting, broadcast))
+    }
+}
+
+/// The receiving ports of an endpoint, handed to `IoxTransport::assemble`.
+struct Receivers {
+    inbox: Subscriber<Svc, Frame, ()>,
+    wake: Listener<Svc>,
+    down_listener: Option<Listener<Svc>>,
+    down: Option<Notifier<Svc>>,
+    bcast: Option<BroadcastPorts>,
+}
+
+impl IoxTransport {
+    /// Wakes the receiver of peer `slot`: through its own wake-up service,
+    /// or (the coordinator waking a node) through that node's listener on
+    /// the down service, looked up by name the first time and again when
+    /// the node has restarted. A node whose listener is not there yet has
+    /// no subscriber either, so nothing it could miss was delivered.
+    fn wake_peer(&mut self, slot: usize) -> Result<(), TransportError> {
+        let to = self.peers[slot].endpoint;
+        let waking = |e| TransportError::ipc(format!("waking {to}"), e);
+        let key = match &self.peers[slot].wake {
+            Wake::Own(n) => return n.notify().map(|_| ()).map_err(waking),
+            Wake::Down(key) => *key,
+        };
+        let Some(down) = &self.down else {
+            return Ok(());
+        };
+        if let Some(k) = key {
+            match down.notify_single_listener(&k) {
+                Ok(()) => return Ok(()),
+                Err(NotifierNotifyError::InvalidListenerKey) => {}
+                Err(e) => return Err(waking(e)),
+            }
+        }
+        // Find every node's listener (once per run, and after restarts).
+        self.peers[slot].wake = Wake::Down(None);
+        let (peers, index, topology) = (&mut self.peers, &self.peer_index, &self.topology);
+        down.for_each_listener(|monofier, details| {
+            if let Some(i) = down_listener_node(details.listener_name.as_str())
+                && (i as usize) < topology.n_nodes()
+                && let Some(&k) = index.get(i as usize)
+                && let Some(p) = peers.get_mut(k)
+            {
+                p.wake = Wake::Down(Some(monofier.listener_key()));
+            }
+            CallbackProgression::Continue
+        });
+        match &self.peers[slot].wake {
+            Wake::Down(Some(k)) => down.notify_single_listener(k).map_err(waking),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -658,10 +761,7 @@ impl Transport for IoxTransport {
                 Some(s) => s,
                 None => {
                     // Make sure the receiver knows there is something to drain.
-                    self.peers[slot]
-                        .notifier
-                        .notify()
-                        .map_err(|e| TransportError::ipc(format!("waking {to}"), e))?;
+                    self.wake_peer(slot)?;
                     *started.insert(Instant::now())
                 }
             };
@@ -721,11 +821,10 @@ impl Transport for IoxTransport {
         let mut pending = std::mem::take(&mut self.pending);
         let mut result = Ok(());
         for &slot in &pending {
-            let peer = &mut self.peers[slot];
-            if peer.pending {
-                peer.pending = false;
-                if let Err(e) = peer.notifier.notify() {
-                    result = Err(TransportError::ipc(format!("waking {}", peer.endpoint), e));
+            if self.peers[slot].pending {
+                self.peers[slot].pending = false;
+                if let Err(e) = self.wake_peer(slot) {
+                    result = Err(e);
                 }
             }
         }
