@@ -19,9 +19,12 @@ use super::processes::{NetworkLayout, network_layout};
 
 /// Bytes of shared memory per frame slot of one publisher (116 measured).
 pub const SLOT_BYTES: u64 = 128;
-/// Resident memory of one node process, shared memory aside (6-10 MiB
-/// measured up to 1024 nodes).
-pub const NODE_RSS_BYTES: u64 = 12 << 20;
+/// Resident memory of one node process, shared memory aside: peak RSS
+/// measured 5.8 to 6.3 MiB from 64 to 1024 nodes (`sonarnet bench --scale`,
+/// 2026-12-03; it counts the program's shared pages in every process, so it
+/// overstates), plus a margin. At 12 MiB, 2048 nodes were refused on a
+/// 24 GiB machine they fit in.
+pub const NODE_RSS_BYTES: u64 = 8 << 20;
 
 /// What a processes run needs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -95,8 +95,8 @@ const HOPS: usize = 400;
 pub struct Scale {
     /// Node processes.
     pub nodes: usize,
-    /// Spawn to all nodes ready (s).
-    pub startup_seconds: f64,
+    /// Spawn to all nodes ready (s); `None` if they never all came up.
+    pub startup_seconds: Option<f64>,
     /// DR iterations per second (async logical).
     pub iterations_per_second: f64,
     /// Largest peak RSS of a node process (MiB).
@@ -108,6 +108,8 @@ pub struct Scale {
     pub coordinator_rss_mib: Option<f64>,
     /// Whether the run completed.
     pub completed: bool,
+    /// Why it did not.
+    pub error: Option<String>,
 }
 
 /// This process's `VmHWM` (peak RSS) in MiB.
@@ -397,7 +399,7 @@ pub fn run_bench(
         }
         scale.push(Scale {
             nodes: n,
-            startup_seconds: rec.startup_seconds.unwrap_or(f64::NAN),
+            startup_seconds: rec.startup_seconds,
             iterations_per_second: rec.iterations as f64 / rec.wall_seconds.max(1e-9),
             max_rss_mib: rss.iter().copied().fold(0.0, f64::max),
             mean_rss_mib: if rss.is_empty() {
@@ -407,6 +409,7 @@ pub fn run_bench(
             },
             coordinator_rss_mib,
             completed: res.is_none(),
+            error: res.as_ref().map(|e| e.to_string()),
         });
     }
     let sc = spiral(scenarios)?;
@@ -502,16 +505,23 @@ fn print_report(r: &BenchReport, out: &Path) {
     }
     println!("scale (ring, async logical):");
     for s in &r.scale {
+        let Some(startup) = s.startup_seconds.filter(|_| s.completed) else {
+            println!(
+                "  N={:4}  FAILED: {}",
+                s.nodes,
+                s.error.as_deref().unwrap_or("the nodes never all came up")
+            );
+            continue;
+        };
         println!(
-            "  N={:4}  start-up {:7.3} s   {:9.0} iterations/s   RSS per node max {:6.2} MiB mean {:6.2} MiB   coordinator {}{}",
+            "  N={:4}  start-up {:7.3} s   {:9.0} iterations/s   RSS per node max {:6.2} MiB mean {:6.2} MiB   coordinator {}",
             s.nodes,
-            s.startup_seconds,
+            startup,
             s.iterations_per_second,
             s.max_rss_mib,
             s.mean_rss_mib,
             s.coordinator_rss_mib
                 .map_or("n/a".to_string(), |m| format!("{m:.1} MiB")),
-            if s.completed { "" } else { "   (FAILED)" }
         );
     }
     if !r.zenoh.is_empty() {

@@ -542,7 +542,7 @@ fn bench_prints_figures_not_debug_lines() {
     assert!(o.status.success(), "{out}{err}");
     assert!(out.contains("N=   2  start-up"), "{out}");
     assert!(
-        !out.contains("None") && !err.contains("None"),
+        !out.contains("None") && !err.contains("None") && !out.contains("NaN"),
         "debug lines:\n{out}{err}"
     );
     assert!(t.path().join("bench.json").is_file());
