@@ -512,7 +512,7 @@ fn a_machine_without_enough_open_files_for_the_nodes_is_refused_before_spawning(
     let sc = crate::util::scenario("rgg16-waypoints.toml");
     let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_sonarnet"));
     cmd.args(["run", sc.to_str().unwrap(), "--out"]).arg(&out);
-    // 16 nodes need about 12 x 16 + 64 = 256 open files in the coordinator.
+    // 16 nodes need about 9 x 16 + 64 = 208 open files in the coordinator.
     {
         use std::os::unix::process::CommandExt;
         // SAFETY: setrlimit is async-signal-safe; nothing else runs between
@@ -540,7 +540,7 @@ fn a_machine_without_enough_open_files_for_the_nodes_is_refused_before_spawning(
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(
         stderr.contains(
-            "rgg16-waypoints.toml: geometry.receivers: 16 node processes need about 256 open files"
+            "rgg16-waypoints.toml: geometry.receivers: 16 node processes need about 208 open files"
         ),
         "{stderr}"
     );
