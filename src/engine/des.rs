@@ -271,7 +271,9 @@ impl Des<'_> {
                         let w = slot.core.draw_wait(rate) * slot.clock_factor;
                         self.queue.push(now + wait(w), Ev::Tick(node, slot.epoch));
                     }
-                    Control::ClockFactor(_) => {}
+                    // Hop probes measure node processes only
+                    // (`processes::measure_hop`); the coordinator never sends one.
+                    Control::ClockFactor(_) | Control::ProbePeer { .. } => {}
                     Control::Ping(seq) => self
                         .queue
                         .push(now, Ev::ToCoordinator(Event::Pong { node, seq })),

@@ -65,6 +65,11 @@ impl Network for InProcess {
                     "the in-process engine runs logical clocks only".into(),
                 ));
             }
+            Control::ProbePeer { .. } => {
+                return Err(EngineError::Unsupported(
+                    "hops are measured between node processes only".into(),
+                ));
+            }
             Control::Stop => {}
             Control::Ping(seq) => self.pongs.push((node, *seq)),
         }

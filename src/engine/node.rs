@@ -95,6 +95,8 @@ pub fn run_node<T: Transport>(
     let mut clock: Option<(f64, Instant)> = None;
     // Over a lossy channel: the core's timers (when, the command to hand it).
     let mut timers: Vec<(Instant, Command)> = Vec::new();
+    // A hop measurement in progress ([`Control::ProbePeer`]).
+    let mut probe: Option<Probe> = None;
 
     loop {
         if opts.term.load(Ordering::Relaxed) {
@@ -154,6 +156,39 @@ pub fn run_node<T: Transport>(
                     // (pings are rare: only after half a stall timeout).
                     tx.send(Endpoint::Coordinator, &codec::encode_pong(id, seq))?;
                     tx.flush()?;
+                }
+                Some(NodeInput::Control(Control::ProbePeer { peer, count })) => {
+                    let mut p = Probe::start(peer, count);
+                    probe = p.send(id, tx)?.then_some(p);
+                }
+                Some(NodeInput::Probe {
+                    from,
+                    seq,
+                    back: false,
+                }) => {
+                    tx.send(Endpoint::Node(from), &codec::encode_probe(id, seq, true))?;
+                    tx.flush()?;
+                }
+                Some(NodeInput::Probe {
+                    from,
+                    seq,
+                    back: true,
+                }) => {
+                    if let Some(p) = &mut probe
+                        && p.peer == from
+                        && p.hops.len() as u64 == seq
+                    {
+                        p.hops.push(p.sent.elapsed().as_secs_f64() / 2.0);
+                        if !p.send(id, tx)? {
+                            encoded.clear();
+                            codec::encode_hops(id, 0, &p.hops, &mut encoded);
+                            for f in &encoded {
+                                tx.send(Endpoint::Coordinator, f)?;
+                            }
+                            tx.flush()?;
+                            probe = None;
+                        }
+                    }
                 }
                 Some(NodeInput::Control(Control::Stop)) => {
                     if opts.verbose {
@@ -255,6 +290,45 @@ pub fn run_node<T: Transport>(
         }
         tx.flush()?;
         timing.busy_seconds += busy.elapsed().as_secs_f64();
+    }
+}
+
+/// A hop measurement ([`Control::ProbePeer`]): one probe at a time to
+/// `peer`, each sent as soon as the last one's answer is in, so that the
+/// two processes block (or poll) between probes as between gossip steps.
+struct Probe {
+    peer: u32,
+    count: usize,
+    /// When the probe in flight was sent.
+    sent: Instant,
+    /// Half of each round trip so far (s).
+    hops: Vec<f64>,
+}
+
+impl Probe {
+    /// At most [`Probe::MAX`] ping-pongs (the count comes from a frame).
+    const MAX: usize = 10_000;
+
+    fn start(peer: u32, count: u32) -> Probe {
+        let count = (count as usize).min(Probe::MAX);
+        Probe {
+            peer,
+            count,
+            sent: Instant::now(),
+            hops: Vec::with_capacity(count),
+        }
+    }
+
+    /// Sends the next probe; `false` once all `count` are answered.
+    fn send<T: Transport>(&mut self, id: u32, tx: &mut T) -> Result<bool, TransportError> {
+        if self.hops.len() >= self.count {
+            return Ok(false);
+        }
+        self.sent = Instant::now();
+        let f = codec::encode_probe(id, self.hops.len() as u64, false);
+        tx.send(Endpoint::Node(self.peer), &f)?;
+        tx.flush()?;
+        Ok(true)
     }
 }
 

@@ -683,7 +683,8 @@ impl Network for Processes {
                     CoordinatorInput::Ready { node } => self.ready(node),
                     CoordinatorInput::Timing { .. }
                     | CoordinatorInput::Channel { .. }
-                    | CoordinatorInput::Late { .. } => {}
+                    | CoordinatorInput::Late { .. }
+                    | CoordinatorInput::Hops { .. } => {}
                 }
             }
             self.pump()?;
@@ -787,13 +788,20 @@ pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
     }
 }
 
-/// The one-hop latency of node processes on this machine (issue 20): spawn
-/// `plan`'s nodes, then `count` times send a [`Control::Ping`] to the next
-/// node in turn (so that the figure mixes the CPU placements the run's
-/// processes get: a wake-up on the same CPU costs a third of one across
-/// CPUs here) and wait for its pong; each round trip is two hops (a frame
-/// and a wake-up each way), so half of it is one hop. Returns the hops in seconds, and
-/// the run id of the measurement.
+/// Ping-pongs per edge before the measurement moves to the next edge.
+pub const HOPS_PER_TURN: u32 = 20;
+
+/// The one-hop latency between two node processes on this machine (issue
+/// 20): spawn `plan`'s nodes, then have the nodes of each gossip edge in
+/// turn ping-pong [`HOPS_PER_TURN`] times ([`Control::ProbePeer`]), until
+/// `count` hops are measured. A probe is sent as soon as the last one's
+/// answer is in, so both nodes block between probes (or poll, with
+/// `opts.poll_us`) as they do between gossip steps, and the coordinator
+/// stays out of the path. Taking the edges in turn mixes the CPU placements
+/// the run's processes get (a wake-up on the same CPU costs a third of one
+/// across CPUs here). Each round trip is two hops, a frame and a wake-up
+/// each way, so half of it is one hop. Returns the hops in seconds, and the
+/// run id of the measurement; fails if the graph has no edge.
 pub fn measure_hop(
     plan: &RunPlan,
     opts: &ProcessOptions,
@@ -805,6 +813,16 @@ pub fn measure_hop(
         inbox,
         broadcast,
     } = network_layout(plan);
+    let edges: Vec<(u32, u32)> = configs
+        .iter()
+        .flat_map(|c| c.neighbours.iter().map(move |&w| (c.id, w)))
+        .filter(|&(v, w)| v < w)
+        .collect();
+    if edges.is_empty() {
+        return Err(EngineError::Unsupported(
+            "a hop is measured between two neighbours, and this graph has no edge".into(),
+        ));
+    }
     let run_id = crate::transport::unique_run_id();
     let mut p = Processes::spawn(
         run_id.clone(),
@@ -815,30 +833,39 @@ pub fn measure_hop(
         None,
         opts,
     )?;
-    let n = p.children.len().max(1) as u64;
     let mut hops = Vec::with_capacity(count);
-    for seq in 0..count as u64 {
-        let node = (seq % n) as u32;
+    for &(v, w) in edges.iter().cycle() {
+        if hops.len() >= count {
+            break;
+        }
+        let want = HOPS_PER_TURN.min((count - hops.len()) as u32);
         let t0 = Instant::now();
-        p.control(node, &Control::Ping(seq))?;
+        p.control(
+            v,
+            &Control::ProbePeer {
+                peer: w,
+                count: want,
+            },
+        )?;
         p.flush_all()?;
-        let deadline = t0 + Duration::from_secs(10);
-        'wait: loop {
-            if Instant::now() > deadline {
+        let mut got = 0;
+        while got < want {
+            if t0.elapsed() > Duration::from_secs(10) {
                 return Err(EngineError::NotResponding {
-                    nodes: vec![node],
+                    nodes: vec![v, w],
                     sample: 0,
                     silent_for: t0.elapsed(),
                 });
             }
             for x in p.poll(Duration::from_millis(100))? {
-                if matches!(x, CoordinatorInput::Pong { node: m, seq: s } if s == seq && m == node)
+                if let CoordinatorInput::Hops { node, seconds, .. } = x
+                    && node == v
                 {
-                    break 'wait;
+                    got += seconds.len() as u32;
+                    hops.extend(seconds);
                 }
             }
         }
-        hops.push(t0.elapsed().as_secs_f64() / 2.0);
     }
     p.shutdown();
     Ok((hops, run_id))

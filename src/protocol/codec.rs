@@ -41,6 +41,14 @@ pub mod kind {
     pub const PING: u32 = 12;
     /// A node is up again (restarted): `aux` = node.
     pub const NODE_UP: u32 = 13;
+    /// Measure hops: ping-pong `seq` times with neighbour `aux`
+    /// ([`super::Control::ProbePeer`]).
+    pub const PROBE_PEER: u32 = 15;
+    /// Peer: a hop probe, `seq` = its number, answered at once with
+    /// [`PROBE_BACK`] by the node's event loop.
+    pub const PROBE: u32 = 25;
+    /// Peer: the answer to [`PROBE`] `seq`.
+    pub const PROBE_BACK: u32 = 26;
     /// Peer: reflected point, `seq`, `data[0..3]`.
     pub const REFLECT: u32 = 20;
     /// Peer: exchange request.
@@ -73,6 +81,9 @@ pub mod kind {
     /// Report (acoustic channel): the node discarded a frame as late;
     /// `aux` = its sender, `seq` = its sequence number, `sample` = its kind.
     pub const LATE: u32 = 39;
+    /// Report: measured hops (seconds, half a ping-pong with a neighbour),
+    /// `data[..aux]`, `seq` = the number of the first.
+    pub const HOPS: u32 = 40;
 }
 
 fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Frame {
@@ -107,6 +118,16 @@ pub enum Control {
     /// The coordinator's liveness check number `seq`: the node's event loop
     /// answers at once ([`encode_pong`]), whatever its protocol state.
     Ping(u64),
+    /// Measure one hop between two node processes (issue 20): ping-pong
+    /// `count` times with neighbour `peer` ([`encode_probe`]), one probe
+    /// at a time, and report each round trip halved ([`encode_hops`]).
+    /// Answered by the node's event loop, not the protocol core.
+    ProbePeer {
+        /// The neighbour to ping.
+        peer: u32,
+        /// Ping-pongs.
+        count: u32,
+    },
 }
 
 /// Encode a coordinator command into frames.
@@ -184,6 +205,14 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
         Control::ClockFactor(f) => out.push(frame(kind::CLOCK_FACTOR, co, 0, 0, 0, &[*f])),
         Control::Stop => out.push(frame(kind::STOP, co, 0, 0, 0, &[])),
         Control::Ping(seq) => out.push(frame(kind::PING, co, 0, 0, *seq, &[])),
+        Control::ProbePeer { peer, count } => out.push(frame(
+            kind::PROBE_PEER,
+            co,
+            0,
+            *peer,
+            u64::from(*count),
+            &[],
+        )),
     }
 }
 
@@ -316,6 +345,15 @@ pub enum NodeInput {
     Control(Control),
     /// From a peer.
     Peer(PeerMsg),
+    /// A hop probe from a peer ([`encode_probe`]).
+    Probe {
+        /// The sender.
+        from: u32,
+        /// The probe's number.
+        seq: u64,
+        /// Whether it is the answer to this node's own probe.
+        back: bool,
+    },
 }
 
 /// Why a frame stream could not be decoded.
@@ -412,6 +450,15 @@ impl NodeDecoder {
             NODE_UP => c(Command::NodeUp { node: f.aux }),
             STOP => Ok(Some(NodeInput::Control(Control::Stop))),
             PING => Ok(Some(NodeInput::Control(Control::Ping(f.seq)))),
+            PROBE_PEER => Ok(Some(NodeInput::Control(Control::ProbePeer {
+                peer: f.aux,
+                count: u32::try_from(f.seq).unwrap_or(u32::MAX),
+            }))),
+            PROBE | PROBE_BACK => Ok(Some(NodeInput::Probe {
+                from: f.from,
+                seq: f.seq,
+                back: f.kind == PROBE_BACK,
+            })),
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
             CLOCK_FACTOR => Ok(Some(NodeInput::Control(Control::ClockFactor(f.data[0])))),
             REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
@@ -492,6 +539,21 @@ pub fn encode_pong(node: u32, seq: u64) -> Frame {
     frame(kind::PONG, node, 0, 0, seq, &[])
 }
 
+/// Encode hop probe `seq` of node `from` (`back`: the answer to one).
+pub fn encode_probe(from: u32, seq: u64, back: bool) -> Frame {
+    let k = if back { kind::PROBE_BACK } else { kind::PROBE };
+    frame(k, from, 0, 0, seq, &[])
+}
+
+/// Encode node `node`'s measured hops (seconds), numbered from `first`,
+/// five to a frame.
+pub fn encode_hops(node: u32, first: u64, hops: &[f64], out: &mut Vec<Frame>) {
+    for (i, c) in hops.chunks(5).enumerate() {
+        let seq = first + 5 * i as u64;
+        out.push(frame(kind::HOPS, node, 0, c.len() as u32, seq, c));
+    }
+}
+
 /// Encode a timing report.
 pub fn encode_timing(node: u32, t: &Timing) -> Frame {
     frame(
@@ -520,6 +582,15 @@ pub enum CoordinatorInput {
         node: u32,
         /// The check number.
         seq: u64,
+    },
+    /// Hops node `node` measured to a neighbour ([`Control::ProbePeer`]).
+    Hops {
+        /// Node id.
+        node: u32,
+        /// The number of the first.
+        first: u64,
+        /// Half round trips (s), at most five.
+        seconds: Vec<f64>,
     },
     /// A node's time split.
     Timing {
@@ -643,6 +714,11 @@ impl ReportDecoder {
                 node: f.from,
                 seq: f.seq,
             })),
+            HOPS => Ok(Some(CoordinatorInput::Hops {
+                node: f.from,
+                first: f.seq,
+                seconds: f.data[..(f.aux as usize).min(5)].to_vec(),
+            })),
             k => Err(DecodeError::UnknownKind(k)),
         }
     }
@@ -685,6 +761,7 @@ mod tests {
             Control::StartClock(250.0),
             Control::Stop,
             Control::Ping(7),
+            Control::ProbePeer { peer: 3, count: 80 },
         ];
         let mut frames = Vec::new();
         for c in &cmds {
@@ -774,6 +851,42 @@ mod tests {
                 seq: u64::MAX
             })
         );
+    }
+
+    #[test]
+    fn hop_probes_and_measured_hops_survive_a_round_trip() {
+        for back in [false, true] {
+            assert_eq!(
+                NodeDecoder::default()
+                    .feed(&encode_probe(2, 41, back))
+                    .unwrap(),
+                Some(NodeInput::Probe {
+                    from: 2,
+                    seq: 41,
+                    back
+                })
+            );
+        }
+        let hops: Vec<f64> = (0..12).map(|i| 1e-6 * (i as f64 + 0.5)).collect();
+        let mut frames = Vec::new();
+        encode_hops(5, 100, &hops, &mut frames);
+        assert_eq!(frames.len(), 3);
+        let mut dec = ReportDecoder::default();
+        let mut got = Vec::new();
+        for f in &frames {
+            match dec.feed(f).unwrap() {
+                Some(CoordinatorInput::Hops {
+                    node: 5,
+                    first,
+                    seconds,
+                }) => {
+                    assert_eq!(first, 100 + got.len() as u64);
+                    got.extend(seconds);
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(got, hops);
     }
 
     #[test]

@@ -545,7 +545,23 @@ fn bench_prints_figures_not_debug_lines() {
         !out.contains("None") && !err.contains("None") && !out.contains("NaN"),
         "debug lines:\n{out}{err}"
     );
-    assert!(t.path().join("bench.json").is_file());
+    assert!(out.contains("two node processes"), "{out}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(t.path().join("bench.json")).unwrap())
+            .unwrap();
+    // Every row against the floor has a finite positive ratio, with hops
+    // measured between node processes: blocking and polling on the
+    // spiral, async and sync, and on the pair.
+    for key in ["overhead", "pair"] {
+        let rows = json[key].as_array().unwrap();
+        assert_eq!(rows.len(), if key == "pair" { 2 } else { 4 });
+        for r in rows {
+            let ratio = r["floor_ratio"].as_f64().unwrap();
+            let hop = r["hop_median_s"].as_f64().unwrap();
+            assert!(ratio.is_finite() && ratio > 0.0, "{r}");
+            assert!(hop > 0.0 && hop < 0.1, "{r}");
+        }
+    }
     let bad = TempDir::new("bench-bad");
     let o = sonarnet(
         &[
