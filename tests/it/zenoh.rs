@@ -93,6 +93,19 @@ impl Spread {
         }
     }
 
+    /// The spiral with 4000 iterations per sample (tens of seconds), for
+    /// the tests that kill or interrupt a party mid-run.
+    fn long(out: &Path, ep: &str, id: &str) -> Spread {
+        Spread::start(
+            &scenario("mourya2017-spiral.toml"),
+            out,
+            ep,
+            id,
+            &["--iterations-per-sample", "4000"],
+            &[],
+        )
+    }
+
     /// Wait (watchdog) for the coordinator, then for both agents, which
     /// must end 0; the coordinator's output.
     fn finish(self) -> std::process::Output {
@@ -179,14 +192,7 @@ fn killing_an_agent_mid_run_reports_its_nodes_dead_and_leaves_nothing() {
         coordinator,
         a,
         mut b,
-    } = Spread::start(
-        &scenario("mourya2017-spiral.toml"),
-        dir.path(),
-        &ep,
-        &id,
-        &["--iterations-per-sample", "4000"],
-        &[],
-    );
+    } = Spread::long(dir.path(), &ep, &id);
     // Once b runs its three nodes, and they have worked a little.
     wait_for_nodes(&[&b], 3);
     std::thread::sleep(Duration::from_millis(500));
@@ -491,14 +497,7 @@ fn killing_the_coordinator_makes_every_agent_stop_its_nodes_and_exit() {
         mut coordinator,
         a,
         b,
-    } = Spread::start(
-        &scenario("mourya2017-spiral.toml"),
-        dir.path(),
-        &ep,
-        &id,
-        &["--iterations-per-sample", "4000"],
-        &[],
-    );
+    } = Spread::long(dir.path(), &ep, &id);
     wait_for_nodes(&[&a, &b], 3);
     std::thread::sleep(Duration::from_millis(300));
     coordinator.kill().expect("SIGKILL the coordinator");
@@ -517,14 +516,7 @@ fn ctrl_c_of_the_coordinator_stops_every_host_and_writes_partial_results() {
     let dir = TempDir::new("zenoh-sigint");
     let ep = endpoint();
     let id = run_id("sigint");
-    let Spread { coordinator, a, b } = Spread::start(
-        &scenario("mourya2017-spiral.toml"),
-        dir.path(),
-        &ep,
-        &id,
-        &["--iterations-per-sample", "4000"],
-        &[],
-    );
+    let Spread { coordinator, a, b } = Spread::long(dir.path(), &ep, &id);
     wait_for_nodes(&[&a, &b], 3);
     wait_for_sigint_handler(coordinator.id(), LIMIT);
     std::thread::sleep(Duration::from_millis(300));
@@ -588,31 +580,18 @@ fn tls_config(dir: &Path, server: bool) -> std::path::PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("tests/fixtures/tls")
             .join(name)
-            .to_string_lossy()
-            .into_owned()
     };
-    let keys = if server {
-        format!(
-            "listen_private_key: {:?}, listen_certificate: {:?},",
-            fixture("server.key"),
-            fixture("server.pem")
-        )
-    } else {
-        String::new()
-    };
+    let (key, cert) = (fixture("server.key"), fixture("server.pem"));
+    let text = sonarnet::transport::zenoh::config::tls_link_config(
+        &fixture("ca.pem"),
+        server.then_some((key.as_path(), cert.as_path())),
+    );
     let path = dir.join(if server {
         "server.json5"
     } else {
         "client.json5"
     });
-    std::fs::write(
-        &path,
-        format!(
-            "{{ transport: {{ link: {{ tls: {{ root_ca_certificate: {:?}, {keys} }} }} }} }}",
-            fixture("ca.pem")
-        ),
-    )
-    .expect("write the zenoh configuration");
+    std::fs::write(&path, text).expect("write the zenoh configuration");
     path
 }
 
@@ -722,4 +701,42 @@ fn endpoints_are_checked_before_the_run_and_the_tls_link_is_warned_of() {
         assert_eq!(out.status.code(), Some(2), "{e}");
         assert!(e.contains("--features zenoh-tls"), "{e}");
     }
+}
+
+/// `RUST_LOG` turns zenoh's own log on, in the coordinator and in the nodes,
+/// on standard error: standard output keeps the run's summary alone.
+#[test]
+fn zenohs_log_goes_to_standard_error_and_leaves_the_summary_alone() {
+    let dir = TempDir::new("zenoh-log");
+    let spiral = scenario("mourya2017-spiral.toml");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_sonarnet"))
+        .args([
+            "run",
+            spiral.to_str().expect("utf-8"),
+            "--out",
+            dir.path().to_str().expect("utf-8"),
+            "--transport",
+            "zenoh",
+            "--samples",
+            "12",
+        ])
+        .env("RUST_LOG", "zenoh=info")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn sonarnet");
+    let out = wait_watchdog(child, "the run", LIMIT);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stderr}");
+    // The coordinator's session and the six nodes' each say their ZID.
+    assert!(
+        stderr.matches("Using ZID").count() >= 7,
+        "zenoh's log on standard error:\n{stderr}"
+    );
+    assert!(!stdout.contains("ZID"), "standard output:\n{stdout}");
+    assert!(stdout.contains("rmse"), "the summary:\n{stdout}");
+    assert_nothing_left(&run_id_of(dir.path()));
 }

@@ -243,10 +243,7 @@ pub(super) fn event_service(
             loop {
                 match builder()?.open_or_create() {
                     Ok(s) => return Ok(s),
-                    Err(e) if backoff.0 < 12 => {
-                        let _ = e;
-                        backoff.wait();
-                    }
+                    Err(_) if backoff.0 < 12 => backoff.wait(),
                     Err(e) => {
                         return Err(TransportError::ipc(
                             format!("opening or creating service {}", spec.name),

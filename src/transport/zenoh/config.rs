@@ -106,6 +106,23 @@ pub fn session_config(
     Ok(c)
 }
 
+/// The JSON5 text of a zenoh configuration file (`--zenoh-config`) for an
+/// encrypted link (`quic/...`, or `tls/...`): trust the certificate
+/// authority `root_ca`, and, for the party that listens, present
+/// `server = (private key, certificate)`. README's security section shows
+/// the same text.
+pub fn tls_link_config(
+    root_ca: &std::path::Path,
+    server: Option<(&std::path::Path, &std::path::Path)>,
+) -> String {
+    let keys = server.map_or(String::new(), |(key, cert)| {
+        format!("listen_private_key: {key:?}, listen_certificate: {cert:?},")
+    });
+    format!(
+        "{{ transport: {{ link: {{ tls: {{ root_ca_certificate: {root_ca:?}, {keys} }} }} }} }}"
+    )
+}
+
 /// zenoh access control admitting only the run's key expressions.
 pub fn run_acl(run_id: &str) -> String {
     format!(
@@ -130,6 +147,33 @@ pub fn run_acl(run_id: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_tls_link_config_parses_as_zenoh_config_with_the_keys_for_the_server_only() {
+        let ca = std::path::Path::new("/keys/ca.pem");
+        let server = tls_link_config(
+            ca,
+            Some((
+                std::path::Path::new("/keys/s.key"),
+                std::path::Path::new("/keys/s.pem"),
+            )),
+        );
+        let client = tls_link_config(ca, None);
+        for (text, has_keys) in [(&server, true), (&client, false)] {
+            let c = zenoh::Config::from_json5(text).expect(text);
+            assert_eq!(
+                c.get_json("transport/link/tls/root_ca_certificate")
+                    .unwrap(),
+                "\"/keys/ca.pem\""
+            );
+            assert_eq!(
+                c.get_json("transport/link/tls/listen_private_key")
+                    .is_ok_and(|v| v.contains("/keys/s.key")),
+                has_keys,
+                "{text}"
+            );
+        }
+    }
 
     fn settings() -> ZenohSettings {
         ZenohSettings {

@@ -65,6 +65,21 @@ pub(crate) fn zerr(op: impl Into<String>) -> impl FnOnce(zenoh::Error) -> Transp
     }
 }
 
+/// zenoh's own log, on standard error, when `RUST_LOG` asks for it
+/// (README, "Across hosts": `RUST_LOG=zenoh=debug`), as zenoh's
+/// `try_init_log_from_env` would set it up but for the stream: standard
+/// output carries the run's summary. Once per process; later calls do
+/// nothing.
+fn init_log() {
+    if let Ok(filter) = tracing_subscriber::EnvFilter::try_from_default_env() {
+        let _ = tracing_subscriber::fmt()
+            .with_env_filter(filter)
+            .with_writer(std::io::stderr)
+            .with_target(true)
+            .try_init();
+    }
+}
+
 /// Opens a session for run `run_id` in `role`.
 pub(crate) fn open_session(
     settings: &ZenohSettings,
@@ -72,9 +87,7 @@ pub(crate) fn open_session(
     run_id: &str,
     connect_timeout: Duration,
 ) -> Result<zenoh::Session, TransportError> {
-    // zenoh's own log, on standard output, when RUST_LOG asks for it
-    // (README, "Across hosts": `RUST_LOG=zenoh=debug`).
-    zenoh::try_init_log_from_env();
+    init_log();
     let cfg = config::session_config(settings, role, run_id, connect_timeout)?;
     let what = match role {
         Role::Router => format!("listening on {}", settings.listen.join(", ")),

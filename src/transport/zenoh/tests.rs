@@ -207,18 +207,10 @@ mod quic {
     /// A zenoh configuration file trusting `ca`, with the server's
     /// certificate and key when `server`.
     fn config(tag: &str, ca: &str, server: bool) -> PathBuf {
-        let keys = if server {
-            format!(
-                "listen_private_key: {:?}, listen_certificate: {:?},",
-                fixture("server.key"),
-                fixture("server.pem")
-            )
-        } else {
-            String::new()
-        };
-        let text = format!(
-            "{{ transport: {{ link: {{ tls: {{ root_ca_certificate: {:?}, {keys} }} }} }} }}",
-            fixture(ca)
+        let (key, cert) = (fixture("server.key"), fixture("server.pem"));
+        let text = super::super::config::tls_link_config(
+            std::path::Path::new(&fixture(ca)),
+            server.then_some((std::path::Path::new(&key), std::path::Path::new(&cert))),
         );
         let path =
             std::env::temp_dir().join(format!("sonarnet-zt-{tag}-{}.json5", std::process::id()));
