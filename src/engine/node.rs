@@ -112,6 +112,7 @@ pub fn run_node<T: Transport>(
             .map(|at| at.saturating_duration_since(Instant::now()))
             .fold(IDLE_CHECK, Duration::min);
         frames.clear();
+        let mut stop = false;
         let waited = Instant::now();
         tx.recv(&mut frames, Some(timeout))?;
         // Only an idle node (nothing arrived) checks its parent: a system call per
@@ -191,33 +192,31 @@ pub fn run_node<T: Transport>(
                     }
                 }
                 Some(NodeInput::Control(Control::Stop)) => {
-                    if opts.verbose {
-                        vlog(id, &format!("stops: {}", core.counters().in_words()));
-                    }
-                    // The run is over: what a neighbour (killed, say) did not
-                    // read no longer matters; the last reports to the
-                    // coordinator still do.
-                    tx.forget_unread(Some(Endpoint::Coordinator));
-                    return Ok(());
+                    // What the frames before STOP produced is still sent
+                    // (below); frames after it are not looked at.
+                    stop = true;
+                    break;
                 }
             }
         }
+        // After STOP, no timer fires and the clock starts no exchange.
         let now = Instant::now();
         timers.retain(|(at, then)| {
-            let due = *at <= now;
+            let due = *at <= now && !stop;
             if due {
                 core.handle(Input::Command(then.clone()), &mut outputs);
             }
             !due
         });
         if let Some((rate, next)) = clock
+            && !stop
             && Instant::now() >= next
         {
             core.handle(Input::Command(Command::Tick), &mut outputs);
             let wait = core.draw_wait(rate);
             clock = Some((rate, after(next.max(Instant::now()), wall(wait))));
         }
-        if outputs.is_empty() {
+        if outputs.is_empty() && !stop {
             timing.busy_seconds += busy.elapsed().as_secs_f64();
             continue;
         }
@@ -290,6 +289,16 @@ pub fn run_node<T: Transport>(
         }
         tx.flush()?;
         timing.busy_seconds += busy.elapsed().as_secs_f64();
+        if stop {
+            if opts.verbose {
+                vlog(id, &format!("stops: {}", core.counters().in_words()));
+            }
+            // The run is over: what a neighbour (killed, say) did not
+            // read no longer matters; the last reports to the
+            // coordinator still do.
+            tx.forget_unread(Some(Endpoint::Coordinator));
+            return Ok(());
+        }
     }
 }
 
@@ -500,6 +509,49 @@ mod tests {
         assert_eq!(ck.state().1.map(f64::to_bits), saved.map(f64::to_bits));
         assert_eq!(snapshot_after_start(lone_node(Some(1)), &path, false), init);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A report the node owes for a frame that came in the same batch as
+    /// STOP is still sent: here a snapshot request and STOP sent together.
+    #[test]
+    fn a_snapshot_requested_in_the_same_batch_as_stop_is_still_reported() {
+        let topo = RunTopology::new("stop-batch", vec![vec![]], 16).unwrap();
+        let net = MemNetwork::new(&topo);
+        let mut coord = net.endpoint(Endpoint::Coordinator).unwrap();
+        let mut node_tx = net.endpoint(Endpoint::Node(0)).unwrap();
+        let mut frames = Vec::new();
+        codec::encode_control(
+            &Control::Command(Command::Snapshot { sample: 7 }),
+            &mut frames,
+        );
+        codec::encode_control(&Control::Stop, &mut frames);
+        // Both are in the node's inbox before it first reads it.
+        for f in &frames {
+            coord.send(Endpoint::Node(0), f).unwrap();
+        }
+        coord.flush().unwrap();
+        let term = AtomicBool::new(false);
+        let alive = || true;
+        let opts = NodeLoop {
+            verbose: false,
+            term: &term,
+            coordinator_alive: &alive,
+            channel: None,
+            checkpoint: None,
+            resume: false,
+        };
+        run_node(&mut node_tx, lone_node(None), &opts).unwrap();
+        let mut got = Vec::new();
+        coord.recv(&mut got, Some(Duration::from_secs(1))).unwrap();
+        let mut dec = ReportDecoder::default();
+        let snapshots: Vec<u32> = got
+            .iter()
+            .filter_map(|f| match dec.feed(f).unwrap() {
+                Some(CoordinatorInput::Report(Report::Snapshot { sample, .. })) => Some(sample),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(snapshots, vec![7]);
     }
 
     #[test]
