@@ -416,6 +416,27 @@ mod tests {
         }
     }
 
+    /// [`run_node`] on the ideal channel, never signalled, its coordinator
+    /// always alive.
+    fn run_lone<T: Transport>(
+        tx: &mut T,
+        cfg: NodeConfig,
+        checkpoint: Option<std::path::PathBuf>,
+        resume: bool,
+    ) -> Result<(), NodeError> {
+        let term = AtomicBool::new(false);
+        let alive = || true;
+        let opts = NodeLoop {
+            verbose: false,
+            term: &term,
+            coordinator_alive: &alive,
+            channel: None,
+            checkpoint,
+            resume,
+        };
+        run_node(tx, cfg, &opts)
+    }
+
     /// Run a lone node program over the in-memory transport with
     /// `checkpoint` and `resume`; send it sample `sample` then a snapshot
     /// request, and return the `theta` it reports.
@@ -425,19 +446,7 @@ mod tests {
         let mut coord = net.endpoint(Endpoint::Coordinator).unwrap();
         let mut node_tx = net.endpoint(Endpoint::Node(0)).unwrap();
         let path = checkpoint.to_path_buf();
-        let node = std::thread::spawn(move || {
-            let term = AtomicBool::new(false);
-            let alive = || true;
-            let opts = NodeLoop {
-                verbose: false,
-                term: &term,
-                coordinator_alive: &alive,
-                channel: None,
-                checkpoint: Some(path),
-                resume,
-            };
-            run_node(&mut node_tx, cfg, &opts)
-        });
+        let node = std::thread::spawn(move || run_lone(&mut node_tx, cfg, Some(path), resume));
         let mut frames = Vec::new();
         for c in [
             Command::Sample {
@@ -530,17 +539,7 @@ mod tests {
             coord.send(Endpoint::Node(0), f).unwrap();
         }
         coord.flush().unwrap();
-        let term = AtomicBool::new(false);
-        let alive = || true;
-        let opts = NodeLoop {
-            verbose: false,
-            term: &term,
-            coordinator_alive: &alive,
-            channel: None,
-            checkpoint: None,
-            resume: false,
-        };
-        run_node(&mut node_tx, lone_node(None), &opts).unwrap();
+        run_lone(&mut node_tx, lone_node(None), None, false).unwrap();
         let mut got = Vec::new();
         coord.recv(&mut got, Some(Duration::from_secs(1))).unwrap();
         let mut dec = ReportDecoder::default();
