@@ -1,8 +1,9 @@
 //! `[expect]` checks: thresholds and relations between metrics.
 //!
 //! `holds` entries are relations `EXPR OP EXPR` with `OP` one of `<`, `<=`,
-//! `>`, `>=`, where `EXPR` is arithmetic (`+ - * /`, parentheses, numbers)
-//! over metric names:
+//! `>`, `>=`, or the exact `==` and `!=` (for counts and flags, such as
+//! `faults.recovered == 3`), where `EXPR` is arithmetic (`+ - * /`,
+//! parentheses, numbers) over metric names:
 //!
 //! * `TRACK.METRIC`: `TRACK` is `theta_bar` (the distributed estimate), `ml`
 //!   (the centralised ML reference) or a baseline name; `METRIC` a key of
@@ -119,6 +120,11 @@ fn lex(s: &str) -> Result<Vec<Tok>, String> {
                 _ => ">",
             }));
             i += if eq { 2 } else { 1 };
+        } else if (ch == '=' || ch == '!') && c.get(i + 1) == Some(&'=') {
+            out.push(Tok::Cmp(if ch == '=' { "==" } else { "!=" }));
+            i += 2;
+        } else if ch == '=' {
+            return Err("a single '=': write '==' for equality".into());
         } else {
             return Err(format!("unexpected character {ch:?}"));
         }
@@ -192,7 +198,7 @@ fn sides(
     let split = toks
         .iter()
         .position(|t| matches!(t, Tok::Cmp(_)))
-        .ok_or("needs a comparison (<, <=, >, >=)")?;
+        .ok_or("needs a comparison (<, <=, >, >=, ==, !=)")?;
     let Tok::Cmp(op) = toks[split] else {
         return Err("needs a comparison".into());
     };
@@ -224,10 +230,15 @@ pub fn eval_relation(
     if !(lhs.is_finite() && rhs.is_finite()) {
         return Err(format!("a side is not finite ({lhs} {op} {rhs})"));
     }
+    // `==` and `!=` compare exactly: they are meant for counts and flags
+    // (`faults.recovered == 3`, `theta_bar.failures == 0`), which are exact.
+    #[allow(clippy::float_cmp)]
     let holds = match op {
         "<" => lhs < rhs,
         "<=" => lhs <= rhs,
         ">" => lhs > rhs,
+        "==" => lhs == rhs,
+        "!=" => lhs != rhs,
         _ => lhs >= rhs,
     };
     Ok(Check {
@@ -327,6 +338,27 @@ mod tests {
         assert!(eval_relation("ogd.ctte < 1 < 2", &metrics).is_err());
         assert!(eval_relation("(ogd.ctte < 1", &metrics).is_err());
         assert!(eval_relation("ogd.ctte < 1 / 0", &metrics).is_err());
+    }
+
+    #[test]
+    fn equality_is_exact_and_meant_for_counts() {
+        let c = eval_relation("ogd.ctte + onm.ctte == 5", &metrics).unwrap();
+        assert!(c.holds);
+        assert!(
+            !eval_relation("ogd.ctte == 2.000001", &metrics)
+                .unwrap()
+                .holds
+        );
+        assert!(
+            eval_relation("ogd.ctte != onm.ctte", &metrics)
+                .unwrap()
+                .holds
+        );
+        assert!(!eval_relation("ls.rmse != 10", &metrics).unwrap().holds);
+        let e = eval_relation("ogd.ctte = 2", &metrics).unwrap_err();
+        assert!(e.contains("'=='"), "{e}");
+        assert!(eval_relation("ogd.ctte == 2 == 2", &metrics).is_err());
+        assert!(eval_relation("ogd.ctte ! 2", &metrics).is_err());
     }
 
     #[test]
