@@ -8,6 +8,15 @@
 //! `cargo test --release --test it bounds_ref -- --ignored record` on the
 //! commit before the switch; README's performance section quotes the largest
 //! differences this test prints.
+//!
+//! `upp_minball` with ellipses has since changed on purpose: its ball is now
+//! evaluated from the SDP's multipliers (always valid) instead of taken from
+//! the solver's own centre and objective (which could be 2e-6 short of the
+//! set on near-tangent instances). The centre of the S-lemma ball is only
+//! determined to about the square root of the solver's 1e-8 tolerance, by
+//! either evaluation, so those values moved by up to 1.2e-4 relative, in
+//! both directions; [`MINBALL_SDP_REL`] is their tolerance. The disc-only
+//! instances (the QP (43)) still agree to 1e-6.
 
 use sonarnet::estimators::bounds::{
     BoundOutcome, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox,
@@ -21,6 +30,10 @@ use rand_distr::{Distribution, Exp1, StandardNormal};
 
 const INSTANCES: u64 = 1000;
 const NAMES: [&str; 4] = ["upp_rbbox", "upp_bbox", "upp_minball", "upp_maxdis"];
+
+/// Tolerance of `upp_minball` on instances with ellipses (module docs): tightening
+/// the solver's tolerance from 1e-8 to 1e-10 moves those values by up to 3e-4.
+const MINBALL_SDP_REL: f64 = 5e-4;
 
 fn golden() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/bounds-openblas.csv")
@@ -131,8 +144,13 @@ fn bounds_agree_with_the_openblas_reference_on_1000_instances() {
                         exact[b] += 1;
                     }
                     max_rel[b] = max_rel[b].max(rel);
+                    let tol = if b == 2 && !i.is_multiple_of(3) {
+                        MINBALL_SDP_REL
+                    } else {
+                        1e-6
+                    };
                     assert!(
-                        rel <= 1e-6,
+                        rel <= tol,
                         "instance {i} {}: OpenBLAS {x}, now {y} (relative {rel:e})",
                         NAMES[b]
                     );

@@ -295,7 +295,8 @@ pub(crate) fn maxdis_sdp(quads: &[Quadratic], x_hat: &Vec2) -> Result<Option<f64
 /// simplex: `v = [lambda_1..lambda_N, c1, c2]`,
 /// `min ||c||^2 - sum lambda_i (||a_i||^2 - d_i^2)` s.t. `c = sum lambda_i a_i`,
 /// `sum lambda_i = 1`, `lambda >= 0`. The returned `(c, R^2)` is re-evaluated
-/// exactly from the clipped, renormalised `lambda`, so it is a valid S-lemma
+/// exactly from the clipped, renormalised `lambda` (plus an allowance for the
+/// rounding of the difference that gives `R^2`), so it is a valid S-lemma
 /// certificate (eq. (35)) whatever the solver accuracy; `R^2 < 0` certifies an
 /// empty set.
 pub(crate) fn minball_qp(discs: &[(Vec2, f64)]) -> Result<(Vec2, f64), BoundError> {
@@ -347,13 +348,18 @@ pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f6
         .iter()
         .zip(&w)
         .fold(Vec2::zeros(), |s, ((a, _), l)| s + a * *l);
-    let r2 = xc.norm_squared()
-        - discs
-            .iter()
-            .zip(&w)
-            .map(|((a, d), l)| l * (a.norm_squared() - d * d))
-            .sum::<f64>();
-    (xc, r2)
+    let offsets = discs
+        .iter()
+        .zip(&w)
+        .map(|((a, d), l)| l * (a.norm_squared() - d * d))
+        .sum::<f64>();
+    // ||xc||^2 <= sum w ||a||^2 (convexity), so this bounds every term.
+    let size = discs
+        .iter()
+        .zip(&w)
+        .map(|((a, d), l)| l * (a.norm_squared() + d * d))
+        .sum::<f64>();
+    (xc, xc.norm_squared() - offsets + round_off(2.0 * size))
 }
 
 /// General S-lemma minimum enclosing ball (seed 003 eq. (34)-(37) with quadratic
@@ -412,9 +418,58 @@ pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, Bo
     let mut s = build(&p, &q, &c, PROBLEM)?;
     // gamma unbounded below certifies ||x - c||^2 <= gamma < 0 on the set: empty.
     match run_with(&mut s, PROBLEM, true)? {
-        Solved::Optimal { primal, dual, x } => {
-            Ok(Some((Vec2::new(x[c0], x[c1]), primal.max(dual))))
-        }
+        Solved::Optimal { x, .. } => match ball_from_multipliers(quads, &x[..k]) {
+            Some(ball) => Ok(Some(ball)),
+            None => Err(BoundError::Solver {
+                problem: PROBLEM,
+                status: "its multipliers certify no bounded ball (sum lambda_k P_k is singular)"
+                    .into(),
+            }),
+        },
         Solved::Infeasible => Ok(None),
     }
+}
+
+/// The enclosing ball that multipliers `lambda` certify, evaluated exactly
+/// (seed 003 eq. (35)-(37) for fixed `lambda`): with `H = sum lambda_k P_k`,
+/// `b = sum lambda_k q_k` and `rho = sum lambda_k r_k`, every `x` of the set
+/// has `x^T H x + 2 b^T x + rho <= 0`, that is `(x - c)^T H (x - c) <= gamma`
+/// for `c = -H^-1 b` and `gamma = b^T H^-1 b - rho`; when `H >= I` this gives
+/// `||x - c||^2 <= gamma`. The solver's `lambda` is clipped to `>= 0` and
+/// scaled so that the smallest eigenvalue of `H` is at least 1 (scaling
+/// keeps a certificate valid), so the ball is valid whatever the solver's
+/// accuracy, as [`ball_from_simplex`] is for discs (with discs and
+/// `sum lambda = 1`, `H = I` and the two agree). `None` if no scaling makes
+/// `H >= I` (a singular `H`: the multipliers certify no bounded ball).
+pub(crate) fn ball_from_multipliers(quads: &[Quadratic], lam: &[f64]) -> Option<(Vec2, f64)> {
+    let lam: Vec<f64> = lam.iter().map(|l| l.max(0.0)).collect();
+    let h: nalgebra::Matrix2<f64> = quads.iter().zip(&lam).map(|(qd, l)| qd.p * *l).sum();
+    let h = 0.5 * (h + h.transpose());
+    let eig = h.symmetric_eigenvalues();
+    let (smallest, largest) = (eig.min(), eig.max());
+    if !(smallest.is_finite() && smallest > 0.0) {
+        return None;
+    }
+    let t = (1.0 / smallest).max(1.0);
+    let h = h * t;
+    let b: Vec2 = quads.iter().zip(&lam).map(|(qd, l)| qd.q * (*l * t)).sum();
+    let rho: f64 = quads.iter().zip(&lam).map(|(qd, l)| qd.r * *l * t).sum();
+    let rho_size: f64 = quads
+        .iter()
+        .zip(&lam)
+        .map(|(qd, l)| (qd.r * *l * t).abs())
+        .sum();
+    let c = -h.cholesky()?.solve(&b);
+    // b^T H^-1 b = -b^T c, to a relative accuracy of about eps * cond(H).
+    let bhb = -b.dot(&c);
+    let size = bhb.abs() * (largest / smallest) + rho_size;
+    Some((c, bhb - rho + round_off(size)))
+}
+
+/// Outward allowance for the rounding of `R^2`, a difference of sums whose
+/// terms add up to `size` in magnitude: when the set is nearly a point,
+/// `R^2` is a small difference of large numbers, and a few ulps of them
+/// would otherwise make the ball smaller than the set.
+fn round_off(size: f64) -> f64 {
+    64.0 * f64::EPSILON * size
 }

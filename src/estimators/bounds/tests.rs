@@ -144,6 +144,65 @@ fn minball_qp_of_eq_43_equals_the_general_s_lemma_sdp_on_discs() {
 }
 
 #[test]
+fn multipliers_summing_to_one_on_discs_give_the_ball_of_eq_42_43() {
+    let mut rng = SonarRng::seed_from_u64(5);
+    let inst = random_instance(&mut rng, 4, 0);
+    let discs: Vec<(Vec2, f64)> = inst
+        .regions
+        .iter()
+        .map(|r| match r {
+            Region::Disc { center, radius } => (*center, *radius),
+            Region::Ellipse { .. } => unreachable!("discs only"),
+        })
+        .collect();
+    let quads: Vec<_> = inst
+        .regions
+        .iter()
+        .flat_map(|r| r.quadratics().unwrap())
+        .collect();
+    let lam = [0.1, 0.4, 0.3, 0.2];
+    let (c1, g1) = solve::ball_from_simplex(&discs, &lam);
+    let (c2, g2) = solve::ball_from_multipliers(&quads, &lam).unwrap();
+    assert!(
+        (c1 - c2).norm() < 1e-12 * c1.norm().max(1.0),
+        "{c1} vs {c2}"
+    );
+    assert!((g1 - g2).abs() < 1e-9 * g1.abs().max(1.0), "{g1} vs {g2}");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// Seed 003 eq. (35): any multipliers `lambda >= 0` certify a ball,
+    /// after scaling; it holds every point of the set, here the true
+    /// position and the set's points on a grid over its bounding box.
+    #[test]
+    fn any_nonnegative_multipliers_certify_a_ball_that_holds_the_set(
+        seed in any::<u64>(), n_discs in 1usize..5, n_ell in 0usize..4,
+        lam in proptest::collection::vec(0.0f64..2.0, 11),
+    ) {
+        prop_assume!(n_discs + n_ell >= 2);
+        let mut rng = SonarRng::seed_from_u64(seed);
+        let inst = random_instance(&mut rng, n_discs, n_ell);
+        let quads: Vec<_> = inst.regions.iter().filter_map(|r| r.quadratics()).flatten().collect();
+        let lam = &lam[..quads.len().min(lam.len())];
+        prop_assume!(lam.len() == quads.len());
+        if let Some((c, gamma)) = solve::ball_from_multipliers(&quads, lam) {
+            let mut points = vec![inst.x_true];
+            if let Some(i) = Intersection::new(&inst.regions).unwrap()
+                && let Some(bx) = i.bounding_box().unwrap()
+            {
+                points.extend(grid_max(&inst.regions, &bx, &inst.x_true, 30).1);
+            }
+            for x in points {
+                let d2 = (x - c).norm_squared();
+                prop_assert!(d2 <= gamma * (1.0 + 1e-12) + 1e-9, "{} outside the ball ({} > {})", x, d2, gamma);
+            }
+        }
+    }
+}
+
+#[test]
 fn empty_intersections_are_empty_for_every_bound() {
     let x = Vec2::new(0.3, 0.1);
     let cases: Vec<Vec<Region>> = vec![
