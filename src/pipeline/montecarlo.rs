@@ -25,8 +25,6 @@ use crate::pipeline::score::Scored;
 use crate::pipeline::{self, Band, ExpectResult, McSummary, RunError, RunOptions, TrackBands};
 use crate::scenario::Scenario;
 use std::collections::BTreeMap;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Most samples kept per curve in `summary.json`.
@@ -226,47 +224,24 @@ pub fn run_monte_carlo(
     let first = trial_of(0, sc.seed, &out0.metrics, &out0.scored, &idx);
     on_trial(1);
 
-    let results: Mutex<Vec<Option<Trial>>> = Mutex::new(vec![None; trials]);
-    if let Ok(mut r) = results.lock() {
-        r[0] = Some(first);
-    }
-    let stop = || crate::engine::interrupt::requested();
-    let next = AtomicUsize::new(1);
-    let done = AtomicUsize::new(1);
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(trials.saturating_sub(1).max(1));
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                loop {
-                    if stop() {
-                        break;
-                    }
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= trials {
-                        break;
-                    }
-                    let seed = sc.seed.wrapping_add(i as u64);
-                    let out = sc.clone().with_seed(seed).run(&rep_opts);
-                    let t = trial_of(i, seed, &out.metrics, &out.scored, &idx);
-                    if let Ok(mut r) = results.lock() {
-                        r[i] = Some(t);
-                    }
-                    on_trial(done.fetch_add(1, Ordering::Relaxed) + 1);
-                }
-            });
-        }
-    });
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let rest = super::pool::run_indexed(
+        1..trials,
+        threads,
+        |i| {
+            let seed = sc.seed.wrapping_add(i as u64);
+            let out = sc.clone().with_seed(seed).run(&rep_opts);
+            trial_of(i, seed, &out.metrics, &out.scored, &idx)
+        },
+        on_trial,
+    );
     // A trial cut short by Ctrl-C/SIGTERM is not a completed trial: it is
     // left out, and the run is marked interrupted.
-    let all: Vec<Trial> = results
-        .into_inner()
-        .unwrap_or_default()
-        .into_iter()
-        .flatten()
+    let all: Vec<Trial> = std::iter::once(first)
+        .chain(rest.into_iter().flatten())
         .collect();
-    let interrupted = stop() || all.iter().any(|t| t.status == INTERRUPTED);
+    let interrupted =
+        crate::engine::interrupt::requested() || all.iter().any(|t| t.status == INTERRUPTED);
     let trials_out: Vec<Trial> = all
         .into_iter()
         .filter(|t| t.status != INTERRUPTED)

@@ -9,8 +9,6 @@ use crate::pipeline::{self, RunError, RunOptions};
 use crate::scenario::{Override, Scenario};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// At most this many runs in one sweep (grid points times seeds).
 pub const MAX_RUNS: usize = 100_000;
@@ -269,39 +267,22 @@ pub fn run_sweep(
     let tasks: Vec<(usize, u64)> = (0..plan.points.len())
         .flat_map(|p| plan.seeds.iter().map(move |&s| (p, s)))
         .collect();
-    let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<SweepRun>>> = Mutex::new(vec![None; tasks.len()]);
-    let stop = crate::engine::interrupt::requested;
-    std::thread::scope(|s| {
-        for _ in 0..jobs.clamp(1, tasks.len().max(1)) {
-            s.spawn(|| {
-                loop {
-                    if stop() {
-                        break;
-                    }
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&(p, seed)) = tasks.get(i) else {
-                        break;
-                    };
-                    let r = run_one(plan, p, seed, engine, out);
-                    if let Ok(mut v) = results.lock() {
-                        v[i] = Some(r);
-                    }
-                    on_done(done.fetch_add(1, Ordering::Relaxed) + 1);
-                }
-            });
-        }
-    });
+    let results = super::pool::run_indexed(
+        0..tasks.len(),
+        jobs,
+        |i| {
+            let (p, seed) = tasks[i];
+            run_one(plan, p, seed, engine, out)
+        },
+        on_done,
+    );
     let runs: Vec<SweepRun> = results
-        .into_inner()
-        .unwrap_or_default()
         .into_iter()
         .flatten()
         .filter(|r| r.status != "interrupted")
         .collect();
     SweepOutcome {
-        interrupted: stop() || runs.len() < tasks.len(),
+        interrupted: crate::engine::interrupt::requested() || runs.len() < tasks.len(),
         requested: tasks.len(),
         runs,
     }
