@@ -181,6 +181,11 @@ pub struct SweepArgs {
     /// Sweep directory [default: results/<name>-sweep-<grid keys>].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also draw every run's plots into its directory, as `sonarnet run`
+    /// does (off by default: a large sweep spends its time on the runs;
+    /// `sonarnet report DIR/runs/<run>` draws one run's later).
+    #[arg(long)]
+    pub plots: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,

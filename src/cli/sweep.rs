@@ -96,6 +96,9 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    if args.plots {
+        draw_run_plots(&outcome.runs, jobs);
+    }
     pipeline::sweep::write_tables(&plan, &outcome, &out)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let report = crate::report::write_sweep_report(&plan, &outcome, &out, &args.metric, &command);
@@ -145,4 +148,27 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
         });
     }
     report.map(drop).map_err(CliError::from)
+}
+
+/// `--plots`: every completed run's plots, `jobs` runs at a time. A run whose
+/// plots cannot be drawn keeps its results; the warning names it.
+fn draw_run_plots(runs: &[crate::pipeline::sweep::SweepRun], jobs: usize) {
+    // A run stopped before it wrote anything (a failed preflight) has
+    // nothing to draw.
+    let drawn = crate::pipeline::pool::run_indexed(
+        0..runs.len(),
+        jobs,
+        |i| {
+            let dir = &runs[i].dir;
+            dir.join("metrics.json")
+                .exists()
+                .then(|| crate::plot::write_run_plots(dir))
+        },
+        &|_| {},
+    );
+    for (run, r) in runs.iter().zip(drawn) {
+        if let Some(Some(Err(e))) = r {
+            eprintln!("warning: plots of {} not drawn: {e}", run.dir.display());
+        }
+    }
 }

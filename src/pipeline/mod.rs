@@ -17,7 +17,7 @@ pub mod score;
 
 mod evaluate;
 pub mod outdir;
-mod pool;
+pub(crate) mod pool;
 pub mod provenance;
 pub mod replay;
 mod results;

@@ -52,6 +52,7 @@ fn a_sweep_runs_every_grid_point_at_every_seed_and_summarises_them() {
             "0..1",
             "--set",
             "target.samples=12",
+            "--plots",
             "--quiet",
         ],
     );
@@ -99,6 +100,10 @@ fn a_sweep_runs_every_grid_point_at_every_seed_and_summarises_them() {
             max_relative = 0.0
         );
         assert_eq!(r["status"], "ok");
+        // --plots: each run's plots, as `sonarnet run` draws them.
+        for f in ["error.svg", "tracks.svg", "network.svg"] {
+            assert!(out.join(&r["dir"]).join(f).exists(), "{f} of {}", r["dir"]);
+        }
     }
     // One point equals the same run made by `sonarnet run --set`.
     let single = t.path().join("single");
@@ -237,4 +242,12 @@ fn ctrl_c_stops_a_sweep_and_keeps_the_completed_points() {
     let rows = read_rows(&out.join("sweep.csv"));
     assert!(rows.len() >= 3 && rows.len() < 200, "{} rows", rows.len());
     assert!(out.join("sweep-summary.csv").exists() && out.join("report.html").exists());
+    // Without --plots the runs hold their results only.
+    let svgs = std::fs::read_dir(out.join("runs"))
+        .unwrap()
+        .flatten()
+        .flat_map(|run| std::fs::read_dir(run.path()).unwrap().flatten())
+        .filter(|f| f.path().extension().is_some_and(|e| e == "svg"))
+        .count();
+    assert_eq!(svgs, 0, "plots drawn without --plots");
 }
