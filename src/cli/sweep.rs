@@ -97,6 +97,7 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
         b.finish_and_clear();
     }
     if args.plots {
+        println!("drawing the plots of {} runs", outcome.runs.len());
         draw_run_plots(&outcome.runs, jobs);
     }
     pipeline::sweep::write_tables(&plan, &outcome, &out)?;
