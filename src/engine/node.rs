@@ -40,6 +40,25 @@ pub struct NodeLoop<'a> {
     pub resume: bool,
 }
 
+impl<'a> NodeLoop<'a> {
+    /// A node inside its coordinator's process (the threads engine, tests):
+    /// quiet, on the ideal channel, without checkpoints, its coordinator
+    /// always alive; it stops when `term` is set.
+    pub fn in_process(term: &'a AtomicBool) -> Self {
+        fn alive() -> bool {
+            true
+        }
+        NodeLoop {
+            verbose: false,
+            term,
+            coordinator_alive: &alive,
+            channel: None,
+            checkpoint: None,
+            resume: false,
+        }
+    }
+}
+
 /// Why a node stopped other than by STOP or `term`.
 #[derive(Debug, thiserror::Error)]
 pub enum NodeError {
@@ -425,14 +444,10 @@ mod tests {
         resume: bool,
     ) -> Result<(), NodeError> {
         let term = AtomicBool::new(false);
-        let alive = || true;
         let opts = NodeLoop {
-            verbose: false,
-            term: &term,
-            coordinator_alive: &alive,
-            channel: None,
             checkpoint,
             resume,
+            ..NodeLoop::in_process(&term)
         };
         run_node(tx, cfg, &opts)
     }

@@ -51,16 +51,7 @@ impl Threads {
                 .map_err(EngineError::Transport)?;
             let term = Arc::clone(&term);
             nodes.push(Some(std::thread::spawn(move || {
-                let alive = || true;
-                let opts = NodeLoop {
-                    verbose: false,
-                    term: &term,
-                    coordinator_alive: &alive,
-                    channel: None,
-                    checkpoint: None,
-                    resume: false,
-                };
-                run_node(&mut node_tx, cfg, &opts)
+                run_node(&mut node_tx, cfg, &NodeLoop::in_process(&term))
             })));
         }
         Ok(Threads {
