@@ -48,8 +48,8 @@ pub struct NodeConfig {
     pub seed: u64,
     /// How the run is clocked.
     pub mode: NodeMode,
-    /// Sync mode: report `theta` after every round (`--trace-iterations`);
-    /// async nodes always report each iteration.
+    /// Logical clocks: report `theta` after every round or iteration
+    /// (`--trace-iterations`, [`Report::IterationDone`]).
     #[serde(default)]
     pub trace_iterations: bool,
     /// Realtime over a lossy channel: an initiator gives its exchange up when
@@ -302,7 +302,10 @@ pub enum Report {
         /// Counters so far.
         counters: Counters,
     },
-    /// Async logical: the node completed its part of iteration `iteration`.
+    /// Logical clocks, only with [`NodeConfig::trace_iterations`]: the node
+    /// completed its part of iteration (sync: round) `iteration`. Without the
+    /// trace nothing reads it, and a frame per step to the coordinator would
+    /// cost a node process as much as the step's own arithmetic (issue 20).
     IterationDone {
         /// Node id.
         node: u32,

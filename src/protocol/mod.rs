@@ -628,11 +628,13 @@ impl NodeCore {
             self.theta = theta;
             self.counters.updates += 1;
             self.last_done = Some(iter);
-            out.push(Output::Report(Report::IterationDone {
-                node: self.cfg.id,
-                iteration: iter,
-                theta,
-            }));
+            if self.cfg.trace_iterations {
+                out.push(Output::Report(Report::IterationDone {
+                    node: self.cfg.id,
+                    iteration: iter,
+                    theta,
+                }));
+            }
         }
     }
 
@@ -647,11 +649,13 @@ impl NodeCore {
         st.mine = None;
         self.counters.timeouts += 1;
         self.last_done = Some(seq);
-        out.push(Output::Report(Report::IterationDone {
-            node: self.cfg.id,
-            iteration: seq,
-            theta: self.theta,
-        }));
+        if self.cfg.trace_iterations {
+            out.push(Output::Report(Report::IterationDone {
+                node: self.cfg.id,
+                iteration: seq,
+                theta: self.theta,
+            }));
+        }
         self.async_advance(out);
     }
 
@@ -799,6 +803,42 @@ mod tests {
         assert_eq!(ahead.u(), step.u());
         assert_eq!(ahead.theta(), step.theta());
         assert_eq!(out2, out, "same outputs in the same order");
+    }
+
+    #[test]
+    fn an_async_node_reports_each_iteration_only_when_the_trace_is_on() {
+        let iteration_reports = |trace: bool| {
+            let mut cfg = config(LocalSolver::Gtrs, 1);
+            cfg.mode = NodeMode::AsyncLogical;
+            cfg.trace_iterations = trace;
+            let mut node = NodeCore::new(cfg);
+            let mut out = Vec::new();
+            node.handle(sample(0), &mut out);
+            node.handle(
+                Input::Command(Command::AsyncPlan {
+                    sample: 0,
+                    steps: vec![(0, 0), (1, 2)],
+                }),
+                &mut out,
+            );
+            for (seq, from) in [(0, 0), (1, 2)] {
+                let r = Vec3::new(3.0, 4.0, 5.0);
+                node.handle(Input::Peer(PeerMsg::Reflect { from, seq, r }), &mut out);
+            }
+            assert!(!node.busy(), "both steps done");
+            assert!(
+                out.iter()
+                    .any(|o| matches!(o, Output::Report(Report::SampleDone { .. })))
+            );
+            out.iter()
+                .filter_map(|o| match o {
+                    Output::Report(Report::IterationDone { iteration, .. }) => Some(*iteration),
+                    _ => None,
+                })
+                .collect::<Vec<u64>>()
+        };
+        assert_eq!(iteration_reports(false), Vec::<u64>::new());
+        assert_eq!(iteration_reports(true), vec![0, 1]);
     }
 
     #[test]
@@ -1092,6 +1132,7 @@ mod tests {
         let mut cfg = config(LocalSolver::Relaxed, 1);
         cfg.mode = NodeMode::AsyncLogical;
         cfg.round_timeout_s = Some(1.5);
+        cfg.trace_iterations = true;
         let mut node = NodeCore::new(cfg);
         let mut o = Vec::new();
         node.handle(sample(0), &mut o);
