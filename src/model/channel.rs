@@ -65,7 +65,7 @@ pub fn bpsk_ber(snr_linear: f64, bandwidth_hz: f64, bit_rate: f64) -> f64 {
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LossCfg {
     /// No random loss.
-    None,
+    None {},
     /// Every frame is lost with probability `p` in [0, 1].
     Bernoulli {
         /// Loss probability.
@@ -217,7 +217,7 @@ fn default_time_scale() -> f64 {
     1.0
 }
 fn default_loss() -> LossCfg {
-    LossCfg::None
+    LossCfg::None {}
 }
 
 impl Default for AcousticCfg {
@@ -229,7 +229,7 @@ impl Default for AcousticCfg {
             value_bits: default_value_bits(),
             half_duplex: true,
             collisions: true,
-            loss: LossCfg::None,
+            loss: LossCfg::None {},
             links: Vec::new(),
             time_scale: 1.0,
             exchange_timeout_s: None,
@@ -264,7 +264,7 @@ impl AcousticCfg {
             in_range("channel.round_timeout_s", t, 1e-9, 86_400.0)?;
         }
         match self.loss {
-            LossCfg::None => {}
+            LossCfg::None {} => {}
             LossCfg::Bernoulli { p } => in_range("channel.loss.p", p, 0.0, 1.0)?,
             LossCfg::Range {
                 carrier_khz,
@@ -385,7 +385,7 @@ impl AcousticCfg {
             return p;
         }
         match self.loss {
-            LossCfg::None => 0.0,
+            LossCfg::None {} => 0.0,
             LossCfg::Bernoulli { p } => p,
             LossCfg::Range {
                 carrier_khz,

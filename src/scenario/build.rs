@@ -532,7 +532,7 @@ fn build_generated(
     let key = "network.generator";
     let wrap = |e: crate::model::graph::GraphError| InputError::at(path, key, e.to_string());
     match generator {
-        GeneratorCfg::Ring => {
+        GeneratorCfg::Ring {} => {
             Graph::new(receivers.len(), &Graph::ring_edges(receivers.len())).map_err(wrap)
         }
         GeneratorCfg::Grid { rows, cols } => {

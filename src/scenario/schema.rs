@@ -233,7 +233,7 @@ pub struct NetworkCfg {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum GeneratorCfg {
     /// `0-1-...-(N-1)-0`.
-    Ring,
+    Ring {},
     /// A `rows x cols` lattice over the receivers in row-major order.
     Grid {
         /// Rows.

@@ -627,6 +627,23 @@ fn a_bad_channel_or_clock_is_refused_naming_the_key() {
     assert_clear(code, &stderr, &p, &["algorithm.clock", "async"]);
 }
 
+/// A choice that takes no keys (`generator = { kind = "ring" }`, `loss = {
+/// model = "none" }`) refuses one given anyway, as every other table does,
+/// instead of silently ignoring it.
+#[test]
+fn a_key_given_to_a_choice_that_takes_none_is_refused_naming_it() {
+    let ring = GOOD.replace(
+        "edges = [[0, 1], [1, 2]]",
+        "generator = { kind = \"ring\", degree = 3 }",
+    );
+    let (code, stderr, p) = run_bad(&ring, &[]);
+    assert_clear(code, &stderr, &p, &["line 8", "unknown field `degree`"]);
+    let realtime = "[realtime]\nsample_period_ms = 1000.0\nwake_rate_hz = 1.0\n";
+    let loss = "[channel]\nmodel = \"acoustic\"\nloss = { model = \"none\", p = 0.1 }\n";
+    let (code, stderr, p) = run_bad(&format!("{GOOD}\n{realtime}\n{loss}"), &[]);
+    assert_clear(code, &stderr, &p, &["unknown field `p`"]);
+}
+
 #[test]
 fn a_deploy_table_that_leaves_a_node_on_no_host_or_names_a_stranger_is_refused() {
     for (deploy, needles) in [
