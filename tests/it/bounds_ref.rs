@@ -22,7 +22,10 @@
 //! SOCP's dual variables certify instead of the solver's own primal and dual
 //! values (which could be 1.6e-8 inside the set on near-tangent instances).
 //! Every one of its values grew, by at most 3.1e-8 relative (asserted: none
-//! shrank; the tolerance stays 1e-6).
+//! shrank; the tolerance stays 1e-6). `upp_maxdis` likewise: its value is
+//! the one the SDP's dual variables certify, not the larger of the solver's
+//! primal and dual values; 736 of its 737 values grew and one shrank, by at
+//! most 1.5e-7 relative (tolerance 1e-6).
 
 use sonarnet::estimators::bounds::{
     BoundOutcome, Region, pocs, upp_bbox, upp_maxdis, upp_minball, upp_rbbox,

@@ -5,8 +5,11 @@
 //!
 //! With range errors bounded below by `-rho` (seed 003 Remark 4), the true
 //! position lies in the intersection `B` of the [`Region`]s. For an estimate
-//! `x_hat` every bound `u` here satisfies `u >= max_{x in B} ||x - x_hat||`
-//! (up to solver tolerance, about 1e-8 relative), so `u >= ||x_true - x_hat||`:
+//! `x_hat` every bound `u` here satisfies `u >= max_{x in B} ||x - x_hat||`,
+//! so `u >= ||x_true - x_hat||`, whatever the conic solver's accuracy: each
+//! value is the one its certificate gives (Upp-MinBall's multipliers,
+//! Upp-BBox's and Upp-MaxDis's dual variables, evaluated exactly plus a
+//! round-off allowance), not the solver's own objective value:
 //!
 //! | function | seed 003 | formulation |
 //! |---|---|---|
@@ -287,8 +290,10 @@ impl Intersection {
     pub fn maxdis_sdp_value(&self, x_hat: &Vec2) -> Result<Option<f64>, BoundError> {
         check_point(x_hat)?;
         let y = self.to_local(x_hat);
-        Ok(solve::maxdis_sdp(&self.local_quadratics(), &y)?
-            .map(|v| v.max(0.0) * self.scale * self.scale))
+        Ok(
+            solve::maxdis_sdp(&self.local, &self.local_quadratics(), &y)?
+                .map(|v| v.max(0.0) * self.scale * self.scale),
+        )
     }
 
     /// Upp-RBBox (eq. (52)-(54)): farthest corner of the relaxed box from `x_hat`.

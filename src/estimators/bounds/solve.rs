@@ -119,9 +119,14 @@ impl Conic {
                     z[at] = z[at].max(tail);
                     n
                 }
+                PSDTriangleConeT(dim) => {
+                    let len = dim * (dim + 1) / 2;
+                    project_psd_triangle(&mut z[at..at + len], dim);
+                    len
+                }
                 // Not used by the problems certified here (no projection
                 // written): a NaN makes the caller report a failure rather
-                // than a wrong box.
+                // than a wrong value.
                 _ => return f64::NAN,
             };
         }
@@ -140,18 +145,55 @@ impl Conic {
     }
 }
 
-/// A box holding every variable of [`Conic::add_set`] (no slack) on the set
-/// of `regions`: `y` in the intersection of the regions' own boxes
-/// ([`super::relaxed_box`], widened by a relative 1e-9 against its
-/// rounding), and an ellipse's `u1, u2` in `[0, sum]`. `None` when the
-/// boxes do not meet (the set is empty).
-fn variable_box(regions: &[Region]) -> Option<Vec<(f64, f64)>> {
-    let b = super::relaxed_box(regions)?;
-    let mut vars = Vec::with_capacity(2 + 2 * regions.len());
-    for k in 0..2 {
-        let widen = 1e-9 * (b.hi[k] - b.lo[k]).max(b.lo[k].abs()).max(b.hi[k].abs());
-        vars.push((b.lo[k] - widen, b.hi[k] + widen));
+/// Projects a dual vector of clarabel's PSD triangle cone (the upper
+/// triangle column by column, off-diagonal entries times `sqrt 2`) onto the
+/// cone: the negative eigenvalues of the matrix are set to zero. The
+/// scaling makes the cone self-dual under the plain inner product.
+fn project_psd_triangle(z: &mut [f64], dim: usize) {
+    let sqrt2 = std::f64::consts::SQRT_2;
+    let mut m = nalgebra::DMatrix::<f64>::zeros(dim, dim);
+    for j in 0..dim {
+        for i in 0..=j {
+            let v = if i == j {
+                z[tri(i, j)]
+            } else {
+                z[tri(i, j)] / sqrt2
+            };
+            m[(i, j)] = v;
+            m[(j, i)] = v;
+        }
     }
+    let eig = m.symmetric_eigen();
+    let clipped = eig.eigenvalues.map(|l| l.max(0.0));
+    let m = &eig.eigenvectors
+        * nalgebra::DMatrix::from_diagonal(&clipped)
+        * eig.eigenvectors.transpose();
+    for j in 0..dim {
+        for i in 0..=j {
+            let v = 0.5 * (m[(i, j)] + m[(j, i)]);
+            z[tri(i, j)] = if i == j { v } else { v * sqrt2 };
+        }
+    }
+}
+
+/// The box of positions `y` on the set of `regions`: the intersection of the
+/// regions' own boxes ([`super::relaxed_box`]), widened by a relative 1e-9
+/// against its rounding. `None` when the boxes do not meet (the set is
+/// empty).
+fn position_box(regions: &[Region]) -> Option<[(f64, f64); 2]> {
+    let b = super::relaxed_box(regions)?;
+    Some([0, 1].map(|k| {
+        let widen = 1e-9 * (b.hi[k] - b.lo[k]).max(b.lo[k].abs()).max(b.hi[k].abs());
+        (b.lo[k] - widen, b.hi[k] + widen)
+    }))
+}
+
+/// A box holding every variable of [`Conic::add_set`] (no slack) on the set
+/// of `regions`: `y` in [`position_box`], and an ellipse's `u1, u2` in `[0,
+/// sum]`. `None` when the set is empty.
+fn variable_box(regions: &[Region]) -> Option<Vec<(f64, f64)>> {
+    let mut vars = Vec::with_capacity(2 + 2 * regions.len());
+    vars.extend(position_box(regions)?);
     for r in regions {
         if let Region::Ellipse { sum, .. } = *r {
             vars.extend([(0.0, sum), (0.0, sum)]);
@@ -171,8 +213,9 @@ fn settings() -> DefaultSettings<f64> {
 
 /// Outcome of one solve.
 enum Solved {
-    /// Primal and dual objective values.
-    Optimal { primal: f64, dual: f64, x: Vec<f64> },
+    /// The primal objective value and the primal variables (the dual
+    /// variables stay in the solver, for [`Conic::certified_min`]).
+    Optimal { primal: f64, x: Vec<f64> },
     /// The problem is (numerically) primal infeasible, or, for the
     /// minimisations over certificates (min-ball SDP), unbounded below: both
     /// mean the feasible set of positions is empty.
@@ -211,7 +254,6 @@ fn run_with(
             }
             Ok(Solved::Optimal {
                 primal: sol.obj_val,
-                dual: sol.obj_val_dual,
                 x: sol.x.clone(),
             })
         }
@@ -267,6 +309,19 @@ pub(crate) fn min_max_violation(regions: &[Region]) -> Result<(f64, Vec2), Bound
 /// so the box holds the set whatever the solver's accuracy (its own primal
 /// and dual values can be a few 1e-8 inside on near-tangent sets).
 pub(crate) fn bounding_box(regions: &[Region]) -> Result<Option<(Vec2, Vec2)>, BoundError> {
+    bounding_box_with(regions, &mut |_| {})
+}
+
+/// What is done to the solver's dual variables before they certify a value:
+/// nothing, except in the tests that show a certificate holds for any dual
+/// vector.
+pub(crate) type DualTweak<'a> = &'a mut dyn FnMut(&mut [f64]);
+
+/// [`bounding_box`] with its dual variables passed through `tweak`.
+pub(crate) fn bounding_box_with(
+    regions: &[Region],
+    tweak: DualTweak<'_>,
+) -> Result<Option<(Vec2, Vec2)>, BoundError> {
     const PROBLEM: &str = "bounding-box SOCP (48)";
     let mut c = Conic::new(2);
     c.add_set(regions, None);
@@ -291,7 +346,9 @@ pub(crate) fn bounding_box(regions: &[Region]) -> Result<Option<(Vec2, Vec2)>, B
         match run(&mut s, PROBLEM)? {
             // min sign * y_axis is at least the certified value (outer box).
             Solved::Optimal { .. } => {
-                let m = c.certified_min(&q, &s.solution.z, &vars);
+                let mut z = s.solution.z.clone();
+                tweak(&mut z);
+                let m = c.certified_min(&q, &z, &vars);
                 if !m.is_finite() {
                     return Err(BoundError::Solver {
                         problem: PROBLEM,
@@ -334,10 +391,37 @@ fn add_psd(c: &mut Conic, dim: usize, entry: impl Fn(usize, usize) -> (f64, Vec<
 /// SDP relaxation (seed 003 eq. (2), (25)-(26)) of `max ||x - x_hat||^2` over the
 /// quadratics: variables `v = [x1, x2, Z11, Z12, Z22]`,
 /// `max tr(Z) - 2 x_hat^T x + ||x_hat||^2` s.t. `tr(P_k Z) + 2 q_k^T x + r_k <= 0`,
-/// `[[Z, x], [x^T, 1]] >= 0` (3x3 PSD). Returns the conservative (larger of
-/// primal and dual) optimal value, or `None` if infeasible.
-pub(crate) fn maxdis_sdp(quads: &[Quadratic], x_hat: &Vec2) -> Result<Option<f64>, BoundError> {
+/// `[[Z, x], [x^T, 1]] >= 0` (3x3 PSD). Returns the value the solver's dual
+/// variables certify ([`Conic::certified_min`], with `x` in the box of the
+/// `regions` the quadratics describe and `Z` in [`moment_box`]), so it bounds
+/// the relaxation whatever the solver's accuracy; `None` if infeasible.
+pub(crate) fn maxdis_sdp(
+    regions: &[Region],
+    quads: &[Quadratic],
+    x_hat: &Vec2,
+) -> Result<Option<f64>, BoundError> {
+    maxdis_sdp_with(regions, quads, x_hat, &mut |_| {})
+}
+
+/// [`maxdis_sdp`] with its dual variables passed through `tweak`.
+pub(crate) fn maxdis_sdp_with(
+    regions: &[Region],
+    quads: &[Quadratic],
+    x_hat: &Vec2,
+    tweak: DualTweak<'_>,
+) -> Result<Option<f64>, BoundError> {
     const PROBLEM: &str = "Upp-MaxDis SDP (26)";
+    let Some(xbox) = position_box(regions) else {
+        return Ok(None);
+    };
+    let Some(zbox) = moment_box(quads, &xbox) else {
+        return Err(BoundError::Solver {
+            problem: PROBLEM,
+            status: "no quadratic bounds the moments (no positive definite P_k)".into(),
+        });
+    };
+    let mut vars = xbox.to_vec();
+    vars.extend(zbox);
     let mut c = Conic::new(5);
     for qd in quads {
         let p = &qd.p;
@@ -365,9 +449,51 @@ pub(crate) fn maxdis_sdp(quads: &[Quadratic], x_hat: &Vec2) -> Result<Option<f64
     let p = CscMatrix::zeros((5, 5));
     let mut s = build(&p, &q, &c, PROBLEM)?;
     match run(&mut s, PROBLEM)? {
-        Solved::Optimal { primal, dual, .. } => Ok(Some(-primal.min(dual) + x_hat.norm_squared())),
+        Solved::Optimal { .. } => {
+            let mut z = s.solution.z.clone();
+            tweak(&mut z);
+            let m = c.certified_min(&q, &z, &vars);
+            if !m.is_finite() {
+                return Err(BoundError::Solver {
+                    problem: PROBLEM,
+                    status: "its dual variables certify no finite value".into(),
+                });
+            }
+            let xx = x_hat.norm_squared();
+            Ok(Some(-m + xx + round_off(m.abs() + xx)))
+        }
         Solved::Infeasible => Ok(None),
     }
+}
+
+/// A box holding the moment variables `(Z11, Z12, Z22)` of every feasible
+/// point of the Upp-MaxDis SDP: `[[Z, x], [x^T, 1]] >= 0` gives `Z >= 0`, so
+/// `|Z12| <= tr(Z) / 2`, and a quadratic with `P_k >= mu I`, `mu > 0` (every
+/// disc, and the disc each ellipse circumscribes, has `P = I`) gives `mu
+/// tr(Z) <= tr(P_k Z) <= -2 q_k^T x - r_k`, bounded over the box of `x`.
+/// `None` when no `P_k` is positive definite.
+fn moment_box(quads: &[Quadratic], xbox: &[(f64, f64); 2]) -> Option<[(f64, f64); 3]> {
+    let trace = quads
+        .iter()
+        .filter_map(|qd| {
+            let p = 0.5 * (qd.p + qd.p.transpose());
+            let mu = p.symmetric_eigenvalues().min();
+            (mu > 0.0).then(|| {
+                let lin: f64 = [qd.q.x, qd.q.y]
+                    .iter()
+                    .zip(xbox)
+                    .map(|(q, (lo, hi))| (-2.0 * q * lo).max(-2.0 * q * hi))
+                    .sum();
+                let t = (lin - qd.r) / mu;
+                t + round_off(t.abs() + qd.r.abs() / mu)
+            })
+        })
+        .fold(f64::INFINITY, f64::min);
+    // A negative bound means no feasible point at all, of which any box holds.
+    let t = trace.max(0.0);
+    trace
+        .is_finite()
+        .then_some([(0.0, t), (-t / 2.0, t / 2.0), (0.0, t)])
 }
 
 /// Minimum-ball bound for discs only, seed 003 eq. (43) as a convex QP over the
