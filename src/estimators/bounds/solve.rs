@@ -145,6 +145,32 @@ impl Conic {
     }
 }
 
+impl Conic {
+    /// [`Conic::certified_min`] with the dual variables of `solver`'s last
+    /// solve (passed through `tweak` first); a non-finite value is a solver
+    /// failure of `problem`.
+    fn certify(
+        &self,
+        q: &[f64],
+        solver: &DefaultSolver<f64>,
+        vars: &[(f64, f64)],
+        tweak: DualTweak<'_>,
+        problem: &'static str,
+    ) -> Result<f64, BoundError> {
+        let mut z = solver.solution.z.clone();
+        tweak(&mut z);
+        let m = self.certified_min(q, &z, vars);
+        if m.is_finite() {
+            Ok(m)
+        } else {
+            Err(BoundError::Solver {
+                problem,
+                status: "its dual variables certify no finite value".into(),
+            })
+        }
+    }
+}
+
 /// Projects a dual vector of clarabel's PSD triangle cone (the upper
 /// triangle column by column, off-diagonal entries times `sqrt 2`) onto the
 /// cone: the negative eigenvalues of the matrix are set to zero. The
@@ -346,16 +372,7 @@ pub(crate) fn bounding_box_with(
         match run(&mut s, PROBLEM)? {
             // min sign * y_axis is at least the certified value (outer box).
             Solved::Optimal { .. } => {
-                let mut z = s.solution.z.clone();
-                tweak(&mut z);
-                let m = c.certified_min(&q, &z, &vars);
-                if !m.is_finite() {
-                    return Err(BoundError::Solver {
-                        problem: PROBLEM,
-                        status: "its dual variables certify no finite extreme".into(),
-                    });
-                }
-                *e = sign * m;
+                *e = sign * c.certify(&q, &s, &vars, tweak, PROBLEM)?;
             }
             Solved::Infeasible => return Ok(None),
         }
@@ -450,15 +467,7 @@ pub(crate) fn maxdis_sdp_with(
     let mut s = build(&p, &q, &c, PROBLEM)?;
     match run(&mut s, PROBLEM)? {
         Solved::Optimal { .. } => {
-            let mut z = s.solution.z.clone();
-            tweak(&mut z);
-            let m = c.certified_min(&q, &z, &vars);
-            if !m.is_finite() {
-                return Err(BoundError::Solver {
-                    problem: PROBLEM,
-                    status: "its dual variables certify no finite value".into(),
-                });
-            }
+            let m = c.certify(&q, &s, &vars, tweak, PROBLEM)?;
             let xx = x_hat.norm_squared();
             Ok(Some(-m + xx + round_off(m.abs() + xx)))
         }
