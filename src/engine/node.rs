@@ -116,6 +116,9 @@ pub fn run_node<T: Transport>(
     let mut timers: Vec<(Instant, Command)> = Vec::new();
     // A hop measurement in progress ([`Control::ProbePeer`]).
     let mut probe: Option<Probe> = None;
+    // The end of the last busy stretch: the wait that follows runs from it
+    // (one clock read per stretch, not two).
+    let mut idle_since = Instant::now();
 
     loop {
         if opts.term.load(Ordering::Relaxed) {
@@ -132,7 +135,6 @@ pub fn run_node<T: Transport>(
             .fold(IDLE_CHECK, Duration::min);
         frames.clear();
         let mut stop = false;
-        let waited = Instant::now();
         tx.recv(&mut frames, Some(timeout))?;
         // Only an idle node (nothing arrived) checks its parent: a system call per
         // message would cost more than the message.
@@ -140,7 +142,7 @@ pub fn run_node<T: Transport>(
             return Err(NodeError::CoordinatorGone);
         }
         let busy = Instant::now();
-        timing.wait_seconds += (busy - waited).as_secs_f64();
+        timing.wait_seconds += (busy - idle_since).as_secs_f64();
 
         for f in &frames {
             let input = decoder.feed(f).map_err(|error| NodeError::BadFrame {
@@ -219,14 +221,16 @@ pub fn run_node<T: Transport>(
             }
         }
         // After STOP, no timer fires and the clock starts no exchange.
-        let now = Instant::now();
-        timers.retain(|(at, then)| {
-            let due = *at <= now && !stop;
-            if due {
-                core.handle(Input::Command(then.clone()), &mut outputs);
-            }
-            !due
-        });
+        if !timers.is_empty() {
+            let now = Instant::now();
+            timers.retain(|(at, then)| {
+                let due = *at <= now && !stop;
+                if due {
+                    core.handle(Input::Command(then.clone()), &mut outputs);
+                }
+                !due
+            });
+        }
         if let Some((rate, next)) = clock
             && !stop
             && Instant::now() >= next
@@ -236,7 +240,8 @@ pub fn run_node<T: Transport>(
             clock = Some((rate, after(next.max(Instant::now()), wall(wait))));
         }
         if outputs.is_empty() && !stop {
-            timing.busy_seconds += busy.elapsed().as_secs_f64();
+            idle_since = Instant::now();
+            timing.busy_seconds += (idle_since - busy).as_secs_f64();
             continue;
         }
         let mut gone: Vec<u32> = Vec::new();
@@ -307,7 +312,8 @@ pub fn run_node<T: Transport>(
             core.handle(Input::Command(Command::NodeDown { node }), &mut outputs);
         }
         tx.flush()?;
-        timing.busy_seconds += busy.elapsed().as_secs_f64();
+        idle_since = Instant::now();
+        timing.busy_seconds += (idle_since - busy).as_secs_f64();
         if stop {
             if opts.verbose {
                 vlog(id, &format!("stops: {}", core.counters().in_words()));

@@ -23,7 +23,10 @@ pub mod kind {
     pub const SAMPLE_END: u32 = 4;
     /// Sync rounds: `seq` = first round, `aux` = rounds.
     pub const SYNC_ROUNDS: u32 = 5;
-    /// One async plan step: `seq` = iteration, `aux` = partner.
+    /// Up to [`super::PLAN_STEPS_PER_FRAME`] async plan steps: `seq` =
+    /// iteration and `aux` = partner of the first; each used `data` slot one
+    /// more step, `(iteration - seq) * 2^32 + partner` as an exact integer
+    /// ([`super::NO_STEP`] in the unused slots).
     pub const PLAN_STEP: u32 = 6;
     /// End of an async plan: `aux` = number of steps.
     pub const PLAN_END: u32 = 7;
@@ -97,6 +100,77 @@ fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Fr
         seq,
         data,
     }
+}
+
+/// Plan steps one [`kind::PLAN_STEP`] frame carries: `seq`/`aux`, and one per
+/// `data` slot. Six per frame, not one: a node takes a sample's plan in a
+/// sixth of the frames (50 steps: 9 frames, not 50), which both the
+/// coordinator's sends and the node's reads between two gossip steps feel.
+pub const PLAN_STEPS_PER_FRAME: usize = 6;
+
+/// An unused step slot of a [`kind::PLAN_STEP`] frame.
+pub const NO_STEP: f64 = -1.0;
+
+/// The partner's share of a packed step (`delta * STEP_SHIFT + partner`).
+const STEP_SHIFT: u64 = 1 << 32;
+
+/// Largest iteration offset a packed step carries: `delta * 2^32 + partner`
+/// stays below 2^53, where every integer is an exact `f64`.
+const MAX_STEP_DELTA: u64 = (1 << 21) - 1;
+
+/// The steps of one async plan as [`kind::PLAN_STEP`] frames: a step starts
+/// a new frame when the frame is full or its iteration is not within
+/// [`MAX_STEP_DELTA`] after the frame's first (plans go up a few at a time).
+fn encode_plan_steps(sample: u32, steps: &[(u64, u32)], out: &mut Vec<Frame>) {
+    let co = COORDINATOR_ID;
+    let mut rest = steps;
+    while let Some((&(first, partner), tail)) = rest.split_first() {
+        let mut data = [NO_STEP; 5];
+        let mut used = 0;
+        for (slot, &(it, p)) in data.iter_mut().zip(tail) {
+            match it.checked_sub(first).filter(|d| *d <= MAX_STEP_DELTA) {
+                Some(d) => *slot = (d * STEP_SHIFT + u64::from(p)) as f64,
+                None => break,
+            }
+            used += 1;
+        }
+        out.push(Frame {
+            kind: kind::PLAN_STEP,
+            from: co,
+            sample,
+            aux: partner,
+            seq: first,
+            data,
+        });
+        rest = &tail[used..];
+    }
+}
+
+/// The steps a [`kind::PLAN_STEP`] frame carries, appended to `steps`; a slot
+/// that is neither [`NO_STEP`] nor a packed step is an error.
+fn decode_plan_steps(f: &Frame, steps: &mut Vec<(u64, u32)>) -> Result<(), DecodeError> {
+    steps.push((f.seq, f.aux));
+    for (i, &v) in f.data.iter().enumerate() {
+        let bad = DecodeError::BadStep {
+            slot: i,
+            bits: v.to_bits(),
+        };
+        if v.is_finite() && v.is_sign_negative() {
+            // `NO_STEP`: the frame's steps end here.
+            return Ok(());
+        }
+        let max = ((MAX_STEP_DELTA + 1) * STEP_SHIFT) as f64;
+        if !v.is_finite() || v >= max || v.fract() != 0.0 {
+            return Err(bad);
+        }
+        let packed = v as u64;
+        let (delta, partner) = (packed / STEP_SHIFT, (packed % STEP_SHIFT) as u32);
+        match f.seq.checked_add(delta) {
+            Some(it) => steps.push((it, partner)),
+            None => return Err(bad),
+        }
+    }
+    Ok(())
 }
 
 fn v3(d: &[f64; 5]) -> Vec3 {
@@ -175,9 +249,7 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
             &[],
         )),
         Control::Command(Command::AsyncPlan { sample, steps }) => {
-            for &(it, p) in steps {
-                out.push(frame(kind::PLAN_STEP, co, *sample, p, it, &[]));
-            }
+            encode_plan_steps(*sample, steps, out);
             out.push(frame(
                 kind::PLAN_END,
                 co,
@@ -372,6 +444,14 @@ pub enum DecodeError {
         /// Frames received.
         got: u32,
     },
+    /// A slot of an async plan frame held no step.
+    #[error("async plan frame: slot {slot} holds {}, not a step", f64::from_bits(*bits))]
+    BadStep {
+        /// The `data` slot.
+        slot: usize,
+        /// What it held (the `f64`'s bits).
+        bits: u64,
+    },
 }
 
 /// Reassembles a node's incoming frames.
@@ -428,7 +508,7 @@ impl NodeDecoder {
                 rounds: f.aux,
             }),
             PLAN_STEP => {
-                self.steps.push((f.seq, f.aux));
+                decode_plan_steps(f, &mut self.steps)?;
                 Ok(None)
             }
             PLAN_END => {
@@ -776,6 +856,64 @@ mod tests {
             })
             .collect();
         assert_eq!(got, cmds);
+    }
+
+    fn plan_frames(steps: &[(u64, u32)]) -> Vec<Frame> {
+        let mut frames = Vec::new();
+        encode_control(
+            &Control::Command(Command::AsyncPlan {
+                sample: 2,
+                steps: steps.to_vec(),
+            }),
+            &mut frames,
+        );
+        frames
+    }
+
+    #[test]
+    fn an_async_plan_travels_six_steps_to_a_frame_and_any_plan_comes_back_whole() {
+        // 13 steps close together: frames of 6, 6 and 1, then the end frame.
+        let close: Vec<(u64, u32)> = (0..13).map(|j| (100 + 3 * j, (j % 4) as u32)).collect();
+        // Steps that cannot share a frame: a jump past the packable offset,
+        // an iteration that goes back, the largest partner and iteration.
+        let far = vec![
+            (5, 7),
+            (5 + MAX_STEP_DELTA, u32::MAX),
+            (6 + 2 * MAX_STEP_DELTA, 1),
+            (3, 0),
+            (u64::MAX, u32::MAX),
+        ];
+        for (steps, frames) in [(close, 3), (far, 4), (vec![(9, 1)], 1), (vec![], 0)] {
+            let f = plan_frames(&steps);
+            assert_eq!(f.len(), frames + 1, "{steps:?}");
+            let mut dec = NodeDecoder::default();
+            let got: Vec<_> = f.iter().filter_map(|f| dec.feed(f).unwrap()).collect();
+            assert_eq!(
+                got,
+                vec![NodeInput::Control(Control::Command(Command::AsyncPlan {
+                    sample: 2,
+                    steps,
+                }))]
+            );
+        }
+    }
+
+    #[test]
+    fn a_plan_frame_slot_that_holds_no_step_is_a_decode_error_naming_the_slot() {
+        for bad in [0.5, f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300] {
+            let mut f = plan_frames(&[(10, 1), (11, 2), (12, 3)]);
+            f[0].data[1] = bad;
+            let mut dec = NodeDecoder::default();
+            let e = dec.feed(&f[0]).unwrap_err();
+            assert_eq!(
+                e,
+                DecodeError::BadStep {
+                    slot: 1,
+                    bits: bad.to_bits()
+                }
+            );
+            assert!(e.to_string().contains("slot 1"), "{e}");
+        }
     }
 
     #[test]

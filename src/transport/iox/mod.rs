@@ -478,11 +478,11 @@ impl IoxTransport {
 
     /// Polls the inboxes for up to `self.poll` (see [`IoxTransport::set_poll`]);
     /// true if a frame is waiting.
-    fn poll_inboxes(&self) -> bool {
+    /// Polls for up to `self.poll` from `start` (the caller's clock read).
+    fn poll_inboxes(&self, start: Instant) -> bool {
         if self.poll.is_zero() {
             return false;
         }
-        let start = Instant::now();
         loop {
             let waiting = self.inbox.has_samples().unwrap_or(true)
                 || self
@@ -847,8 +847,9 @@ impl Transport for IoxTransport {
         timeout: Option<Duration>,
     ) -> Result<usize, TransportError> {
         let before = out.len();
-        let deadline = timeout.and_then(|t| Instant::now().checked_add(t));
-        let forever = timeout.is_none() || deadline.is_none();
+        // Taken when a first look finds nothing: a frame already there costs
+        // no clock read.
+        let mut deadline: Option<Option<Instant>> = None;
         loop {
             // Frames first (shared memory, no system call): while frames keep coming,
             // the wake-up notifications are only read (system calls) right before
@@ -858,7 +859,11 @@ impl Transport for IoxTransport {
             if out.len() > before {
                 return Ok(out.len() - before);
             }
-            if self.poll_inboxes() {
+            let now = Instant::now();
+            let deadline =
+                *deadline.get_or_insert_with(|| timeout.and_then(|t| now.checked_add(t)));
+            let forever = deadline.is_none();
+            if self.poll_inboxes(now) {
                 continue;
             }
             // Clear the notifications, then look again: a frame sent after the
