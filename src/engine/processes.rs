@@ -777,8 +777,9 @@ pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
         }
     }
     // Room for every frame of LOOKAHEAD samples in flight (a node in every iteration
-    // gets one plan frame per iteration, plus its measurements), so that the
-    // coordinator never waits for a full inbox.
+    // gets at most one plan frame per iteration: six steps share a frame,
+    // `codec::PLAN_STEPS_PER_FRAME`, so the room is ample; plus its measurements),
+    // so that the coordinator never waits for a full inbox.
     let inbox = super::LOOKAHEAD * (plan.iterations_per_sample + m + 4) + 16;
     NetworkLayout {
         configs,

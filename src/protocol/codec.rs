@@ -107,6 +107,7 @@ fn frame(kind: u32, from: u32, sample: u32, aux: u32, seq: u64, d: &[f64]) -> Fr
 /// sixth of the frames (50 steps: 9 frames, not 50), which both the
 /// coordinator's sends and the node's reads between two gossip steps feel.
 pub const PLAN_STEPS_PER_FRAME: usize = 6;
+const _: () = assert!(PLAN_STEPS_PER_FRAME == 1 + std::mem::size_of::<[f64; 5]>() / 8);
 
 /// An unused step slot of a [`kind::PLAN_STEP`] frame.
 pub const NO_STEP: f64 = -1.0;
