@@ -282,9 +282,10 @@ mod tests {
         let plan = RunPlan::new(&spiral(), Clock::Logical).unwrap();
         let n = needs(&plan);
         // 6 node inboxes with 1 + degree senders (6 + 12) and 6 senders to
-        // the coordinator; 3 samples of 50 plan frames + 2 transmitters + 4,
+        // the coordinator; 3 samples of 9 plan frames (50 steps, six to a
+        // frame) + 2 transmitters + 4,
         // plus 16.
-        assert_eq!(n.inbox_frames, 3 * (50 + 2 + 4) + 16);
+        assert_eq!(n.inbox_frames, 3 * (50_u64.div_ceil(6) + 2 + 4) + 16);
         assert_eq!(n.shm_bytes, 24 * n.inbox_frames * SLOT_BYTES);
         assert!(check(&n, &plenty()).is_ok());
     }

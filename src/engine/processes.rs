@@ -777,10 +777,17 @@ pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
         }
     }
     // Room for every frame of LOOKAHEAD samples in flight (a node in every iteration
-    // gets at most one plan frame per iteration: six steps share a frame,
-    // `codec::PLAN_STEPS_PER_FRAME`, so the room is ample; plus its measurements),
-    // so that the coordinator never waits for a full inbox.
-    let inbox = super::LOOKAHEAD * (plan.iterations_per_sample + m + 4) + 16;
+    // gets a sample's plan in one frame per six steps, `codec::PLAN_STEPS_PER_FRAME`;
+    // one frame per iteration for sync, the root's share of a round's points, and
+    // when iterations are traced, a node's reports of a sample to the coordinator;
+    // plus the measurements), so that the coordinator never waits for a full inbox.
+    let per_sample = match plan.mode {
+        Mode::Async if !plan.trace_iterations => plan
+            .iterations_per_sample
+            .div_ceil(codec::PLAN_STEPS_PER_FRAME),
+        _ => plan.iterations_per_sample,
+    };
+    let inbox = super::LOOKAHEAD * (per_sample + m + 4) + 16;
     NetworkLayout {
         configs,
         neighbours,
