@@ -119,6 +119,9 @@ const STEP_SHIFT: u64 = 1 << 32;
 /// stays below 2^53, where every integer is an exact `f64`.
 const MAX_STEP_DELTA: u64 = (1 << 21) - 1;
 
+/// The first value above every packed step.
+const PACKED_END: f64 = ((MAX_STEP_DELTA + 1) * STEP_SHIFT) as f64;
+
 /// The steps of one async plan as [`kind::PLAN_STEP`] frames: a step starts
 /// a new frame when the frame is full or its iteration is not within
 /// [`MAX_STEP_DELTA`] after the frame's first (plans go up a few at a time).
@@ -152,7 +155,7 @@ fn encode_plan_steps(sample: u32, steps: &[(u64, u32)], out: &mut Vec<Frame>) {
 fn decode_plan_steps(f: &Frame, steps: &mut Vec<(u64, u32)>) -> Result<(), DecodeError> {
     steps.push((f.seq, f.aux));
     for (i, &v) in f.data.iter().enumerate() {
-        let bad = DecodeError::BadStep {
+        let bad = || DecodeError::BadStep {
             slot: i,
             bits: v.to_bits(),
         };
@@ -160,15 +163,14 @@ fn decode_plan_steps(f: &Frame, steps: &mut Vec<(u64, u32)>) -> Result<(), Decod
             // `NO_STEP`: the frame's steps end here.
             return Ok(());
         }
-        let max = ((MAX_STEP_DELTA + 1) * STEP_SHIFT) as f64;
-        if !v.is_finite() || v >= max || v.fract() != 0.0 {
-            return Err(bad);
+        if !v.is_finite() || v >= PACKED_END || v.fract() != 0.0 {
+            return Err(bad());
         }
         let packed = v as u64;
         let (delta, partner) = (packed / STEP_SHIFT, (packed % STEP_SHIFT) as u32);
         match f.seq.checked_add(delta) {
             Some(it) => steps.push((it, partner)),
-            None => return Err(bad),
+            None => return Err(bad()),
         }
     }
     Ok(())
