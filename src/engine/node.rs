@@ -245,15 +245,21 @@ pub fn run_node<T: Transport>(
             continue;
         }
         let mut gone: Vec<u32> = Vec::new();
+        // Whether the coordinator must be woken for what this batch sends it:
+        // a sample's report can wait while the node has samples queued
+        // (`flush_lazily`), anything else cannot.
+        let mut urgent = false;
         for o in outputs.drain(..) {
             match o {
                 Output::Peer { to, msg } if let Some(c) = opts.channel => {
                     let f = codec::encode_channel(&msg, to, c.now_s());
                     tx.send(Endpoint::Coordinator, &f)?;
+                    urgent = true;
                 }
                 Output::Broadcast(msg) if let Some(c) = opts.channel => {
                     let f = codec::encode_channel(&msg, codec::TO_ALL, c.now_s());
                     tx.send(Endpoint::Coordinator, &f)?;
+                    urgent = true;
                 }
                 Output::Peer { to, msg } => {
                     match tx.send(Endpoint::Node(to), &codec::encode_peer(&msg)) {
@@ -298,6 +304,7 @@ pub fn run_node<T: Transport>(
                         };
                         encoded.push(codec::encode_timing(id, &snapshot));
                     }
+                    urgent |= !matches!(r, Report::SampleDone { .. }) || core.samples_queued() == 0;
                     codec::encode_report(&r, &mut encoded);
                     for f in &encoded {
                         tx.send(Endpoint::Coordinator, f)?;
@@ -311,7 +318,11 @@ pub fn run_node<T: Transport>(
             }
             core.handle(Input::Command(Command::NodeDown { node }), &mut outputs);
         }
-        tx.flush()?;
+        if urgent || stop {
+            tx.flush()?;
+        } else {
+            tx.flush_lazily(Endpoint::Coordinator)?;
+        }
         idle_since = Instant::now();
         timing.busy_seconds += (idle_since - busy).as_secs_f64();
         if stop {

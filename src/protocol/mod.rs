@@ -143,6 +143,16 @@ impl NodeCore {
         self.sync.is_some() || self.plan.is_some()
     }
 
+    /// Samples received and not started yet (the coordinator sends up to
+    /// [`LOOKAHEAD`](crate::engine::LOOKAHEAD) ahead): while there is one,
+    /// the node has work after the sample it is on.
+    pub fn samples_queued(&self) -> usize {
+        self.queued
+            .iter()
+            .filter(|c| matches!(c, Command::Sample { .. }))
+            .count()
+    }
+
     /// This node's id.
     pub fn id(&self) -> u32 {
         self.cfg.id
@@ -784,6 +794,7 @@ mod tests {
         ahead.handle(sample(1), &mut out2);
         ahead.handle(Input::Command(plan(1)), &mut out2);
         assert!(ahead.busy(), "sample 0 waits for its partner");
+        assert_eq!(ahead.samples_queued(), 1, "sample 1 waits in the queue");
         // Only sample 0's reflected point went out so far.
         let sent: Vec<u64> = out2
             .iter()
@@ -798,6 +809,7 @@ mod tests {
         assert_eq!(sent, vec![0]);
         ahead.handle(reflect(0), &mut out2);
         assert!(ahead.busy(), "sample 1 started at once");
+        assert_eq!(ahead.samples_queued(), 0, "nothing after sample 1");
         ahead.handle(reflect(1), &mut out2);
         assert!(!ahead.busy());
         assert_eq!(ahead.u(), step.u());

@@ -330,6 +330,19 @@ pub trait Transport {
     /// one for the broadcast group if something was broadcast).
     fn flush(&mut self) -> Result<(), TransportError>;
 
+    /// [`Transport::flush`], except that the wake-up owed to `lazy` may wait: the
+    /// frames sent to it are readable at once, and it is woken at the next
+    /// `flush`, or before this endpoint next blocks in [`Transport::recv`],
+    /// whichever comes first. For frames the receiver needs only soon, not at
+    /// once: a node's report of a sample while it has the next ones queued
+    /// (issue 20: on the polled spiral these reports woke the coordinator up
+    /// to six times a sample, each wake-up taking a CPU from the gossip).
+    /// By default the same as `flush`.
+    fn flush_lazily(&mut self, lazy: Endpoint) -> Result<(), TransportError> {
+        let _ = lazy;
+        self.flush()
+    }
+
     /// Appends all frames available now to `out`. If there are none, blocks on the
     /// wake-up notification(s) for up to `timeout` (`None` = forever). Returns the
     /// number of frames appended (`0` on timeout). Never busy-spins.
@@ -370,6 +383,9 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn flush(&mut self) -> Result<(), TransportError> {
         (**self).flush()
+    }
+    fn flush_lazily(&mut self, lazy: Endpoint) -> Result<(), TransportError> {
+        (**self).flush_lazily(lazy)
     }
     fn recv(
         &mut self,

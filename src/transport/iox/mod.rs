@@ -670,6 +670,39 @@ impl IoxTransport {
     }
 }
 
+impl IoxTransport {
+    /// Wakes every endpoint sent to since it was last woken, but `lazy`
+    /// (which stays owed its wake-up, see [`Transport::flush_lazily`]), and
+    /// the broadcast group if something was broadcast.
+    fn wake_pending(&mut self, lazy: Option<Endpoint>) -> Result<(), TransportError> {
+        let mut pending = std::mem::take(&mut self.pending);
+        let mut result = Ok(());
+        pending.retain(|&slot| {
+            if !self.peers[slot].pending {
+                return false;
+            }
+            if Some(self.peers[slot].endpoint) == lazy {
+                return true;
+            }
+            self.peers[slot].pending = false;
+            if let Err(e) = self.wake_peer(slot) {
+                result = Err(e);
+            }
+            false
+        });
+        self.pending = pending;
+        if let Some(b) = self.bcast.as_mut()
+            && b.pending
+        {
+            b.pending = false;
+            if let Err(e) = b.notifier.notify() {
+                result = Err(TransportError::ipc("waking the broadcast group", e));
+            }
+        }
+        result
+    }
+}
+
 /// How long dropping an [`IoxTransport`] waits for receivers to take frames sent to
 /// them (see [`Transport::shutdown`]; call that to choose the time and see failures).
 pub const DROP_LINGER: Duration = Duration::from_secs(1);
@@ -818,27 +851,11 @@ impl Transport for IoxTransport {
     }
 
     fn flush(&mut self) -> Result<(), TransportError> {
-        let mut pending = std::mem::take(&mut self.pending);
-        let mut result = Ok(());
-        for &slot in &pending {
-            if self.peers[slot].pending {
-                self.peers[slot].pending = false;
-                if let Err(e) = self.wake_peer(slot) {
-                    result = Err(e);
-                }
-            }
-        }
-        pending.clear();
-        self.pending = pending;
-        if let Some(b) = self.bcast.as_mut()
-            && b.pending
-        {
-            b.pending = false;
-            if let Err(e) = b.notifier.notify() {
-                result = Err(TransportError::ipc("waking the broadcast group", e));
-            }
-        }
-        result
+        self.wake_pending(None)
+    }
+
+    fn flush_lazily(&mut self, lazy: Endpoint) -> Result<(), TransportError> {
+        self.wake_pending(Some(lazy))
     }
 
     fn recv(
@@ -865,6 +882,10 @@ impl Transport for IoxTransport {
             let forever = deadline.is_none();
             if self.poll_inboxes(now) {
                 continue;
+            }
+            // Never block owing a wake-up (one left by `flush_lazily`).
+            if !self.pending.is_empty() {
+                self.flush()?;
             }
             // Clear the notifications, then look again: a frame sent after the
             // look still leaves a notification behind, so the wait below wakes up.
@@ -986,6 +1007,47 @@ mod tests {
             ));
         }
         assert_eq!(run_resources(topo.run_id()), Vec::<PathBuf>::new());
+    }
+
+    /// Issue 20: a lazily flushed frame is readable at once, its wake-up
+    /// stays owed, and the sender gives it before it blocks (or at its next
+    /// plain flush), so a receiver that waits for it is never stranded.
+    #[test]
+    fn a_wake_up_left_by_a_lazy_flush_is_given_before_the_sender_blocks() {
+        let topo = RunTopology::ring(super::super::unique_run_id(), 2, 4).unwrap();
+        let mut c = IoxTransport::coordinator(&topo).unwrap();
+        let mut n0 = IoxTransport::node(&topo, 0).unwrap();
+        let _n1 = IoxTransport::node(&topo, 1).unwrap();
+        let owed = |t: &IoxTransport| t.peers.iter().any(|p| p.pending);
+        n0.send(Endpoint::Coordinator, &frame(0, 1)).unwrap();
+        n0.send(Endpoint::Node(1), &frame(0, 2)).unwrap();
+        n0.flush_lazily(Endpoint::Coordinator).unwrap();
+        let coordinator = n0.peer_slot(Endpoint::Coordinator).unwrap();
+        let node1 = n0.peer_slot(Endpoint::Node(1)).unwrap();
+        assert!(
+            n0.peers[coordinator].pending,
+            "the coordinator's wake-up waits"
+        );
+        assert!(!n0.peers[node1].pending, "node 1 was woken");
+        // A second lazy flush still owes it; a plain one gives it.
+        n0.flush_lazily(Endpoint::Coordinator).unwrap();
+        assert!(owed(&n0));
+        n0.flush().unwrap();
+        assert!(!owed(&n0));
+        // Owed again, then given when the sender blocks (nothing to read).
+        n0.send(Endpoint::Coordinator, &frame(0, 3)).unwrap();
+        n0.flush_lazily(Endpoint::Coordinator).unwrap();
+        assert!(owed(&n0));
+        let mut out = Vec::new();
+        assert_eq!(
+            n0.recv(&mut out, Some(Duration::from_millis(5))).unwrap(),
+            0
+        );
+        assert!(!owed(&n0), "woken before blocking");
+        while out.len() < 2 {
+            assert!(c.recv(&mut out, Some(Duration::from_secs(10))).unwrap() > 0);
+        }
+        assert_eq!(out, vec![frame(0, 1), frame(0, 3)]);
     }
 
     #[test]
