@@ -1,4 +1,4 @@
-//! Time per instance of each position-error bound (seed 003) on an N = 8 disc
+//! Time per instance of each position-error bound (Gholami 2015) on an N = 8 disc
 //! instance and an 8-ellipse instance (`upp_exact`, beyond the paper, also on
 //! an intersection already checked). Criterion prints absolute times; the
 //! ratios to `upp_rbbox` are printed once at the end (median of 200 runs).

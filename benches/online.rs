@@ -1,5 +1,5 @@
-//! Per-step cost of the centralised online trackers on the seed 000 Sec. V
-//! setup (3 anchors, target near [2, 1]); seed 000 Table I reports
+//! Per-step cost of the centralised online trackers on the Pun-So 2022 Sec. V
+//! setup (3 anchors, target near [2, 1]); Pun-So 2022 Table I reports
 //! ~5.2 us (OGD) vs ~13 us (ONM) per iteration in MATLAB.
 
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -1,4 +1,4 @@
-//! Local prox cost on the paper's geometry (seed 002 Sec. III-C): N = 6 receivers,
+//! Local prox cost on the paper's geometry (Mourya 2017 Sec. III-C): N = 6 receivers,
 //! 2 transmitters, target near [500, 500], range sigma 5, DOA sigma 0.5, omega 1,
 //! gamma 2e-8. Each iteration is ONE prox call; calls cycle through 6 nodes x 16 noisy
 //! samples with Douglas-Rachford-like inputs `u` near the lifted target. `gtrs_l0` runs
@@ -15,7 +15,7 @@ use sonarnet::model::rng::{Stream, stream_rng};
 use std::hint::black_box;
 
 fn instances() -> Vec<(LocalProblem, Vec3)> {
-    let geometry = Geometry::seed002();
+    let geometry = Geometry::mourya2017();
     let (tx, rx) = (&geometry.transmitters, &geometry.receivers);
     let range_noise = NoiseModel::gaussian(5.0);
     let doa_noise = NoiseModel::gaussian(0.5);

@@ -1,4 +1,4 @@
-//! Per-solve time of the robust estimators on seed 004 Sec. IV-C instances
+//! Per-solve time of the robust estimators on Shi 2024 Sec. IV-C instances
 //! (m = n = 8, target [400, 200], Gaussian variance 100 m^2, exponential NLOS
 //! bias with standard deviation 1e3 m on all links of one random transmitter
 //! or receiver, p = 15%). Each estimator runs on the same 64 instances; after
@@ -10,7 +10,7 @@ use std::time::Instant;
 use criterion::{Criterion, criterion_group};
 use sonarnet::estimators::robust::{
     BistaticLink, IrlsConfig, L0osConfig, LsConfig, kappa_from_fraction, l0os, lad, lq_irls, ls,
-    seed004_geometry,
+    shi2024_geometry,
 };
 use sonarnet::model::geometry::Vec2;
 use sonarnet::model::measure::{Geometry, bistatic_range};
@@ -20,7 +20,7 @@ use sonarnet::model::rng::{Stream, stream_rng};
 const INSTANCES: usize = 64;
 
 fn instances() -> (Geometry, Vec<Vec<BistaticLink>>) {
-    let g = seed004_geometry();
+    let g = shi2024_geometry();
     let target = Vec2::new(400.0, 200.0);
     let noise = NoiseModel::NlosExponential {
         sigma: 10.0,
@@ -78,7 +78,7 @@ fn solvers() -> Vec<(&'static str, Solver)> {
 
 fn bench_robust(c: &mut Criterion) {
     let (g, sets) = instances();
-    let mut group = c.benchmark_group("robust_seed004_64_instances");
+    let mut group = c.benchmark_group("robust_shi2024_64_instances");
     for (name, solve) in solvers() {
         group.bench_function(name, |b| {
             b.iter(|| {

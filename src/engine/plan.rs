@@ -248,7 +248,7 @@ impl RunPlan {
 }
 
 /// Each node's prox step: `gamma`, or with `prox_scaling =
-/// "inverse_probability"` `gamma / p_v` (seed 002 eq. 5), where `p_v` is the
+/// "inverse_probability"` `gamma / p_v` (Mourya 2017 eq. 5), where `p_v` is the
 /// probability that node `v` computes in an iteration: 1 in sync mode, the
 /// empirical frequency over the whole file for a replayed schedule, and
 /// otherwise that of the drawn schedule (`v` uniform, then a uniform
@@ -298,7 +298,7 @@ fn logical_mode(mode: Mode) -> NodeMode {
 }
 
 /// Draws the async schedule: `v` uniform over nodes, `w` uniform over `v`'s
-/// neighbours (seed 002 Sec. II-B), from the run's schedule stream; or replays
+/// neighbours (Mourya 2017 Sec. II-B), from the run's schedule stream; or replays
 /// the plan's schedule.
 pub struct Scheduler<'a> {
     plan: &'a RunPlan,

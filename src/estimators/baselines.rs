@@ -7,16 +7,16 @@
 //!
 //! | `kind` | estimator | source |
 //! |---|---|---|
-//! | `ogd` | online gradient descent, one step of `f_t` per sample | seed 000 eq. (3), seed 001 eq. (2) |
-//! | `onm` | online Newton method (damped when the Hessian is not PD) | seed 000 Sec. V |
+//! | `ogd` | online gradient descent, one step of `f_t` per sample | Pun-So 2022 eq. (3), Pun-So 2020 eq. (2) |
+//! | `onm` | online Newton method (damped when the Hessian is not PD) | Pun-So 2022 Sec. V |
 //! | `ml` | per-sample ML (Levenberg-Marquardt, warm start) | [`crate::estimators::central`] |
-//! | `ls` | nonlinear least squares of the bistatic ranges | seed 004 eq. (3) |
-//! | `l0os` | l0-norm outlier separation | seed 004 Algorithm 1 |
-//! | `lq_irls` | `l_q` loss by IRLS, `1 < q < 2` | seed 004 eq. (4) |
-//! | `lad` | `l_1` loss by IRLS | seed 004 eq. (4), `q = 1` |
-//! | `pocs` | projection onto the farthest disc/ellipse | seed 003 eq. (18) |
-//! | `lls` | closed-form linear least squares ([`online::ols_position`], the OLS initialisation) | seed 000 eq. (15)-(17), seed 003 Sec. 4 |
-//! | `distributed` | the in-process DR engine with another local solver / mode | seed 002 eq. (11) |
+//! | `ls` | nonlinear least squares of the bistatic ranges | Shi 2024 eq. (3) |
+//! | `l0os` | l0-norm outlier separation | Shi 2024 Algorithm 1 |
+//! | `lq_irls` | `l_q` loss by IRLS, `1 < q < 2` | Shi 2024 eq. (4) |
+//! | `lad` | `l_1` loss by IRLS | Shi 2024 eq. (4), `q = 1` |
+//! | `pocs` | projection onto the farthest disc/ellipse | Gholami 2015 eq. (18) |
+//! | `lls` | closed-form linear least squares ([`online::ols_position`], the OLS initialisation) | Pun-So 2022 eq. (15)-(17), Gholami 2015 Sec. 4 |
+//! | `distributed` | the in-process DR engine with another local solver / mode | Mourya 2017 eq. (11) |
 //!
 //! Every estimator is the library's one implementation ([`crate::estimators::online`],
 //! [`crate::estimators::robust`], [`crate::estimators::bounds`], [`crate::estimators::central`],
@@ -60,22 +60,22 @@ fn default_pocs_tol() -> f64 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum BaselineCfg {
-    /// Online gradient descent (seed 000 eq. (3)).
+    /// Online gradient descent (Pun-So 2022 eq. (3)).
     Ogd {
         /// Track name (default `ogd`).
         #[serde(default)]
         name: Option<String>,
         /// Step rule: `{ rule = "lipschitz", scale = 1 }` (default: `1/L_t`,
         /// the local Lipschitz constant of `grad f_t`, stable at any
-        /// scale), `{ rule = "constant", eta = 0.1 }` (seed 000) or
-        /// `{ rule = "inv_sqrt", eta0 = 1 }` (seed 001).
+        /// scale), `{ rule = "constant", eta = 0.1 }` (Pun-So 2022) or
+        /// `{ rule = "inv_sqrt", eta0 = 1 }` (Pun-So 2020).
         #[serde(default = "default_ogd_step")]
         step: StepSize,
-        /// `exact` (true first position, default) or `ols` (seed 000 eq. (15)-(17)).
+        /// `exact` (true first position, default) or `ols` (Pun-So 2022 eq. (15)-(17)).
         #[serde(default)]
         init: online::Init,
     },
-    /// Online Newton method (seed 000 Sec. V).
+    /// Online Newton method (Pun-So 2022 Sec. V).
     Onm {
         /// Track name (default `onm`).
         #[serde(default)]
@@ -94,25 +94,25 @@ pub enum BaselineCfg {
         #[serde(default)]
         name: Option<String>,
     },
-    /// Nonlinear least squares on the bistatic ranges (seed 004 eq. (3)).
+    /// Nonlinear least squares on the bistatic ranges (Shi 2024 eq. (3)).
     Ls {
         /// Track name (default `ls`).
         #[serde(default)]
         name: Option<String>,
     },
-    /// l0-norm outlier separation (seed 004 Algorithm 1).
+    /// l0-norm outlier separation (Shi 2024 Algorithm 1).
     L0os {
         /// Track name (default `l0os`).
         #[serde(default)]
         name: Option<String>,
-        /// Outlier fraction `p`: `kappa = round(p m n)` (seed 004 Sec. IV-A).
+        /// Outlier fraction `p`: `kappa = round(p m n)` (Shi 2024 Sec. IV-A).
         #[serde(default)]
         p: Option<f64>,
         /// Or the sparsity `kappa` directly.
         #[serde(default)]
         kappa: Option<usize>,
     },
-    /// `l_q` IRLS (seed 004 eq. (4)).
+    /// `l_q` IRLS (Shi 2024 eq. (4)).
     LqIrls {
         /// Track name (default `lq_irls`).
         #[serde(default)]
@@ -127,7 +127,7 @@ pub enum BaselineCfg {
         #[serde(default)]
         name: Option<String>,
     },
-    /// POCS onto the farthest disc or ellipse (seed 003 eq. (18)), started
+    /// POCS onto the farthest disc or ellipse (Gholami 2015 eq. (18)), started
     /// from the previous sample's estimate (the first from the sensors' centroid).
     Pocs {
         /// Track name (default `pocs`).
@@ -141,7 +141,7 @@ pub enum BaselineCfg {
         tol: f64,
     },
     /// Closed-form linear least squares, [`online::ols_position`]: one-way
-    /// ranges by seed 000 eq. (15)-(17), else the lifted bistatic system.
+    /// ranges by Pun-So 2022 eq. (15)-(17), else the lifted bistatic system.
     Lls {
         /// Track name (default `lls`).
         #[serde(default)]
@@ -238,7 +238,7 @@ impl BaselineCfg {
     }
 
     /// True for the stateful online trackers (their regret is also reported
-    /// in seed 001's prediction form, `regret_pred`).
+    /// in Pun-So 2020's prediction form, `regret_pred`).
     pub fn is_online(&self) -> bool {
         matches!(self, BaselineCfg::Ogd { .. } | BaselineCfg::Onm { .. })
     }

@@ -1,7 +1,7 @@
 //! Centralised references: the per-sample maximum-likelihood estimate and the
 //! Cramér-Rao lower bound, computed from all receivers' measurements.
 //!
-//! Measurement model (seed 002 Sec. III-A, seed 000 eq. 1): bistatic ranges
+//! Measurement model (Mourya 2017 Sec. III-A, Pun-So 2022 eq. 1): bistatic ranges
 //! `||x - t_m|| + ||x - r_n||`, DOAs `atan2(y - r_ny, x - r_nx)` and one-way
 //! ranges `||x - r_n||`, with independent Gaussian errors of standard
 //! deviations `sigma_range`, `sigma_doa`. The ML estimate minimises the
@@ -242,9 +242,9 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
-    /// The first four receivers of the seed 002 network.
+    /// The first four receivers of the Mourya 2017 network.
     fn geom() -> Geometry {
-        let mut g = Geometry::seed002();
+        let mut g = Geometry::mourya2017();
         g.receivers.truncate(4);
         g
     }

@@ -1,4 +1,4 @@
-//! The Douglas-Rachford gossip itself (seed 002 Sec. II-B, eq. 7 and 11):
+//! The Douglas-Rachford gossip itself (Mourya 2017 Sec. II-B, eq. 7 and 11):
 //! its [`Mode`], the consensus averages and the update of `u`. Every node
 //! core computes them here, so both ends of an exchange and every engine give
 //! bit-identical values.
@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 pub enum Mode {
     /// Every node updates every iteration; positions averaged over all nodes.
     Sync,
-    /// One random edge `(v, w)` per iteration (seed 002 eq. 11).
+    /// One random edge `(v, w)` per iteration (Mourya 2017 eq. 11).
     Async,
 }
 
@@ -27,7 +27,7 @@ impl Mode {
 }
 
 /// The average `a = (r_v[0:2] + r_w[0:2]) / 2` of a pairwise exchange
-/// (seed 002 eq. 11, second line). IEEE addition is commutative, so both
+/// (Mourya 2017 eq. 11, second line). IEEE addition is commutative, so both
 /// ends compute bit-identical values.
 pub fn pair_average(r_a: &Vec3, r_b: &Vec3) -> Vec2 {
     Vec2::new((r_a[0] + r_b[0]) / 2.0, (r_a[1] + r_b[1]) / 2.0)
@@ -46,13 +46,13 @@ pub fn mean_position<'a>(rs: impl Iterator<Item = &'a Vec3>) -> Vec2 {
     s / n.max(1) as f64
 }
 
-/// The DR update `u += z - theta` with `z = (a, r[2])` (seed 002 eq. 7 / 11).
+/// The DR update `u += z - theta` with `z = (a, r[2])` (Mourya 2017 eq. 7 / 11).
 pub fn dr_update(u: &mut Vec3, theta: &Vec3, r: &Vec3, a: Vec2) {
     let z = Vec3::new(a.x, a.y, r[2]);
     *u += z - theta;
 }
 
-/// How a computing node scales its prox (seed 002 eq. 5 against eq. 11).
+/// How a computing node scales its prox (Mourya 2017 eq. 5 against eq. 11).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ProxScaling {
@@ -75,7 +75,7 @@ impl ProxScaling {
     }
 }
 
-/// `p_v = P(v computes)` of every node under the schedule of seed 002
+/// `p_v = P(v computes)` of every node under the schedule of Mourya 2017
 /// Sec. II-B: `v` uniform over the `N` nodes, then `w` uniform over `v`'s
 /// neighbours, both compute. So
 /// `p_v = 1/N + sum_{w in N(v)} 1 / (N deg(w))` (and `sum_v p_v = 2`). A node
@@ -112,7 +112,7 @@ pub fn empirical_probabilities(schedule: &[(usize, usize)], n: usize) -> Vec<f64
 }
 
 /// Each node's prox step under `scaling`: `gamma`, or `gamma / p_v` where
-/// `p_v > 0` (seed 002 eq. 5). `p` is `None` in sync mode, where every node
+/// `p_v > 0` (Mourya 2017 eq. 5). `p` is `None` in sync mode, where every node
 /// computes every round (`p_v = 1`).
 pub fn prox_steps(gamma: f64, scaling: ProxScaling, p: Option<&[f64]>, n: usize) -> Vec<f64> {
     match (scaling, p) {

@@ -1,4 +1,4 @@
-//! The local least-squares cost of one receiver, seed 002 eq. (9)-(10).
+//! The local least-squares cost of one receiver, Mourya 2017 eq. (9)-(10).
 //!
 //! For node `v` with lifted variable `theta~ = [x, y, d]` (`d = ||theta - r_v||`):
 //!
@@ -6,7 +6,7 @@
 //!   `g = ||t_m||^2 - rho_{m,v}^2 - ||r_v||^2`;
 //! * two DOA rows: `omega [1, 0, -cos phi]`, `omega [0, 1, -sin phi]`,
 //!   `g = omega x_r`, `omega y_r`;
-//! * one row per one-way range `r_v` (TOA, seed 000): `[0, 0, 1]`, `g = r_v`.
+//! * one row per one-way range `r_v` (TOA, Pun-So 2022): `[0, 0, 1]`, `g = r_v`.
 //!
 //! `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2`.
 
@@ -240,7 +240,7 @@ mod tests {
 
     #[test]
     fn the_first_fix_of_noise_free_rows_is_the_lifted_true_position() {
-        let g = Geometry::seed002();
+        let g = Geometry::mourya2017();
         let x = Vec2::new(512.0, 433.0);
         let s = SampleMeasurements::noise_free(&g, &x, true, false);
         for (v, r) in g.receivers.iter().enumerate() {
@@ -257,7 +257,7 @@ mod tests {
 
     #[test]
     fn noise_weights_divide_each_row_by_its_first_order_noise_std() {
-        let g = Geometry::seed002();
+        let g = Geometry::mourya2017();
         let x = Vec2::new(512.0, 433.0);
         let s = SampleMeasurements::noise_free(&g, &x, true, true);
         let sig = Sigmas {
@@ -298,7 +298,7 @@ mod tests {
 
     #[test]
     fn a_node_with_fewer_than_three_rows_starts_at_the_transmitters_centroid() {
-        let g = Geometry::seed002();
+        let g = Geometry::mourya2017();
         let x = Vec2::new(512.0, 433.0);
         let s = SampleMeasurements::noise_free(&g, &x, false, false);
         let r = g.receivers[0];

@@ -8,8 +8,8 @@
 //!
 //! The solvers of the centralised baselines ([`crate::estimators::baselines`])
 //! are adapters over the library's estimators: the online trackers of
-//! seeds 000/001 ([`OnlineSolver`]), the robust estimators of seed 004
-//! ([`RobustSolver`]), POCS of seed 003 ([`PocsSolver`]) and the closed-form
+//! Pun-So 2022 and 2020 ([`OnlineSolver`]), the robust estimators of Shi 2024
+//! ([`RobustSolver`]), POCS of Gholami 2015 ([`PocsSolver`]) and the closed-form
 //! linear least squares ([`LlsSolver`]). Each is configured with validated
 //! `with_*` builders, so a bad parameter is refused where it enters.
 
@@ -47,7 +47,7 @@ fn refuse(key: &'static str, reason: impl Into<String>) -> ConfigError {
 
 /// The estimation problem of a track: every sample's measurements in one
 /// geometry, and the true first position when a truth file gives it (the
-/// trackers' exact initialisation, seed 000 Sec. V, needs it).
+/// trackers' exact initialisation, Pun-So 2022 Sec. V, needs it).
 #[derive(Debug, Clone, Copy)]
 pub struct TrackProblem<'a> {
     /// Sensor positions.
@@ -70,7 +70,7 @@ pub trait SampleSolver {
         Ok(())
     }
     /// The estimate held before the next `solve`, for estimators that carry
-    /// one (seed 001's `x_t` in `f_t(x_t)`, eq. (2)); `None` otherwise.
+    /// one (Pun-So 2020's `x_t` in `f_t(x_t)`, eq. (2)); `None` otherwise.
     fn prior(&self) -> Option<Vec2> {
         None
     }
@@ -227,16 +227,16 @@ pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> T
     run
 }
 
-/// Which online tracker of seed 000 an [`OnlineSolver`] runs.
+/// Which online tracker of Pun-So 2022 an [`OnlineSolver`] runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OnlineRule {
-    /// Online gradient descent (seed 000 eq. (3)) with this step rule.
+    /// Online gradient descent (Pun-So 2022 eq. (3)) with this step rule.
     Ogd(StepSize),
-    /// Online Newton method (seed 000 Sec. V) with this damping.
+    /// Online Newton method (Pun-So 2022 Sec. V) with this damping.
     Onm(NewtonDamping),
 }
 
-/// An online tracker of seeds 000/001 as a [`SampleSolver`]: `x_0` from its
+/// An online tracker of Pun-So 2022 and 2020 as a [`SampleSolver`]: `x_0` from its
 /// [`online::Init`], then one update per sample, keeping its estimate where a
 /// step fails.
 pub struct OnlineSolver {
@@ -263,7 +263,7 @@ impl OnlineSolver {
         })
     }
 
-    /// How `x_0` is chosen (seed 000 Sec. V).
+    /// How `x_0` is chosen (Pun-So 2022 Sec. V).
     pub fn with_init(mut self, init: online::Init) -> Self {
         self.init = init;
         self
@@ -318,7 +318,7 @@ impl SampleSolver for OnlineSolver {
     }
 }
 
-/// Which estimator of seed 004 a [`RobustSolver`] runs.
+/// Which estimator of Shi 2024 a [`RobustSolver`] runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum RobustMethod {
     /// Nonlinear least squares (eq. (3)).
@@ -332,7 +332,7 @@ pub enum RobustMethod {
 }
 
 /// The sparsity `kappa` of l0-OS: given, or from an outlier fraction of the
-/// links each sample has (seed 004 Sec. IV-A).
+/// links each sample has (Shi 2024 Sec. IV-A).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Sparsity {
     /// `kappa` itself.
@@ -341,7 +341,7 @@ pub enum Sparsity {
     Fraction(f64),
 }
 
-/// A robust one-sample estimator of seed 004 on each sample's bistatic links.
+/// A robust one-sample estimator of Shi 2024 on each sample's bistatic links.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RobustSolver {
     method: RobustMethod,
@@ -400,7 +400,7 @@ impl SampleSolver for RobustSolver {
 }
 
 /// One-way and bistatic range sets of a sample as discs and ellipses,
-/// enlarged by `rho` (seed 003 Remark 4): the feasible set of the bounds and
+/// enlarged by `rho` (Gholami 2015 Remark 4): the feasible set of the bounds and
 /// of POCS. DOAs are not used.
 pub fn regions_of(geometry: &Geometry, sample: &SampleMeasurements, rho: f64) -> Vec<Region> {
     let mut out = Vec::new();
@@ -420,7 +420,7 @@ pub fn regions_of(geometry: &Geometry, sample: &SampleMeasurements, rho: f64) ->
     out
 }
 
-/// POCS onto the farthest disc or ellipse (seed 003 eq. (18)), each sample
+/// POCS onto the farthest disc or ellipse (Gholami 2015 eq. (18)), each sample
 /// started from the previous estimate (the first from the sensors' centroid).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PocsSolver {
@@ -507,7 +507,7 @@ mod tests {
     use super::*;
     use approx::assert_abs_diff_eq;
 
-    /// Seed 002's network and a target moving 11 m per sample, measured
+    /// Mourya 2017's network and a target moving 11 m per sample, measured
     /// without noise (bistatic and one-way ranges).
     struct Fixture {
         g: Geometry,
@@ -517,7 +517,7 @@ mod tests {
 
     impl Fixture {
         fn new() -> Self {
-            let g = Geometry::seed002();
+            let g = Geometry::mourya2017();
             let truth: Vec<Vec2> = (0..6)
                 .map(|k| Vec2::new(400.0 + 10.0 * k as f64, 300.0 - 5.0 * k as f64))
                 .collect();

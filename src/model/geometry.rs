@@ -2,7 +2,7 @@
 
 /// A 2-D point or vector (metres).
 pub type Vec2 = nalgebra::Vector2<f64>;
-/// The lifted local variable `theta~ = [x, y, d]` of seed 002 eq. (9)-(13).
+/// The lifted local variable `theta~ = [x, y, d]` of Mourya 2017 eq. (9)-(13).
 pub type Vec3 = nalgebra::Vector3<f64>;
 /// 3x3 matrix.
 pub type Mat3 = nalgebra::Matrix3<f64>;

@@ -35,10 +35,10 @@ pub struct Geometry {
 }
 
 impl Geometry {
-    /// The network of seed 002 Sec. III-C (Fig. 1): transmitters at `(0, 0)`
+    /// The network of Mourya 2017 Sec. III-C (Fig. 1): transmitters at `(0, 0)`
     /// and `(2000, 2000)` m, six receivers around them. The one copy of it for
     /// tests and benches (`scenarios/mourya2017-spiral.toml` states it too).
-    pub fn seed002() -> Self {
+    pub fn mourya2017() -> Self {
         Geometry {
             transmitters: vec![Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)],
             receivers: vec![
@@ -90,7 +90,7 @@ pub struct SampleMeasurements {
 
 impl SampleMeasurements {
     /// What every receiver measures of a target at `x` without noise: the
-    /// bistatic range from each transmitter (seed 002 eq. 1), and the DOA
+    /// bistatic range from each transmitter (Mourya 2017 eq. 1), and the DOA
     /// (eq. 2) and one-way range where asked for. For tests and examples
     /// that need exact data.
     pub fn noise_free(geometry: &Geometry, x: &Vec2, with_doa: bool, with_range: bool) -> Self {

@@ -55,7 +55,7 @@ pub struct TrackScore {
     pub median_error: f64,
     /// Error at the last sample.
     pub final_error: f64,
-    /// Cumulative target tracking error `sum_t ||x_t - x_t*||` (seed 000).
+    /// Cumulative target tracking error `sum_t ||x_t - x_t*||` (Pun-So 2022).
     pub ctte: f64,
 }
 

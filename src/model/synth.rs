@@ -12,9 +12,9 @@ use crate::model::noise::{NlosMask, NoiseModel};
 use crate::model::rng::{Stream, stream_rng};
 use serde::{Deserialize, Serialize};
 
-/// Synthesize every receiver's measurements along `truth` (seed 002 Sec. III-A:
+/// Synthesize every receiver's measurements along `truth` (Mourya 2017 Sec. III-A:
 /// `rho_{m,n} = ||theta - t_m|| + ||theta - r_n|| + noise`,
-/// `phi_n = atan2(theta_y - r_ny, theta_x - r_nx) + noise`; seed 000: one-way
+/// `phi_n = atan2(theta_y - r_ny, theta_x - r_nx) + noise`; Pun-So 2022: one-way
 /// `||theta - r_n|| + noise`).
 pub fn synthesize(
     geometry: &Geometry,

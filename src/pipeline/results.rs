@@ -173,7 +173,7 @@ pub struct RunMetrics {
     pub final_error: Option<f64>,
     /// Cumulative target tracking error.
     pub ctte: Option<f64>,
-    /// Dynamic regret of `theta_bar` (seed 001), see [`crate::pipeline::score`].
+    /// Dynamic regret of `theta_bar` (Pun-So 2020), see [`crate::pipeline::score`].
     pub regret: Option<f64>,
     /// Largest consensus disagreement over all samples.
     pub max_disagreement: f64,

@@ -5,19 +5,19 @@
 //! trial ([`crate::pipeline::montecarlo`]).
 //!
 //! * **Error, RMSE, CTTE** ([`crate::model::metrics`]): `e_k = ||x_k - x_k*||`,
-//!   `CTTE = sum_k e_k` (seed 000 Sec. II).
-//! * **Dynamic regret** (seed 001 Sec. II): `sum_k f_k(x_k) - f_k(x_hat_k)`
+//!   `CTTE = sum_k e_k` (Pun-So 2022 Sec. II).
+//! * **Dynamic regret** (Pun-So 2020 Sec. II): `sum_k f_k(x_k) - f_k(x_hat_k)`
 //!   with the range loss `f_k` of [`crate::estimators::online::loss`] and `x_hat_k` found
 //!   by gradient descent from the true position, step `1/m`, until
-//!   `||grad|| < 1e-8` or 5000 iterations (seed 000 Sec. V,
+//!   `||grad|| < 1e-8` or 5000 iterations (Pun-So 2022 Sec. V,
 //!   [`crate::estimators::online::x_hat`]). `x_k` is the track's estimate at sample `k`.
-//!   For the online trackers `regret_pred` is seed 001's own indexing
+//!   For the online trackers `regret_pred` is Pun-So 2020's own indexing
 //!   (eq. (2): `f_t` is evaluated at the estimate made *before* sample `t`).
 //! * **Curve shape**: `ctte_rate_mid`, `ctte_rate_3q`, `ctte_rate` are
 //!   `CTTE(t)/t` at `t = T/2, 3T/4, T` (a decreasing sequence is sublinear
 //!   growth); `regret_slope_first_tenth` / `_last_tenth` are the mean regret
 //!   increments per sample over the first and the last tenth of the run.
-//! * **Bounds** (seed 003): per sample, the discs and ellipses of all ranges
+//! * **Bounds** (Gholami 2015): per sample, the discs and ellipses of all ranges
 //!   enlarged by `rho` (Remark 4) and the chosen bounds at each track's
 //!   estimate. `coverage` is the fraction of samples whose set is nonempty
 //!   and whose bound is at least the true error; `invalid_fraction` the
@@ -85,7 +85,7 @@ pub struct TrackMetrics {
     pub regret_slope_first_tenth: Option<f64>,
     /// Mean regret increment per sample over the last tenth.
     pub regret_slope_last_tenth: Option<f64>,
-    /// Online trackers: seed 001's regret, `f_t` at the estimate before sample `t`.
+    /// Online trackers: Pun-So 2020's regret, `f_t` at the estimate before sample `t`.
     pub regret_pred: Option<f64>,
     /// `regret_pred` increments over the first tenth.
     pub regret_pred_slope_first_tenth: Option<f64>,

@@ -6,7 +6,7 @@
 //! in-process engine and the `sonarnet-node` processes drive the very same
 //! core, so both compute bit-identical states.
 //!
-//! The math (seed 002 eq. 11 and Sec. II-B):
+//! The math (Mourya 2017 eq. 11 and Sec. II-B):
 //! * prox step: `theta_i = prox_{gamma f_i}(u_i)`, reflected point `r_i = 2 theta_i - u_i`;
 //! * consensus: `z_i = (a, r_i[2])` where `a` averages the position parts of
 //!   the reflected points of the communicating nodes (the pair `{v, w}` in

@@ -1,5 +1,5 @@
 //! The message-driven engine equals a direct, sequential transcription of
-//! seed 002 eq. (11) (async) and of the sync consensus update, bit for bit.
+//! Mourya 2017 eq. (11) (async) and of the sync consensus update, bit for bit.
 
 use crate::util::scenario;
 use sonarnet::engine::{Clock, RunPlan};
@@ -10,7 +10,7 @@ use sonarnet::model::geometry::{Vec2, Vec3};
 use sonarnet::pipeline;
 use sonarnet::scenario::{InitMode, Mode, RowWeights, Scenario};
 
-/// Seed 002 eq. (5)'s `p_v` for the drawn schedule, written out again from
+/// Mourya 2017 eq. (5)'s `p_v` for the drawn schedule, written out again from
 /// the definition: `P(v draws) + sum_w P(neighbour w draws and calls v)`,
 /// `1/N + sum_{w in N(v)} 1/(N deg(w))`, in that order of operations.
 fn p_v(sc: &Scenario, v: usize) -> f64 {

@@ -224,7 +224,7 @@ fn a_replayed_trace_and_schedule_give_the_same_nodes_over_processes() {
         first.to_str().unwrap(),
     ]);
     assert!(o.status.success());
-    let geometry = sonarnet::model::measure::Geometry::seed002().toml_table();
+    let geometry = sonarnet::model::measure::Geometry::mourya2017().toml_table();
     let text = format!(
         r#"name = "replay"
 seed = 123

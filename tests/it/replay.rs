@@ -67,7 +67,7 @@ fn a_trace_without_truth_still_gives_estimates_and_says_why_errors_are_missing()
         .unwrap();
     let first = TempDir::new("notruth-a");
     run_inprocess(&sc, first.path());
-    let geometry = sonarnet::model::measure::Geometry::seed002().toml_table();
+    let geometry = sonarnet::model::measure::Geometry::mourya2017().toml_table();
     let text = format!(
         r#"name = "no-truth"
 [geometry]

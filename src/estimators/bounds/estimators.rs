@@ -1,5 +1,5 @@
-//! Position estimator of seed 003 Sec. 4: POCS (eq. (15)-(18)). Its other
-//! estimator, the closed-form linear least squares (seed 000 eq. (15)-(17)), is
+//! Position estimator of Gholami 2015 Sec. 4: POCS (eq. (15)-(18)). Its other
+//! estimator, the closed-form linear least squares (Pun-So 2022 eq. (15)-(17)), is
 //! [`crate::estimators::online::ols_toa`] (one-way ranges) and [`crate::estimators::online::ols_position`]
 //! (also bistatic ranges): one implementation for the bounds, the trackers and the
 //! `lls` baseline.
@@ -19,7 +19,7 @@ pub struct PocsResult {
     pub feasible: bool,
 }
 
-/// POCS with the farthest-set rule of seed 003 eq. (17)-(18): while the largest
+/// POCS with the farthest-set rule of Gholami 2015 eq. (17)-(18): while the largest
 /// distance `f(x) = max_i dist(x, B_i)` (eq. (15)) exceeds `tol`, replace `x` by its
 /// exact projection onto the farthest region. Returns after `max_iter`
 /// projections with `feasible = false` if the regions are not reached (e.g. an

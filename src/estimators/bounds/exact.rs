@@ -1,8 +1,8 @@
-//! `upp_exact` (beyond seed 003): the exact worst-case error
+//! `upp_exact` (beyond Gholami 2015): the exact worst-case error
 //! `max_{x in B} ||x - x_hat||` over the 2-D feasible set `B`, the
-//! intersection of discs (one-way ranges, seed 003 eq. (12)) and filled
+//! intersection of discs (one-way ranges, Gholami 2015 eq. (12)) and filled
 //! ellipses (bistatic ranges), with the same `rho` enlargement as the other
-//! bounds. The relaxations of seed 003 (eq. (26), (43)-(44), (48)-(49),
+//! bounds. The relaxations of Gholami 2015 (eq. (26), (43)-(44), (48)-(49),
 //! (52)-(54)) are made for n-dimensional sets; in the plane the maximum itself
 //! is a finite enumeration.
 //!
@@ -41,7 +41,7 @@
 //! Every candidate inside every piece (violation at most `tol`, below) is
 //! kept, and the bound is the largest distance plus the allowance. Two
 //! prunings keep it to microseconds, and neither drops a point of `B`: `B`
-//! lies in the relaxed box (seed 003 eq. (53)), so a piece that holds the
+//! lies in the relaxed box (Gholami 2015 eq. (53)), so a piece that holds the
 //! whole box (its four corners, by convexity) has no boundary point in `B`
 //! and contributes no curve, and a root more than `1e-4 L` outside the box
 //! is dropped before it is polished; the rest are polished and judged from

@@ -1,9 +1,9 @@
 //! Certified position-error bounds and set-based estimators (Gholami, Ström,
 //! Wymeersch, Rydström, "On geometric upper bounds for positioning algorithms in
-//! wireless sensor networks", seed 003), for one-way ranges (discs) and
+//! wireless sensor networks", Gholami 2015), for one-way ranges (discs) and
 //! bistatic ranges (ellipses) in 2-D.
 //!
-//! With range errors bounded below by `-rho` (seed 003 Remark 4), the true
+//! With range errors bounded below by `-rho` (Gholami 2015 Remark 4), the true
 //! position lies in the intersection `B` of the [`Region`]s. For an estimate
 //! `x_hat` every bound `u` here satisfies `u >= max_{x in B} ||x - x_hat||`,
 //! so `u >= ||x_true - x_hat||`, whatever the conic solver's accuracy: each
@@ -11,7 +11,7 @@
 //! Upp-BBox's and Upp-MaxDis's dual variables, evaluated exactly plus a
 //! round-off allowance), not the solver's own objective value:
 //!
-//! | function | seed 003 | formulation |
+//! | function | Gholami 2015 | formulation |
 //! |---|---|---|
 //! | [`upp_rbbox`] | eq. (52)-(54) | closed form: intersect per-region boxes, farthest corner from `x_hat` |
 //! | [`upp_bbox`] | eq. (48)-(49) | exact bounding box of `B` from 4 SOCPs, farthest corner |
@@ -37,7 +37,7 @@
 //! boxes) and `upp_maxdis <= upp_minball` (the enclosing-ball S-lemma
 //! certificate composed with the exact one-constraint S-lemma for
 //! `ball(c, R) in ball(x_hat, R + ||x_hat - c||)` is dual feasible for the SDP).
-//! Seed 003 reports Upp-MaxDis as the tightest in its 10 m cube; it is not a
+//! Gholami 2015 reports Upp-MaxDis as the tightest in its 10 m cube; it is not a
 //! theorem, and on random 2-D instances with anchors ~100 m away Upp-BBox is
 //! the tightest (about 1.06 x the brute-force `v_max1`) while Upp-MaxDis is
 //! 1.5-2.8 x: the SDP slack `min_i (d_i^2 - ||x - a_i||^2)` grows with the
@@ -108,7 +108,7 @@ pub struct AxisBox {
 
 impl AxisBox {
     /// Diagonal length `sqrt(sum_l (hi_l - lo_l)^2)`: the paper's bound on the
-    /// maximum length of the set (seed 003 eq. (49) and (54)).
+    /// maximum length of the set (Gholami 2015 eq. (49) and (54)).
     pub fn diagonal(&self) -> f64 {
         (self.hi - self.lo).norm()
     }
@@ -132,9 +132,9 @@ impl AxisBox {
 /// A disc `||x - center|| <= radius` containing the feasible set.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ball {
-    /// Centre `x_c` (seed 003 eq. (42) for discs).
+    /// Centre `x_c` (Gholami 2015 eq. (42) for discs).
     pub center: Vec2,
-    /// Radius `R` (seed 003 eq. (44)).
+    /// Radius `R` (Gholami 2015 eq. (44)).
     pub radius: f64,
 }
 
@@ -221,12 +221,12 @@ impl Intersection {
         self.origin + y * self.scale
     }
 
-    /// Intersection of the per-region bounding boxes, seed 003 eq. (53).
+    /// Intersection of the per-region bounding boxes, Gholami 2015 eq. (53).
     pub fn relaxed_box(&self) -> AxisBox {
         self.relaxed
     }
 
-    /// Exact bounding box of the set, seed 003 eq. (48a)-(48b) (`None` if the
+    /// Exact bounding box of the set, Gholami 2015 eq. (48a)-(48b) (`None` if the
     /// solver finds the set empty).
     pub fn bounding_box(&self) -> Result<Option<AxisBox>, BoundError> {
         Ok(solve::bounding_box(&self.local)?.map(|(lo, hi)| AxisBox {
@@ -244,7 +244,7 @@ impl Intersection {
             .collect()
     }
 
-    /// S-lemma enclosing ball (seed 003 eq. (34)-(44)); `None` if the
+    /// S-lemma enclosing ball (Gholami 2015 eq. (34)-(44)); `None` if the
     /// certificate proves the set empty. Discs only: the simplex QP (43) with
     /// `x_c` from eq. (42); with ellipses: the 5x5 LMI SDP form of eq. (37).
     pub fn min_ball(&self) -> Result<Option<Ball>, BoundError> {
@@ -285,7 +285,7 @@ impl Intersection {
         }))
     }
 
-    /// `v_sdp` of seed 003 eq. (26) (in m^2): the SDP relaxation value of
+    /// `v_sdp` of Gholami 2015 eq. (26) (in m^2): the SDP relaxation value of
     /// `max_{x in B} ||x - x_hat||^2` (`None` if the solver finds `B` empty).
     pub fn maxdis_sdp_value(&self, x_hat: &Vec2) -> Result<Option<f64>, BoundError> {
         check_point(x_hat)?;
@@ -338,7 +338,7 @@ fn check_point(x: &Vec2) -> Result<(), BoundError> {
     }
 }
 
-/// Intersection of the per-region axis-aligned boxes (seed 003 eq. (53),
+/// Intersection of the per-region axis-aligned boxes (Gholami 2015 eq. (53),
 /// generalised to ellipses); `None` when a region is empty or the boxes do not
 /// meet.
 pub fn relaxed_box(regions: &[Region]) -> Option<AxisBox> {
@@ -367,7 +367,7 @@ fn with_intersection(
     }
 }
 
-/// Upp-RBBox, seed 003 eq. (52)-(54): the per-region axis-aligned boxes (the
+/// Upp-RBBox, Gholami 2015 eq. (52)-(54): the per-region axis-aligned boxes (the
 /// l-infinity balls for discs) are intersected in closed form and the bound is
 /// the distance from `x_hat` to the farthest corner (at most the eq. (54)
 /// diagonal when `x_hat` is in the box). Includes the emptiness check (one SOCP).
@@ -375,20 +375,20 @@ pub fn upp_rbbox(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, Bound
     with_intersection(regions, x_hat, |i, x| i.upp_rbbox(x))
 }
 
-/// Upp-BBox, seed 003 eq. (48)-(49): exact bounding box of the intersection from
+/// Upp-BBox, Gholami 2015 eq. (48)-(49): exact bounding box of the intersection from
 /// two SOCPs per axis; the bound is the farthest corner from `x_hat`.
 pub fn upp_bbox(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_bbox(x))
 }
 
-/// Upp-MinBall, seed 003 eq. (43)-(44): S-lemma enclosing ball `(x_c, R)`; the
+/// Upp-MinBall, Gholami 2015 eq. (43)-(44): S-lemma enclosing ball `(x_c, R)`; the
 /// bound is `R + ||x_hat - x_c||` (the paper's `2R` when `x_hat` is feasible is
 /// never smaller).
 pub fn upp_minball(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_minball(x))
 }
 
-/// `upp_exact` (beyond seed 003, [`exact`]): the exact worst-case error
+/// `upp_exact` (beyond Gholami 2015, [`exact`]): the exact worst-case error
 /// `max_{x in B} ||x - x_hat||` in 2-D, from the vertices of the set and the
 /// stationary points of the distance on its boundary curves, plus a
 /// documented round-off allowance. Includes the emptiness check (one SOCP).
@@ -396,7 +396,7 @@ pub fn upp_exact(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, Bound
     with_intersection(regions, x_hat, |i, x| i.upp_exact(x))
 }
 
-/// Upp-MaxDis, seed 003 eq. (26): `sqrt(v_sdp)` of the SDP relaxation of
+/// Upp-MaxDis, Gholami 2015 eq. (26): `sqrt(v_sdp)` of the SDP relaxation of
 /// `max_{x in B} ||x - x_hat||^2`.
 pub fn upp_maxdis(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_maxdis(x))

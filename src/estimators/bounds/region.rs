@@ -5,17 +5,17 @@
 use crate::model::geometry::Vec2;
 use nalgebra::Matrix2;
 
-/// One convex piece of the feasible set of seed 003 eq. (12)-(13), extended to
+/// One convex piece of the feasible set of Gholami 2015 eq. (12)-(13), extended to
 /// bistatic ranges. A position `x` that produced a range with a nonnegative error
-/// lies in the piece (seed 003 Sec. 4; Remark 4 for the enlargement `rho`).
+/// lies in the piece (Gholami 2015 Sec. 4; Remark 4 for the enlargement `rho`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Region {
-    /// One-way range: `||x - center|| <= radius` (a disc, seed 003 eq. (12)).
+    /// One-way range: `||x - center|| <= radius` (a disc, Gholami 2015 eq. (12)).
     /// A negative radius is an empty set.
     Disc {
         /// Anchor (receiver) position.
         center: Vec2,
-        /// Enlarged measured range `d^_i + rho_i` (seed 003 eq. (20)).
+        /// Enlarged measured range `d^_i + rho_i` (Gholami 2015 eq. (20)).
         radius: f64,
     },
     /// Bistatic range: `||x - f1|| + ||x - f2|| <= sum`, a filled ellipse with foci
@@ -32,7 +32,7 @@ pub enum Region {
 }
 
 /// A quadratic constraint in the standard form `x^T P x + 2 q^T x + r <= 0`
-/// used by the QCQP (1) and its SDP relaxation (2) of seed 003.
+/// used by the QCQP (1) and its SDP relaxation (2) of Gholami 2015.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Quadratic {
     /// Symmetric matrix `P` (here always positive semidefinite).
@@ -109,7 +109,7 @@ impl Region {
     }
 
     /// Disc from a one-way range measured at `anchor`, enlarged by `rho >= 0`
-    /// (seed 003 Remark 4, eq. (19)-(21): `d~ = d^ + rho` bounds the true range
+    /// (Gholami 2015 Remark 4, eq. (19)-(21): `d~ = d^ + rho` bounds the true range
     /// when the error is at least `-rho`).
     pub fn from_range(anchor: Vec2, measured: f64, rho: f64) -> Self {
         Region::Disc {
@@ -119,7 +119,7 @@ impl Region {
     }
 
     /// Ellipse from a bistatic range `||x - tx|| + ||x - rx||` measured with an
-    /// error of at least `-rho` (seed 003 Remark 4 applied to the range sum).
+    /// error of at least `-rho` (Gholami 2015 Remark 4 applied to the range sum).
     pub fn from_bistatic(tx: Vec2, rx: Vec2, measured: f64, rho: f64) -> Self {
         Region::Ellipse {
             f1: tx,
@@ -169,7 +169,7 @@ impl Region {
         self.violation(x) <= tol
     }
 
-    /// Euclidean projection `P_B(x)` of seed 003 eq. (17)-(18); `None` when the
+    /// Euclidean projection `P_B(x)` of Gholami 2015 eq. (17)-(18); `None` when the
     /// region is empty. For an ellipse outside point the exact nearest boundary
     /// point is found from the 1-D secular equation (safeguarded Newton).
     pub fn project(&self, x: &Vec2) -> Option<Vec2> {
@@ -199,7 +199,7 @@ impl Region {
     }
 
     /// Axis-aligned bounding box `(lo, hi)` of the region (`None` when empty):
-    /// for a disc the l-infinity ball of seed 003 Sec. 5.2.3, for an ellipse
+    /// for a disc the l-infinity ball of Gholami 2015 Sec. 5.2.3, for an ellipse
     /// with semi-axes `a` (along unit `u`) and `b` the half-widths
     /// `sqrt(a^2 u_x^2 + b^2 u_y^2)` and `sqrt(a^2 u_y^2 + b^2 u_x^2)`.
     pub fn aabb(&self) -> Option<(Vec2, Vec2)> {
@@ -224,7 +224,7 @@ impl Region {
     }
 
     /// Standard-form quadratics whose intersection is the region (`None` when
-    /// empty). A disc gives `||x||^2 - 2 c^T x + ||c||^2 - R^2 <= 0` (seed 003
+    /// empty). A disc gives `||x||^2 - 2 c^T x + ||c||^2 - R^2 <= 0` (Gholami 2015
     /// eq. (25)). An ellipse with centre `c`, unit major axis `u`, `u_perp`,
     /// semi-axes `a = sum/2`, `b = sqrt(a^2 - ||f1 - f2||^2/4)` is
     /// `((x-c).u)^2 / a^2 + ((x-c).u_perp)^2 / b^2 <= 1`; multiplied by `b^2`:

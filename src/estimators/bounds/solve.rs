@@ -328,7 +328,7 @@ pub(crate) fn min_max_violation(regions: &[Region]) -> Result<(f64, Vec2), Bound
     }
 }
 
-/// Exact axis-aligned bounding box of the intersection, seed 003 eq. (48a)-(48b):
+/// Exact axis-aligned bounding box of the intersection, Gholami 2015 eq. (48a)-(48b):
 /// four SOCPs `max / min y_l` over the set (one solver, objective updated).
 /// Returns `None` when the solver finds the set empty. Each extreme is the
 /// value that the solver's dual variables certify ([`Conic::certified_min`]),
@@ -405,7 +405,7 @@ fn add_psd(c: &mut Conic, dim: usize, entry: impl Fn(usize, usize) -> (f64, Vec<
     c.cones.push(PSDTriangleConeT(dim));
 }
 
-/// SDP relaxation (seed 003 eq. (2), (25)-(26)) of `max ||x - x_hat||^2` over the
+/// SDP relaxation (Gholami 2015 eq. (2), (25)-(26)) of `max ||x - x_hat||^2` over the
 /// quadratics: variables `v = [x1, x2, Z11, Z12, Z22]`,
 /// `max tr(Z) - 2 x_hat^T x + ||x_hat||^2` s.t. `tr(P_k Z) + 2 q_k^T x + r_k <= 0`,
 /// `[[Z, x], [x^T, 1]] >= 0` (3x3 PSD). Returns the value the solver's dual
@@ -505,7 +505,7 @@ fn moment_box(quads: &[Quadratic], xbox: &[(f64, f64); 2]) -> Option<[(f64, f64)
         .then_some([(0.0, t), (-t / 2.0, t / 2.0), (0.0, t)])
 }
 
-/// Minimum-ball bound for discs only, seed 003 eq. (43) as a convex QP over the
+/// Minimum-ball bound for discs only, Gholami 2015 eq. (43) as a convex QP over the
 /// simplex: `v = [lambda_1..lambda_N, c1, c2]`,
 /// `min ||c||^2 - sum lambda_i (||a_i||^2 - d_i^2)` s.t. `c = sum lambda_i a_i`,
 /// `sum lambda_i = 1`, `lambda >= 0`. The returned `(c, R^2)` is re-evaluated
@@ -576,7 +576,7 @@ pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f6
     (xc, xc.norm_squared() - offsets + round_off(2.0 * size))
 }
 
-/// General S-lemma minimum enclosing ball (seed 003 eq. (34)-(37) with quadratic
+/// General S-lemma minimum enclosing ball (Gholami 2015 eq. (34)-(37) with quadratic
 /// constraints `x^T P_k x + 2 q_k^T x + r_k <= 0`): `v = [lambda_1..lambda_K, c1, c2, gamma]`,
 /// `min gamma` s.t. `lambda >= 0` and the 5x5 LMI
 /// `[[S, g, 0], [g^T, h, c^T], [0, c, I]] >= 0`, `S = sum lambda_k P_k - I`,
@@ -645,7 +645,7 @@ pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, Bo
 }
 
 /// The enclosing ball that multipliers `lambda` certify, evaluated exactly
-/// (seed 003 eq. (35)-(37) for fixed `lambda`): with `H = sum lambda_k P_k`,
+/// (Gholami 2015 eq. (35)-(37) for fixed `lambda`): with `H = sum lambda_k P_k`,
 /// `b = sum lambda_k q_k` and `rho = sum lambda_k r_k`, every `x` of the set
 /// has `x^T H x + 2 b^T x + rho <= 0`, that is `(x - c)^T H (x - c) <= gamma`
 /// for `c = -H^-1 b` and `gamma = b^T H^-1 b - rho`; when `H >= I` this gives

@@ -173,7 +173,7 @@ fn multipliers_summing_to_one_on_discs_give_the_ball_of_eq_42_43() {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, ..ProptestConfig::default() })]
 
-    /// Seed 003 eq. (35): any multipliers `lambda >= 0` certify a ball,
+    /// Gholami 2015 eq. (35): any multipliers `lambda >= 0` certify a ball,
     /// after scaling; it holds every point of the set, here the true
     /// position and the set's points on a grid over its bounding box.
     #[test]
@@ -333,7 +333,7 @@ pub(super) struct Instance {
 }
 
 /// Positive range errors: exponential (mean 1) plus, with prob. 0.2, a uniform
-/// NLOS bias in (0, 10), as in seed 003 Sec. 6.
+/// NLOS bias in (0, 10), as in Gholami 2015 Sec. 6.
 pub(super) fn positive_error(rng: &mut SonarRng) -> f64 {
     let u: f64 = rng.random_range(1e-12..1.0);
     let mut e = -u.ln();

@@ -1,9 +1,9 @@
-//! Initial estimates: exact or OLS (seed 000 eq. (15)-(17)), and the closed-form linear
+//! Initial estimates: exact or OLS (Pun-So 2022 eq. (15)-(17)), and the closed-form linear
 //! LS of one-way and bistatic ranges.
 
 use super::*;
 
-/// How a tracker's `x_0` is chosen (seed 000 Sec. V).
+/// How a tracker's `x_0` is chosen (Pun-So 2022 Sec. V).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Init {
@@ -37,7 +37,7 @@ pub(super) const OLS_RANK_REL: f64 = 1e-10;
 
 /// OLS position estimate from one sample.
 ///
-/// * With at least 3 one-way ranges whose anchors are not collinear: seed 000
+/// * With at least 3 one-way ranges whose anchors are not collinear: Pun-So 2022
 ///   eq. (15)-(17), `x_0 = (A^T A)^{-1} A^T b` with rows
 ///   `a_{i+1} - a_i` and `b_i = (||a_{i+1}||^2 - ||a_i||^2 + r_i^2 - r_{i+1}^2)/2`
 ///   over the anchors in node order (eq. (17) as printed has an index typo;
@@ -120,12 +120,12 @@ pub fn ols_position(geometry: &Geometry, sample: &SampleMeasurements) -> Result<
     Err(TrackError::OlsDegenerate(why))
 }
 
-/// Closed-form linear least squares on differenced squared one-way ranges, seed 000
+/// Closed-form linear least squares on differenced squared one-way ranges, Pun-So 2022
 /// eq. (15)-(17): subtracting `||x - a_i||^2 = r_i^2` from the next equation gives
 /// `(a_{i+1} - a_i)^T x = (||a_{i+1}||^2 - ||a_i||^2 + r_i^2 - r_{i+1}^2) / 2`,
 /// `i = 1..m-1`, solved as `x = (A^T A)^{-1} A^T b` over the `(anchor, range)` pairs in
 /// the given order. The one implementation of this estimator: [`ols_position`] (and
-/// so the trackers' OLS initialisation and the `lls` baseline) and the seed 003
+/// so the trackers' OLS initialisation and the `lls` baseline) and the Gholami 2015
 /// bound tests use it.
 ///
 /// Errors (as text, for [`TrackError::OlsDegenerate`]): fewer than 3 pairs,
@@ -183,10 +183,10 @@ pub struct LiftedRow {
 
 /// Closed-form linear least squares of bistatic ranges, the one implementation
 /// for the trackers' OLS start and the `lls` baseline ([`ols_position`]) and
-/// the robust estimators' linear start (seed 004, [`crate::estimators::robust`]).
+/// the robust estimators' linear start (Shi 2024, [`crate::estimators::robust`]).
 ///
 /// Squaring `||x - lift|| = rho - ||x - other||` gives, for every row, the
-/// equation of seed 002 eq. (9) linear in `x` and the lifted `d_key`:
+/// equation of Mourya 2017 eq. (9) linear in `x` and the lifted `d_key`:
 /// `[2 (other - lift)^T, -2 rho] [x; d_key] = ||other||^2 - rho^2 - ||lift||^2`,
 /// written in coordinates centred on `centre` for conditioning. Each `d_key`
 /// is eliminated in closed form (the Schur complement of its column), which

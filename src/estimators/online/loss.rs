@@ -1,5 +1,5 @@
-//! The time-varying least-squares loss of one sample (seed 000 eq. (3); bistatic terms
-//! as seed 001), with its gradient and Hessian.
+//! The time-varying least-squares loss of one sample (Pun-So 2022 eq. (3); bistatic terms
+//! as Pun-So 2020), with its gradient and Hessian.
 
 use super::*;
 
@@ -12,7 +12,7 @@ pub struct LossEval {
     pub grad: Vec2,
     /// `hess f_t(x)` (zero when only the gradient was requested).
     pub hess: Mat2,
-    /// Number of squared residuals in `f_t` (the `m` of seed 000 for TOA).
+    /// Number of squared residuals in `f_t` (the `m` of Pun-So 2022 for TOA).
     pub terms: usize,
     /// Sum of the per-term gradient-Lipschitz weights: 1 per one-way range,
     /// 4 per bistatic range (`||u_t + u_r||^2 <= 4`). Equals `terms` for TOA.
@@ -141,13 +141,13 @@ pub(super) fn accumulate<const GRAD: bool, const HESS: bool>(
     })
 }
 
-/// `f_t(x)`: seed 000 eq. (2) over the one-way ranges plus the bistatic
+/// `f_t(x)`: Pun-So 2022 eq. (2) over the one-way ranges plus the bistatic
 /// least-squares terms (see the module docs). Errors on non-finite input.
 pub fn loss(geometry: &Geometry, sample: &SampleMeasurements, x: &Vec2) -> Result<f64, TrackError> {
     accumulate::<false, false>(geometry, sample, x).map(|e| e.value)
 }
 
-/// `f_t(x)` and `grad f_t(x) = sum 2 e_i u_i` (seed 000 eq. (3)); for a
+/// `f_t(x)` and `grad f_t(x) = sum 2 e_i u_i` (Pun-So 2022 eq. (3)); for a
 /// bistatic term `u_i = u_t + u_r`, the sum of the unit vectors from both foci.
 pub fn loss_grad(
     geometry: &Geometry,
@@ -157,7 +157,7 @@ pub fn loss_grad(
     accumulate::<true, false>(geometry, sample, x)
 }
 
-/// `f_t`, its gradient and Hessian. One-way term (seed 001, proof of Thm. 1):
+/// `f_t`, its gradient and Hessian. One-way term (Pun-So 2020, proof of Thm. 1):
 /// `2 u u^T + 2 e (I - u u^T)/d`; bistatic term:
 /// `2 s s^T + 2 e [(I - u_t u_t^T)/d_t + (I - u_r u_r^T)/d_r]`, `s = u_t + u_r`.
 pub fn loss_grad_hess(

@@ -2,22 +2,22 @@
 //!
 //! Implements the time-varying least-squares formulation of Pun & So,
 //! "Local strong convexity of source localization and error bound for target
-//! tracking under TOA measurements" (seed 000) and "Dynamic regret bound for
-//! moving target tracking based on online TOA measurements" (seed 001):
+//! tracking under TOA measurements" (Pun-So 2022) and "Dynamic regret bound for
+//! moving target tracking based on online TOA measurements" (Pun-So 2020):
 //!
-//! * the per-sample loss `f_t` (seed 000 eq. (2), seed 001 eq. (1)), extended
+//! * the per-sample loss `f_t` (Pun-So 2022 eq. (2), Pun-So 2020 eq. (1)), extended
 //!   to bistatic ranges, with analytic gradient and Hessian ([`loss`],
 //!   [`loss_grad`], [`loss_grad_hess`]);
-//! * online gradient descent ([`OgdTracker`], seed 000 eq. (3)) with constant
-//!   or `eta0 / sqrt(t)` steps (seed 001 Sec. V);
-//! * the online Newton method ([`OnmTracker`], seed 000 Sec. V) with a
+//! * online gradient descent ([`OgdTracker`], Pun-So 2022 eq. (3)) with constant
+//!   or `eta0 / sqrt(t)` steps (Pun-So 2020 Sec. V);
+//! * the online Newton method ([`OnmTracker`], Pun-So 2022 Sec. V) with a
 //!   documented modification when the Hessian is not positive definite;
-//! * exact and OLS initialisation ([`Init`], [`ols_position`], seed 000
+//! * exact and OLS initialisation ([`Init`], [`ols_position`], Pun-So 2022
 //!   eq. (15)-(17));
-//! * least-squares estimates `x_hat_t` by gradient descent ([`x_hat`], seed 000
-//!   Sec. V-A), dynamic regret (seed 001 Sec. II) and CTTE (seed 000 Sec. II)
+//! * least-squares estimates `x_hat_t` by gradient descent ([`x_hat`], Pun-So 2022
+//!   Sec. V-A), dynamic regret (Pun-So 2020 Sec. II) and CTTE (Pun-So 2022 Sec. II)
 //!   accumulators;
-//! * the target trajectories of seed 000 eq. (19) and seed 001 Sec. V
+//! * the target trajectories of Pun-So 2022 eq. (19) and Pun-So 2020 Sec. V
 //!   ([`walk_trajectory`] of a [`Walk`]).
 //!
 //! # The loss
@@ -25,12 +25,12 @@
 //! For one sample (time `t`) the loss sums one squared residual per range:
 //!
 //! ```text
-//! f_t(x) = sum_{n with range r_n}     (||x - r_n|| - range_n)^2                   (one-way, seed 000 eq. 2)
+//! f_t(x) = sum_{n with range r_n}     (||x - r_n|| - range_n)^2                   (one-way, Pun-So 2022 eq. 2)
 //!        + sum_{(m, n) with rho_{m,n}} (||x - t_m|| + ||x - r_n|| - rho_{m,n})^2  (bistatic)
 //! ```
 //!
-//! The anchors of seed 000 are the receivers `r_n` that report a one-way
-//! `range`. Direction-of-arrival measurements (`doa`) are **ignored**: seed 000
+//! The anchors of Pun-So 2022 are the receivers `r_n` that report a one-way
+//! `range`. Direction-of-arrival measurements (`doa`) are **ignored**: Pun-So 2022
 //! and 001 are range-only, and mixing radians with metres would need a weight
 //! the papers do not give.
 //!
@@ -114,12 +114,12 @@ pub enum TrackError {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "rule", rename_all = "snake_case", deny_unknown_fields)]
 pub enum StepSize {
-    /// `eta_t = eta` (seed 000 Sec. V: `eta = 0.1`).
+    /// `eta_t = eta` (Pun-So 2022 Sec. V: `eta = 0.1`).
     Constant {
         /// The step size.
         eta: f64,
     },
-    /// `eta_t = eta0 / sqrt(t)` (seed 001 Sec. V: `eta0 = 1`).
+    /// `eta_t = eta0 / sqrt(t)` (Pun-So 2020 Sec. V: `eta0 = 1`).
     InvSqrt {
         /// The step size at `t = 1`.
         eta0: f64,
@@ -182,7 +182,7 @@ impl StepSize {
 /// positive definite. Let `lambda_1 >= lambda_2` be the eigenvalues of
 /// `hess f_t(x_{t-1})` and `floor = max(rel_floor * max|lambda_i|, abs_floor)`.
 /// When `lambda_2 >= floor` both variants take the plain Newton step of
-/// seed 000 Sec. V, `x_t = x_{t-1} - (hess f_t)^{-1} grad f_t`.
+/// Pun-So 2022 Sec. V, `x_t = x_{t-1} - (hess f_t)^{-1} grad f_t`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum NewtonDamping {
@@ -199,7 +199,7 @@ pub enum NewtonDamping {
         abs_floor: f64,
     },
     /// The paper's undamped step with the Hessian as it is, also when it is
-    /// indefinite (seed 000 Sec. V): `x_{t-1} - (hess f_t)^{-1} grad f_t`. Only a
+    /// indefinite (Pun-So 2022 Sec. V): `x_{t-1} - (hess f_t)^{-1} grad f_t`. Only a
     /// Hessian that is singular to `floor` (`min |lambda_i| < floor`) has no step:
     /// the update fails, the tracker keeps its estimate and counts a failure.
     Plain {
@@ -372,7 +372,7 @@ fn commit(x: Vec2, what: &'static str) -> Result<Vec2, TrackError> {
     }
 }
 
-/// Online gradient descent, seed 000 eq. (3):
+/// Online gradient descent, Pun-So 2022 eq. (3):
 /// `x_t = x_{t-1} - eta_t grad f_t(x_{t-1})`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OgdTracker {
@@ -444,7 +444,7 @@ impl Tracker for OgdTracker {
     }
 }
 
-/// Online Newton method, seed 000 Sec. V (after Lesage-Landry et al., seed 000 ref. 23):
+/// Online Newton method, Pun-So 2022 Sec. V (after Lesage-Landry et al., Pun-So 2022 ref. 23):
 /// `x_t = x_{t-1} - (hess f_t(x_{t-1}))^{-1} grad f_t(x_{t-1})`, with the
 /// [`NewtonDamping`] modification when the Hessian is not safely positive
 /// definite. Never returns a non-finite estimate.
@@ -525,7 +525,7 @@ mod tests {
     use proptest::prelude::*;
     use rand_distr::{Distribution, StandardNormal};
 
-    /// Seed 000 / 001 Sec. V anchors.
+    /// Pun-So 2022 / 001 Sec. V anchors.
     fn paper_geometry() -> Geometry {
         Geometry {
             transmitters: vec![],
@@ -1320,8 +1320,8 @@ mod tests {
     }
 
     /// Mean running CTTE over `trials` of OGD (`eta = 0.1`) and ONM on the
-    /// seed 000 Sec. V setup with trajectory eq. (19) (scale `c`) and noise `sigma(t)`.
-    fn seed000_ctte(
+    /// Pun-So 2022 Sec. V setup with trajectory eq. (19) (scale `c`) and noise `sigma(t)`.
+    fn pun_so_2022_ctte(
         init: Init,
         c: f64,
         sigma: &dyn Fn(usize) -> f64,
@@ -1399,8 +1399,8 @@ mod tests {
     }
 
     #[test]
-    #[ignore = "reproduction of seed 000 Sec. V-A (prints numbers)"]
-    fn reproduce_seed000_sec_v_a_ctte_of_ogd_vs_onm() {
+    #[ignore = "reproduction of Pun-So 2022 Sec. V-A (prints numbers)"]
+    fn reproduce_pun_so_2022_sec_v_a_ctte_of_ogd_vs_onm() {
         let trials = 200;
         let cps = [10, 50, 100, 200, 300, 400, 500];
         let scenarios: [(&str, SigmaOfT); 3] = [
@@ -1411,14 +1411,14 @@ mod tests {
                 Box::new(|t| 0.01 / (t as f64).sqrt()),
             ),
         ];
-        println!("seed 000 Sec. V-A: T = 500, c = 0.005, {trials} trials, OGD eta = 0.1");
+        println!("Pun-So 2022 Sec. V-A: T = 500, c = 0.005, {trials} trials, OGD eta = 0.1");
         for (label, sigma) in &scenarios {
             for init in [Init::Exact, Init::Ols] {
-                let cv = seed000_ctte(init, 0.005, sigma.as_ref(), 500, trials);
+                let cv = pun_so_2022_ctte(init, 0.005, sigma.as_ref(), 500, trials);
                 print_curves(&format!("{label}, {init:?} init"), &cv, &cps);
             }
         }
-        println!("seed 000 Fig. 2 / Fig. 3: T = 10000, exact init");
+        println!("Pun-So 2022 Fig. 2 / Fig. 3: T = 10000, exact init");
         let cps = [100, 1000, 2000, 5000, 10000];
         let long: [(&str, SigmaOfT); 3] = [
             ("Fig. 2 sigma = 1e-4", Box::new(|_| 1e-4)),
@@ -1432,14 +1432,14 @@ mod tests {
             ),
         ];
         for (label, sigma) in &long {
-            let cv = seed000_ctte(Init::Exact, 0.005, sigma.as_ref(), 10_000, trials);
+            let cv = pun_so_2022_ctte(Init::Exact, 0.005, sigma.as_ref(), 10_000, trials);
             print_curves(label, &cv, &cps);
         }
     }
 
     #[test]
-    #[ignore = "reproduction of seed 001 Sec. V examples 1-3 (prints numbers)"]
-    fn reproduce_seed001_examples_dynamic_regret_of_ogd() {
+    #[ignore = "reproduction of Pun-So 2020 Sec. V examples 1-3 (prints numbers)"]
+    fn reproduce_pun_so_2020_examples_dynamic_regret_of_ogd() {
         let g = paper_geometry();
         let horizon = 10_000;
         let trials = 200u64;
@@ -1466,10 +1466,10 @@ mod tests {
             ),
         ];
         println!(
-            "seed 001 Sec. V: T = {horizon}, {trials} trials, OGD eta_t = 1/sqrt(t), x_0 = x_0^*"
+            "Pun-So 2020 Sec. V: T = {horizon}, {trials} trials, OGD eta_t = 1/sqrt(t), x_0 = x_0^*"
         );
         println!(
-            "  regret_pred = sum f_t(x_(t-1)) - f_t(x_hat_t) (seed 001 definition); regret_post uses x_t"
+            "  regret_pred = sum f_t(x_(t-1)) - f_t(x_hat_t) (Pun-So 2020 definition); regret_post uses x_t"
         );
         let cps = [1usize, 10, 100, 1000, 5000, 10_000];
         for (label, motion, sigma) in examples {

@@ -1,18 +1,18 @@
-//! The least-squares estimates `x_hat_t` (seed 000 Sec. V-A), dynamic regret (seed 001
-//! Sec. II) and CTTE (seed 000 Sec. II) accumulators.
+//! The least-squares estimates `x_hat_t` (Pun-So 2022 Sec. V-A), dynamic regret (Pun-So 2020
+//! Sec. II) and CTTE (Pun-So 2022 Sec. II) accumulators.
 
 use super::*;
 
-/// Options of the gradient-descent computation of `x_hat_t` (seed 000 Sec. V-A).
+/// Options of the gradient-descent computation of `x_hat_t` (Pun-So 2022 Sec. V-A).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct XHatOptions {
     /// GD step; `None` means `1 / m_eff` with `m_eff` = [`LossEval::weight`]
-    /// (`= 1/m` of seed 000 for TOA; bistatic terms count 4 because their
+    /// (`= 1/m` of Pun-So 2022 for TOA; bistatic terms count 4 because their
     /// curvature `2 ||u_t + u_r||^2` can reach 8).
     pub step: Option<f64>,
-    /// Stop when `||grad f_t|| <` this (seed 000: `1e-8`).
+    /// Stop when `||grad f_t|| <` this (Pun-So 2022: `1e-8`).
     pub grad_tol: f64,
-    /// Stop after this many GD iterations (seed 000: 5000).
+    /// Stop after this many GD iterations (Pun-So 2022: 5000).
     pub max_iter: usize,
 }
 
@@ -41,7 +41,7 @@ pub struct XHat {
     pub converged: bool,
 }
 
-/// `x_hat_t ~ argmin f_t` by gradient descent from `start` (seed 000 Sec. V-A
+/// `x_hat_t ~ argmin f_t` by gradient descent from `start` (Pun-So 2022 Sec. V-A
 /// uses the true position `x_t^*`), constant step, until the gradient norm is
 /// below `grad_tol` or `max_iter` iterations; the last iterate is returned.
 pub fn x_hat(
@@ -85,8 +85,8 @@ pub fn x_hat(
     })
 }
 
-/// One dynamic-regret term `f_t(x) - f_t(x_hat_t)` (seed 001 Sec. II).
-/// Seed 001 evaluates `f_t` at the estimate made *before* sample `t`
+/// One dynamic-regret term `f_t(x) - f_t(x_hat_t)` (Pun-So 2020 Sec. II).
+/// Pun-So 2020 evaluates `f_t` at the estimate made *before* sample `t`
 /// (`x_{t-1}` in this module's indexing). Can be slightly negative when
 /// `x_hat_t` is only a local or approximate minimiser.
 pub fn regret_term(
@@ -98,7 +98,7 @@ pub fn regret_term(
     Ok(loss(geometry, sample, x)? - x_hat.value)
 }
 
-/// Running dynamic regret `sum_t f_t(x_t) - f_t(x_hat_t)` (seed 001 Sec. II).
+/// Running dynamic regret `sum_t f_t(x_t) - f_t(x_hat_t)` (Pun-So 2020 Sec. II).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct DynamicRegret {
     /// The running sum.
@@ -117,7 +117,7 @@ impl DynamicRegret {
 }
 
 /// Running cumulative target tracking error `CTTE = sum_t ||x_t - x_t^*||`
-/// (seed 000 Sec. II).
+/// (Pun-So 2022 Sec. II).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Ctte {
     /// The running sum.

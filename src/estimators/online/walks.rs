@@ -1,4 +1,4 @@
-//! The target trajectories of seed 000 eq. (19) and seed 001 Sec. V, from the random
+//! The target trajectories of Pun-So 2022 eq. (19) and Pun-So 2020 Sec. V, from the random
 //! walks of [`crate::model::motion::Walk`].
 
 use super::*;
@@ -32,7 +32,7 @@ pub fn walk_trajectory<R: RngExt + ?Sized>(
     Ok(out)
 }
 
-/// Seed 000 eq. (19) trajectory of `len` positions from `start` (a shorthand
+/// Pun-So 2022 eq. (19) trajectory of `len` positions from `start` (a shorthand
 /// for [`Walk::SqrtDecayCircle`]).
 pub fn trajectory_eq19<R: RngExt + ?Sized>(
     start: Vec2,

@@ -1,7 +1,7 @@
-//! Proximal operators of the local cost (seed 002 eq. 11 and eq. 13).
+//! Proximal operators of the local cost (Mourya 2017 eq. 11 and eq. 13).
 //!
 //! For node `v` with lifted variable `theta~ = [x, y, d]`, local cost
-//! `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2` (seed 002 eq. 9-10), step `gamma > 0`
+//! `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2` (Mourya 2017 eq. 9-10), step `gamma > 0`
 //! and input `u`:
 //!
 //! * [`prox_relaxed`] solves eq. (11) without the quadratic relation (12): the
@@ -29,7 +29,7 @@
 //! (`-b` in the cone), the apex `y = 0`. The real roots of `P` (at most 4) are exactly the
 //! KKT points of the equality-constrained problem (13) away from the apex, on either
 //! nappe: the same points as the roots of the quartic secular equation of Beck, Stoica
-//! and Li 2008 (seed 002 ref. 6) / Moré 1993, but with no poles and no "hard case",
+//! and Li 2008 (Mourya 2017 ref. 6) / Moré 1993, but with no poles and no "hard case",
 //! which is an artefact of the multiplier parametrisation, not of the angle `phi`.
 //!
 //! The substitution `t = tan((phi - phi0)/2)` turns `P = 0` into a quartic in `t`; the
@@ -72,7 +72,7 @@ pub enum ProxError {
 }
 
 /// Check `gamma`, `u` and the local problem data (`H`, `c`, anchor) for the prox of
-/// seed 002 eq. (11)/(13). Non-finite rows or `g` show up as non-finite `H` or `c`.
+/// Mourya 2017 eq. (11)/(13). Non-finite rows or `g` show up as non-finite `H` or `c`.
 /// The one input check of every prox; [`crate::estimators::prox::l0`] adds its per-row check.
 pub(crate) fn validate(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<(), ProxError> {
     if !(gamma.is_finite() && gamma > 0.0) {
@@ -99,7 +99,7 @@ fn all_finite<'a>(xs: impl Iterator<Item = &'a f64>) -> bool {
 }
 
 /// The relaxed prox: `argmin_theta f_v(theta) + 1/(2 gamma) ||theta - u||^2` with no
-/// constraint (seed 002 eq. 11 without eq. 12), i.e. the solution of the SPD system
+/// constraint (Mourya 2017 eq. 11 without eq. 12), i.e. the solution of the SPD system
 /// `(H + I/gamma) theta = c + u/gamma`.
 ///
 /// Errors: [`ProxError::BadGamma`] if `gamma` is not finite and positive,
@@ -122,7 +122,7 @@ pub fn prox_relaxed(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, Prox
     }
 }
 
-/// The exact GTRS prox of seed 002 eq. (13): the **global** minimiser of
+/// The exact GTRS prox of Mourya 2017 eq. (13): the **global** minimiser of
 /// `f_v(theta~) + 1/(2 gamma) ||theta~ - u||^2` over the upper nappe of the cone (12),
 /// `||theta~[0:2] - r_v|| = theta~[2] >= 0` (apex `[r_v, 0]` included).
 ///
@@ -162,7 +162,7 @@ const SAMPLES: [(f64, f64); 5] = [
 ];
 
 /// The global minimiser of `q(y) = 1/2 y^T A y - b^T y` over the upper nappe
-/// `{y : y_0^2 + y_1^2 = y_2^2, y_2 >= 0}` of the cone of seed 002 eq. (12) (in shifted
+/// `{y : y_0^2 + y_1^2 = y_2^2, y_2 >= 0}` of the cone of Mourya 2017 eq. (12) (in shifted
 /// coordinates `y = theta~ - r~_v`). This is the core of [`prox_gtrs`] (eq. 13).
 ///
 /// `a` must be symmetric positive definite (only its upper triangle is read).
@@ -1009,10 +1009,10 @@ pub(crate) mod tests {
         }
     }
 
-    /// The paper's geometry (seed 002 Sec. III-C): node `v` of 6, noise-free
+    /// The paper's geometry (Mourya 2017 Sec. III-C): node `v` of 6, noise-free
     /// measurements of a target at `[520, 480]`.
     pub(crate) fn paper_problem(v: usize) -> LocalProblem {
-        let geometry = crate::model::measure::Geometry::seed002();
+        let geometry = crate::model::measure::Geometry::mourya2017();
         let tx = &geometry.transmitters;
         let target = Vec2::new(520.0, 480.0);
         let r = geometry.receivers[v];
@@ -1261,7 +1261,7 @@ pub(crate) mod tests {
             du in (-300.0f64..300.0, -300.0f64..300.0, -300.0f64..300.0),
             log_gamma in -1.0f64..3.0,
         ) {
-            let geometry = crate::model::measure::Geometry::seed002();
+            let geometry = crate::model::measure::Geometry::mourya2017();
             let tx = &geometry.transmitters;
             let x = Vec2::new(target.0, target.1);
             let r = geometry.receivers[v];

@@ -1,16 +1,16 @@
 //! A robust local prox: GTRS with `l0`-norm outlier separation (`local_solver = "gtrs_l0"`).
 //!
-//! Seed 004 (Shi et al., "An l0-norm Optimization-based Algorithm for Robust and
+//! Shi 2024 (Shi et al., "An l0-norm Optimization-based Algorithm for Robust and
 //! Efficient MIMO Localization") models outliers as a sparse vector `o` added to the
 //! measurements, `||o||_0 <= kappa` (eq. 6), and alternates a location update with
 //! hard thresholding of `o` (eq. 7a-7b, 19-20). Here the same idea is applied to one
-//! node's prox step of seed 002 eq. (13): with `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2`
-//! (seed 002 eq. 9-10), step `gamma > 0` and input `u`, [`prox_gtrs_l0`] solves
+//! node's prox step of Mourya 2017 eq. (13): with `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2`
+//! (Mourya 2017 eq. 9-10), step `gamma > 0` and input `u`, [`prox_gtrs_l0`] solves
 //!
 //! `min_{theta~ in K_v, ||o||_0 <= kappa_v}  J(theta~, o) = 1/2 ||B_v theta~ - g_v - o||^2
 //!                                                   + 1/(2 gamma) ||theta~ - u||^2`
 //!
-//! where `K_v` is the upper nappe of the cone (seed 002 eq. 12), the feasible set of
+//! where `K_v` is the upper nappe of the cone (Mourya 2017 eq. 12), the feasible set of
 //! [`prox_gtrs`]. `o` lives on the rows of `B_v`: one row per bistatic range, two per
 //! DOA, one per one-way range, so a corrupted DOA takes two of the `kappa` slots.
 //!
@@ -29,7 +29,7 @@
 //!
 //! * [`prox_gtrs_l0_enumerate`]: every support of size `kappa`, `C(n, kappa)` GTRS
 //!   solves; the **exact global** minimiser.
-//! * [`prox_gtrs_l0_alternate`]: seed 004 eq. (7) from `o = 0`. The location step
+//! * [`prox_gtrs_l0_alternate`]: Shi 2024 eq. (7) from `o = 0`. The location step
 //!   (7a) is the GTRS prox with `g` replaced by `g + o`, taken jointly with the
 //!   nonzero values of `o` on its current support `S` (= the GTRS prox with the rows
 //!   `S` deleted, see above); the outlier step (7b) is the hard thresholding of eq.
@@ -82,7 +82,7 @@ pub enum L0Method {
     Plain,
     /// All `C(n, kappa)` supports (exact).
     Enumerate,
-    /// Seed 004 eq. (7) alternation (a local solution).
+    /// Shi 2024 eq. (7) alternation (a local solution).
     Alternate,
 }
 
@@ -129,7 +129,7 @@ pub fn binomial(n: usize, k: usize) -> usize {
 
 /// The `gtrs_l0` prox (module docs): the exact minimiser of `J` over supports of size
 /// [`effective_kappa`]`(rows, kappa)` by enumeration when there are at most
-/// [`MAX_ENUMERATED_SUPPORTS`] of them, else the seed 004 eq. (7) alternation.
+/// [`MAX_ENUMERATED_SUPPORTS`] of them, else the Shi 2024 eq. (7) alternation.
 ///
 /// Errors: [`ProxError::BadGamma`], [`ProxError::NonFinite`] (any row, `g`, `u` or the
 /// anchor), [`ProxError::Degenerate`] (as [`prox_gtrs`], or an overflowing objective).
@@ -245,7 +245,7 @@ fn enumerate_supports(
     }
 }
 
-/// The seed 004 eq. (7) alternation for the `gtrs_l0` prox (module docs), from
+/// The Shi 2024 eq. (7) alternation for the `gtrs_l0` prox (module docs), from
 /// `o = 0`: location step = [`prox_gtrs`] with `g` replaced by `g + o` jointly with
 /// `o` on its support (the rows of the support deleted), outlier step = hard
 /// thresholding eq. (19)-(20) keeping the `k = `[`effective_kappa`]`(rows, kappa)`
@@ -514,7 +514,7 @@ mod tests {
             prop_assert!((r.objective - f).abs() <= tol(&c, &th, &th, f), "J {:e} vs l0 objective {f:e}", r.objective);
         }
 
-        /// Alternation (seed 004 eq. 7) never increases the objective, returns its best
+        /// Alternation (Shi 2024 eq. 7) never increases the objective, returns its best
         /// iterate, and is never better than the exact enumeration.
         #[test]
         fn the_alternation_objective_never_increases_and_never_beats_enumeration((c, kappa) in l0_case()) {
@@ -586,7 +586,7 @@ mod tests {
 
     #[test]
     fn gtrs_l0_recovers_the_clean_row_prox_when_one_bistatic_row_is_grossly_corrupted() {
-        let geometry = crate::model::measure::Geometry::seed002();
+        let geometry = crate::model::measure::Geometry::mourya2017();
         let txs = &geometry.transmitters;
         let target = Vec2::new(520.0, 480.0);
         for v in 0..6 {

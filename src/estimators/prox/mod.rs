@@ -1,6 +1,6 @@
 //! The local prox a node takes, as chosen by `algorithm.local_solver`: one
-//! dispatcher over the relaxed prox and the GTRS prox of seed 002
-//! ([`crate::estimators::prox::gtrs`]) and the robust `gtrs_l0` prox of seed 004
+//! dispatcher over the relaxed prox and the GTRS prox of Mourya 2017
+//! ([`crate::estimators::prox::gtrs`]) and the robust `gtrs_l0` prox of Shi 2024
 //! ([`crate::estimators::prox::l0`]). It sits above both, so neither imports the other's
 //! caller.
 
@@ -22,7 +22,7 @@ pub enum LocalSolver {
     /// Unconstrained prox, a 3x3 SPD solve (eq. 11 without eq. 12).
     Relaxed,
     /// Exact prox on the cone with `l0` outlier separation of up to `kappa` rows
-    /// (seed 004 eq. 7, 19-20); see [`crate::estimators::prox::l0`].
+    /// (Shi 2024 eq. 7, 19-20); see [`crate::estimators::prox::l0`].
     #[serde(rename = "gtrs_l0")]
     GtrsL0,
 }
@@ -40,7 +40,7 @@ impl LocalSolver {
 
 /// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13), [`prox_relaxed`] (eq. 11) or
 /// [`prox_gtrs_l0`] (eq. 13 with `l0` outlier separation of up to
-/// `kappa` rows, seed 004 eq. 7). `kappa` is ignored by the other two.
+/// `kappa` rows, Shi 2024 eq. 7). `kappa` is ignored by the other two.
 pub fn prox(
     solver: LocalSolver,
     p: &LocalProblem,

@@ -7,7 +7,7 @@ use super::*;
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Init {
-    /// Closed-form linear least squares on the lifted rows of seed 002 eq. (9)
+    /// Closed-form linear least squares on the lifted rows of Mourya 2017 eq. (9)
     /// (unknowns `e` and one `d_j = ||e - r_j||` per receiver, the `d_j`
     /// eliminated by a Schur complement); falls back to [`Init::Centroid`]
     /// when that 2x2 system is singular. Not robust to outliers.
@@ -26,7 +26,7 @@ pub(super) fn default_l0os_tol() -> f64 {
     1e-4
 }
 
-/// Parameters of [`l0os`] (seed 004 Algorithm 1).
+/// Parameters of [`l0os`] (Shi 2024 Algorithm 1).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct L0osConfig {
@@ -35,7 +35,7 @@ pub struct L0osConfig {
     /// Iteration cap (default 500).
     #[serde(default = "default_l0os_max_iter")]
     pub max_iter: usize,
-    /// Stop when `||e^k - e^{k-1}|| / ||e^{k-1}|| < tol` (default `1e-4`, seed 004
+    /// Stop when `||e^k - e^{k-1}|| / ||e^{k-1}|| < tol` (default `1e-4`, Shi 2024
     /// Sec. IV-A); the denominator is floored at `1e-3` times the sensor spread.
     #[serde(default = "default_l0os_tol")]
     pub tol: f64,
@@ -56,7 +56,7 @@ impl L0osConfig {
     }
 }
 
-/// `kappa = round(p m n)` of seed 004 Sec. IV-A for an outlier fraction
+/// `kappa = round(p m n)` of Shi 2024 Sec. IV-A for an outlier fraction
 /// `p` in `[0, 1]` and `n_links = m n` links.
 pub fn kappa_from_fraction(p: f64, n_links: usize) -> Result<usize, RobustError> {
     if !(p.is_finite() && (0.0..=1.0).contains(&p)) {
@@ -85,7 +85,7 @@ pub(super) fn default_smooth_tol() -> f64 {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IrlsConfig {
-    /// Exponent `q` (default 1.5 as seed 004 Sec. IV-A; [`lad`] forces 1).
+    /// Exponent `q` (default 1.5 as Shi 2024 Sec. IV-A; [`lad`] forces 1).
     #[serde(default = "default_q")]
     pub q: f64,
     /// Smoothing `eps > 0` (metres) of `(r^2 + eps^2)^{q/2}` (default `1e-3`).

@@ -1,8 +1,8 @@
-//! L0-norm outlier separation (seed 004 Sec. III, eq. (7), (19)-(20)).
+//! L0-norm outlier separation (Shi 2024 Sec. III, eq. (7), (19)-(20)).
 
 use super::*;
 
-/// Seed 004 Algorithm 1 (`l0`-norm outlier separation, `l0-OS`): minimise
+/// Shi 2024 Algorithm 1 (`l0`-norm outlier separation, `l0-OS`): minimise
 /// `f(e, o) = sum_{i,j} (s_{ij} - ||e - t_i|| - ||e - r_j|| - o_{ij})^2`
 /// s.t. `||o||_0 <= kappa` (eq. 6) by alternating
 ///
@@ -21,7 +21,7 @@ use super::*;
 /// convex and is majorised instead by `|gamma| (||e - t||^2 / ||e^k - t|| + ||e^k - t||)`,
 /// which adds `|gamma| / ||e^k - t||` to the weights of `t` in eq. (14) and
 /// drops `p`. With every `gamma >= 0` the update is exactly eq. (14); in all
-/// cases the objective trace is non-increasing (seed 004 Sec. III).
+/// cases the objective trace is non-increasing (Shi 2024 Sec. III).
 pub fn l0os(
     geom: &Geometry,
     links: &[BistaticLink],

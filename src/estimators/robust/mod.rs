@@ -1,15 +1,15 @@
 //! Centralised robust localisation of one sample from its bistatic ranges.
 //!
 //! Every estimator sees the bistatic ranges `s_{i,j} = ||e - t_i|| + ||e - r_j|| + noise`
-//! of one sample (seed 004 eq. (1)-(2)) as a list of [`BistaticLink`]s and
+//! of one sample (Shi 2024 eq. (1)-(2)) as a list of [`BistaticLink`]s and
 //! returns a position [`Estimate`]. DOA and one-way ranges are ignored: the
-//! robust formulations of seed 004 are written for bistatic ranges only.
+//! robust formulations of Shi 2024 are written for bistatic ranges only.
 //!
-//! * [`l0os`]: seed 004 Algorithm 1, alternating the MM closed-form location
+//! * [`l0os`]: Shi 2024 Algorithm 1, alternating the MM closed-form location
 //!   update (eq. 14) and hard thresholding of the outlier vector (eq. 19-20);
-//! * [`lq_irls`]: `sum_l (r_l^2 + eps^2)^{q/2}`, `1 < q < 2` (seed 004 eq. (4));
+//! * [`lq_irls`]: `sum_l (r_l^2 + eps^2)^{q/2}`, `1 < q < 2` (Shi 2024 eq. (4));
 //! * [`lad`]: the same with `q = 1` (least absolute deviations);
-//! * [`ls`]: plain nonlinear least squares, seed 004 eq. (3).
+//! * [`ls`]: plain nonlinear least squares, Shi 2024 eq. (3).
 //!
 //! The three smooth estimators share one damped Gauss-Newton (Levenberg)
 //! loop whose normal matrix is reweighted at every iteration with the IRLS
@@ -140,7 +140,7 @@ pub struct Estimate {
     pub iterations: usize,
     /// True if the stopping rule fired before the iteration cap.
     pub converged: bool,
-    /// Final objective: `f(e, o)` of seed 004 eq. (6a) for `l0os`,
+    /// Final objective: `f(e, o)` of Shi 2024 eq. (6a) for `l0os`,
     /// `sum (r^2 + eps^2)^{q/2}` for `lq_irls`/`lad`, `sum r^2` for `ls`.
     pub objective: f64,
     /// The objective at `e^0` and after every iteration.
@@ -150,9 +150,9 @@ pub struct Estimate {
     pub outliers: Vec<usize>,
 }
 
-/// The sensor layout of seed 004 Sec. IV-A (`m = n = 8`); the target there is
+/// The sensor layout of Shi 2024 Sec. IV-A (`m = n = 8`); the target there is
 /// `[400, 200]`.
-pub fn seed004_geometry() -> Geometry {
+pub fn shi2024_geometry() -> Geometry {
     let v = |x: f64, y: f64| Vec2::new(x, y);
     Geometry {
         transmitters: vec![
@@ -277,7 +277,7 @@ mod tests {
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
 
-        /// Seed 004 Sec. III: f(e^{k+1}, o^{k+1}) <= f(e^k, o^k), also with
+        /// Shi 2024 Sec. III: f(e^{k+1}, o^{k+1}) <= f(e^k, o^k), also with
         /// negative outliers (the gamma < 0 safeguard) and kappa != #outliers.
         #[test]
         fn l0os_objective_is_monotone_non_increasing_on_random_instances(
@@ -387,7 +387,7 @@ mod tests {
 
     #[test]
     fn l0os_with_exactly_kappa_gross_outliers_matches_the_oracle_that_knows_them() {
-        let g = seed004_geometry();
+        let g = shi2024_geometry();
         let target = Vec2::new(400.0, 200.0);
         let mut rng = stream_rng(4, Stream::Aux, 3);
         for trial in 0..32 {
@@ -466,7 +466,7 @@ mod tests {
 
     #[test]
     fn invalid_inputs_are_typed_errors() {
-        let g = seed004_geometry();
+        let g = shi2024_geometry();
         let e = Vec2::new(400.0, 200.0);
         let links = all_links(&g, &e, |_, _| 0.0);
         let lc = LsConfig::default();
@@ -588,7 +588,7 @@ mod tests {
 
     #[test]
     fn degenerate_inputs_give_finite_estimates_or_errors_never_nan() {
-        let g = seed004_geometry();
+        let g = shi2024_geometry();
         // Target exactly on receiver 8 at the origin, started there: zero distances.
         let at_sensor = all_links(&g, &Vec2::zeros(), |_, _| 0.0);
         let coincident = Geometry {
@@ -637,7 +637,7 @@ mod tests {
 
     #[test]
     fn estimates_are_bitwise_reproducible() {
-        let g = seed004_geometry();
+        let g = shi2024_geometry();
         let mut rng = stream_rng(9, Stream::Aux, 0);
         let links = all_links(&g, &Vec2::new(400.0, 200.0), |_, n| {
             10.0 * gauss(&mut rng) + if n == 2 { 900.0 } else { 0.0 }
@@ -672,12 +672,12 @@ mod tests {
         approx::assert_relative_eq!(l[2].rho, 12.0);
     }
 
-    /// RMSEs of (l0os, lq_irls, lad, ls) over `trials` trials of seed 004
+    /// RMSEs of (l0os, lq_irls, lad, ls) over `trials` trials of Shi 2024
     /// Sec. IV-C: Gaussian variance 100 m^2 on all 64 links, exponential NLOS
     /// bias with standard deviation `nlos_std` on all links of one random
     /// transmitter or receiver, `p = 15%`.
-    fn seed004_exponential_rmse(nlos_std: f64, trials: usize, seed: u64) -> [f64; 4] {
-        let g = seed004_geometry();
+    fn shi2024_exponential_rmse(nlos_std: f64, trials: usize, seed: u64) -> [f64; 4] {
+        let g = shi2024_geometry();
         let target = Vec2::new(400.0, 200.0);
         let noise = NoiseModel::NlosExponential {
             sigma: 10.0,
@@ -712,7 +712,7 @@ mod tests {
     #[test]
     fn l0os_beats_lq_lad_and_ls_under_seed_004_exponential_nlos() {
         for std in [1e2, 1e3, 1e4, 1e5] {
-            let [l0, lq, l1, l2] = seed004_exponential_rmse(std, 200, 2024);
+            let [l0, lq, l1, l2] = shi2024_exponential_rmse(std, 200, 2024);
             println!(
                 "nlos std {std:>8.0e}: RMSE l0os {l0:8.3}  lq_irls {lq:8.3}  lad {l1:8.3}  ls {l2:10.3}"
             );

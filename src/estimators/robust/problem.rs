@@ -1,4 +1,4 @@
-//! One sample's bistatic least-squares problem (seed 004 eq. (1)-(2)): its
+//! One sample's bistatic least-squares problem (Shi 2024 eq. (1)-(2)): its
 //! linearisation, the linear initialisation and the iterate updates shared by the
 //! estimators.
 
@@ -14,7 +14,7 @@ pub(super) struct Problem {
     pub(super) centroid: Vec2,
     /// RMS distance of the sensors from their centroid (floored).
     pub(super) spread: f64,
-    /// Distances below this are clamped (Lemma 1/2 of seed 004 divide by them).
+    /// Distances below this are clamped (Lemma 1/2 of Shi 2024 divide by them).
     pub(super) dist_floor: f64,
 }
 
@@ -116,7 +116,7 @@ impl Problem {
     }
 
     /// Linear LS on the rows `[2 (t - r)^T, -2 s] [e; d_j] = ||t||^2 - s^2 - ||r||^2`
-    /// of seed 002 eq. (9), each receiver's `d_j` lifted
+    /// of Mourya 2017 eq. (9), each receiver's `d_j` lifted
     /// ([`crate::estimators::online::lifted_bistatic_ls`], centred on the sensor
     /// centroid). `None` if singular.
     pub(super) fn linear_init(&self) -> Option<Vec2> {
@@ -130,10 +130,10 @@ impl Problem {
     }
 }
 
-/// Hard thresholding of seed 004 eq. (19)-(20), the one implementation for
+/// Hard thresholding of Shi 2024 eq. (19)-(20), the one implementation for
 /// `l0-OS` here and the `gtrs_l0` prox ([`crate::estimators::prox::l0`]): the indices of
 /// the `kappa` largest `|beta|`, ascending. Ties go to the lower index, so the
-/// result is deterministic (seed 004 allows any tie-break); a NaN counts as
+/// result is deterministic (Shi 2024 allows any tie-break); a NaN counts as
 /// infinitely large, so a poisoned entry is separated first. `order` is
 /// scratch and holds the result.
 pub(crate) fn hard_threshold<'a>(

@@ -1,4 +1,4 @@
-//! The smooth robust losses: lq-IRLS, LAD and plain LS (seed 004 Sec. IV), one
+//! The smooth robust losses: lq-IRLS, LAD and plain LS (Shi 2024 Sec. IV), one
 //! majorise-minimise solver.
 
 use super::*;
@@ -332,7 +332,7 @@ pub(super) fn check_eps(eps: f64) -> Result<(), RobustError> {
     }
 }
 
-/// `l_q` estimator, seed 004 eq. (4) with `1 < q < 2` (the `l_q`-IRLS
+/// `l_q` estimator, Shi 2024 eq. (4) with `1 < q < 2` (the `l_q`-IRLS
 /// competitor of Sec. IV, `q = 1.5`): minimise
 /// `sum_l (r_l^2 + eps^2)^{q/2}`, `r_l = s_l - ||e - t_l|| - ||e - r_l||`,
 /// by IRLS (see the module docs). `q` must lie in `(1, 2)`.
@@ -358,7 +358,7 @@ pub fn lq_irls(
     smooth_solve(&pb, loss, cfg.init, cfg.max_iter, cfg.tol, "lq_irls")
 }
 
-/// Least absolute deviations (seed 004 eq. (4), `q = 1`), smoothed as
+/// Least absolute deviations (Shi 2024 eq. (4), `q = 1`), smoothed as
 /// `sum_l sqrt(r_l^2 + eps^2)` and solved by IRLS. `cfg.q` is ignored.
 pub fn lad(
     geom: &Geometry,
@@ -373,7 +373,7 @@ pub fn lad(
     smooth_solve(&pb, loss, cfg.init, cfg.max_iter, cfg.tol, "lad")
 }
 
-/// Nonlinear least squares of the bistatic ranges, seed 004 eq. (3), by
+/// Nonlinear least squares of the bistatic ranges, Shi 2024 eq. (3), by
 /// Levenberg-damped Gauss-Newton from `cfg.init`. A local minimiser.
 pub fn ls(
     geom: &Geometry,

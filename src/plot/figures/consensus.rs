@@ -32,7 +32,7 @@ pub(super) fn decimate(v: Vec<(f64, f64)>, max: usize) -> Vec<(f64, f64)> {
 
 /// `consensus.svg`: every node's position estimate against the sample (or
 /// the iteration, from `iterations.csv`), with `theta_bar` and the truth,
-/// as seed 002 Fig. 2a; and the disagreement `max_v ||theta_v - theta_bar||`.
+/// as Mourya 2017 Fig. 2a; and the disagreement `max_v ||theta_v - theta_bar||`.
 pub fn consensus_figure(data: &RunData) -> Figure {
     // Points keyed by a global x: the sample index, or the global iteration.
     let (pts, x_label, by_iteration): (&[NodePoint], &str, bool) = match &data.iterations {

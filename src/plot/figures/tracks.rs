@@ -4,7 +4,7 @@
 use super::*;
 
 /// `tracks.svg`: the true track, every estimated track, the geometry to
-/// scale (cf. seed 002 Fig. 2b) and the bound discs at every n-th sample.
+/// scale (cf. Mourya 2017 Fig. 2b) and the bound discs at every n-th sample.
 /// When the tracks cover less than half of the scene, a second panel zooms
 /// on them (same scale on both axes).
 pub fn tracks_figure(data: &RunData) -> Figure {
