@@ -16,3 +16,4 @@ pub mod motion;
 pub mod noise;
 pub mod rng;
 pub mod synth;
+pub mod xy;

@@ -9,10 +9,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Motion {
-    /// Seed 002 Sec. III-C: `x = R cos t + x0`, `y = R sin t + y0`, then
+    /// Mourya 2017 Sec. III-C: `x = R cos t + x0`, `y = R sin t + y0`, then
     /// `R += dR`, `t += dt` after every sample.
     Spiral {
         /// `[x0, y0]`.
+        #[serde(with = "crate::model::xy")]
         center: [f64; 2],
         /// Initial radius `R` (default 0: the track starts at the centre).
         #[serde(default)]
@@ -28,59 +29,68 @@ pub enum Motion {
     /// `x_k = start + k * velocity` (velocity in metres per sample).
     ConstantVelocity {
         /// Position at sample 0.
+        #[serde(with = "crate::model::xy")]
         start: [f64; 2],
         /// Displacement per sample.
+        #[serde(with = "crate::model::xy")]
         velocity: [f64; 2],
     },
     /// A polyline traversed at constant speed: sample 0 at the first point,
     /// the last sample at the last point, linear interpolation by arc length.
     Waypoints {
         /// At least two points.
+        #[serde(with = "crate::model::xy::list")]
         points: Vec<[f64; 2]>,
     },
-    /// Seed 000 eq. (19): `x_{t+1} = x_t + c / sqrt(2 (t + 1)) u_t` with `u_t`
+    /// Pun-So 2022 eq. (19): `x_{t+1} = x_t + c / sqrt(2 (t + 1)) u_t` with `u_t`
     /// uniform on the unit circle, `t = 1..T-1` (sample `k` is `t = k + 1`).
     RandomWalk {
         /// `x_1`.
+        #[serde(with = "crate::model::xy")]
         start: [f64; 2],
         /// Step scale `c`.
         c: f64,
     },
-    /// Seed 001 Examples 1-2: `x_{t+1} = x_t + (-1)^{b_t} c / sqrt(2t) [1, 1]`,
+    /// Pun-So 2020 Examples 1-2: `x_{t+1} = x_t + (-1)^{b_t} c / sqrt(2t) [1, 1]`,
     /// `b_t ~ Bernoulli(1/2)` (sample `k` steps with `t = k + 1`).
     DiagonalWalk {
         /// Position at sample 0.
+        #[serde(with = "crate::model::xy")]
         start: [f64; 2],
-        /// Step scale `c` (seed 001: 0.0025).
+        /// Step scale `c` (Pun-So 2020: 0.0025).
         c: f64,
     },
-    /// Seed 001 Example 3: `x_{t+1} = x_t + d_t`, `d_t` uniform on `[-h, h]^2`.
+    /// Pun-So 2020 Example 3: `x_{t+1} = x_t + d_t`, `d_t` uniform on `[-h, h]^2`.
     UniformBoxWalk {
         /// Position at sample 0.
+        #[serde(with = "crate::model::xy")]
         start: [f64; 2],
-        /// Half width `h` (seed 001: 0.0025).
+        /// Half width `h` (Pun-So 2020: 0.0025).
         half_width: f64,
     },
-    /// Seed 003 Fig. 11: `x_k = x0 + k dx`, `y_k = a x_k^2 + b x_k + c`.
+    /// Gholami 2015 Fig. 11: `x_k = x0 + k dx`, `y_k = a x_k^2 + b x_k + c`.
     QuadraticPath {
         /// `x` at sample 0.
         x0: f64,
         /// `x` increment per sample.
         dx: f64,
-        /// `[a, b, c]` (seed 003: `[-0.0004, 0.3, 10]`).
+        /// `[a, b, c]` (Gholami 2015: `[-0.0004, 0.3, 10]`).
         coefficients: [f64; 3],
     },
     /// A target that does not move.
     Static {
         /// Its position.
+        #[serde(with = "crate::model::xy")]
         position: [f64; 2],
     },
     /// A static target at a position drawn uniformly in the box `[min, max]`
     /// from the run seed (a new position for every Monte Carlo trial).
     UniformStatic {
         /// Lower corner.
+        #[serde(with = "crate::model::xy")]
         min: [f64; 2],
         /// Upper corner.
+        #[serde(with = "crate::model::xy")]
         max: [f64; 2],
     },
 }
@@ -224,7 +234,7 @@ impl Motion {
                     .collect()
             }
             // The displacements are the library's one implementation of seed
-            // 000 eq. (19) and seed 001 Sec. V ([`Walk`]).
+            // 000 eq. (19) and Pun-So 2020 Sec. V ([`Walk`]).
             Motion::RandomWalk { start, c } => {
                 Self::walk(start, Walk::SqrtDecayCircle { c: *c }, samples, rng)
             }
@@ -265,27 +275,27 @@ impl Motion {
     }
 }
 
-/// Random target motions of seed 000 Sec. V and seed 001 Sec. V. Every
+/// Random target motions of Pun-So 2022 Sec. V and Pun-So 2020 Sec. V. Every
 /// variant is a random walk `x_{k+1} = x_k + d_k` on 0-based positions
 /// `k = 0, 1, ...` (the first position is the given start).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Walk {
-    /// Seed 000 eq. (19): `x_{t+1}^* = x_t^* + c / sqrt(2(t+1)) u_t` with
+    /// Pun-So 2022 eq. (19): `x_{t+1}^* = x_t^* + c / sqrt(2(t+1)) u_t` with
     /// 1-based `t` and `u_t` uniform on the unit circle; i.e.
     /// `||d_k|| = c / sqrt(2(k+2))`. Sec. V-A: `c = 0.005`; Sec. V-B: `0.1`, `0.5`.
     SqrtDecayCircle {
         /// Scale `c`.
         c: f64,
     },
-    /// Seed 001 Examples 1-2: `d_t = (-1)^{b_t} c / sqrt(2t) [1, 1]`,
+    /// Pun-So 2020 Examples 1-2: `d_t = (-1)^{b_t} c / sqrt(2t) [1, 1]`,
     /// `b_t ~ Bernoulli(1/2)`, with `c = 0.0025`. The paper indexes `t` from 0,
     /// which divides by zero; here step `k` (0-based) uses `t = k + 1`.
     SqrtDecayDiagonal {
         /// Scale `c`.
         c: f64,
     },
-    /// Seed 001 Example 3: `d_t` uniform on `[-h, h]^2` (`h = 0.0025`).
+    /// Pun-So 2020 Example 3: `d_t` uniform on `[-h, h]^2` (`h = 0.0025`).
     UniformBox {
         /// Half width `h`.
         half_width: f64,

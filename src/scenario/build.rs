@@ -513,14 +513,80 @@ impl Scenario {
 }
 
 pub(super) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> InputError {
+    if let Some(mut shape) = toml::from_str::<toml::Table>(text)
+        .ok()
+        .and_then(|t| unsupported_shape(&t))
+    {
+        shape.file = path.to_path_buf();
+        return shape;
+    }
     let location = e.span().map(|span| {
-        let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-        format!("line {line}")
+        let before = &text[..span.start.min(text.len())];
+        let line = before.matches('\n').count() + 1;
+        // A point's error is raised inside a (multi-line) array: name the
+        // key it belongs to as well as the line.
+        match key_before(before).filter(|_| e.message().contains("a point is [x, y]")) {
+            Some(key) => format!("line {line}, {key}"),
+            None => format!("line {line}"),
+        }
     });
     InputError {
         file: path.to_path_buf(),
         location,
         reason: e.message().to_string(),
+    }
+}
+
+/// The dotted key whose value is being read at the end of `before`: the
+/// last `key =` line, under the last `[table]` header (a best effort for
+/// error messages; `None` when there is none).
+fn key_before(before: &str) -> Option<String> {
+    let mut key = None;
+    for l in before.lines().rev() {
+        let t = l.trim_start();
+        if key.is_none()
+            && let Some((k, _)) = t.split_once('=')
+        {
+            let k = k.trim();
+            if !k.is_empty() && k.chars().all(|c| c.is_alphanumeric() || "_-.".contains(c)) {
+                key = Some(k.to_string());
+            }
+        }
+        if let Some(h) = t.strip_prefix('[') {
+            let table = h
+                .trim_start_matches('[')
+                .split(']')
+                .next()?
+                .trim()
+                .to_string();
+            return key.map(|k| format!("{table}.{k}"));
+        }
+    }
+    key
+}
+
+/// A scenario shape sonarnet does not support, said in words rather than as
+/// serde's type mismatch: several targets (`[[target]]` twice, or a list of
+/// motions).
+fn unsupported_shape(t: &toml::Table) -> Option<InputError> {
+    let one = |key: &str, what: &str| InputError {
+        file: PathBuf::new(),
+        location: Some(key.to_string()),
+        reason: format!("one target is supported: {what}"),
+    };
+    match t.get("target")? {
+        toml::Value::Array(_) => Some(one(
+            "target",
+            "write a single [target] table, not [[target]] entries",
+        )),
+        toml::Value::Table(target) => match target.get("motion")? {
+            toml::Value::Array(_) => Some(one(
+                "target.motion",
+                "give one motion table, e.g. motion = { model = \"spiral\", ... }, not a list",
+            )),
+            _ => None,
+        },
+        _ => None,
     }
 }
 

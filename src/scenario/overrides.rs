@@ -279,12 +279,18 @@ impl Scenario {
     ) -> Result<Vec<Scenario>, InputError> {
         let texts: Vec<String> = overrides.iter().map(|o| o.text.clone()).collect();
         let finish = |mut t: toml::Table| -> Result<Scenario, InputError> {
+            let before = t.clone();
             for o in overrides {
                 o.apply(&mut t)?;
             }
-            let f: ScenarioFile = toml::Value::Table(t)
-                .try_into()
-                .map_err(|e: toml::de::Error| InputError::file(path, e.message().trim()))?;
+            let f: ScenarioFile =
+                toml::Value::Table(t.clone())
+                    .try_into()
+                    .map_err(|e: toml::de::Error| {
+                        let reason = missing_tag_hint(&before, &t, overrides, e.message().trim())
+                            .unwrap_or_else(|| e.message().trim().to_string());
+                        InputError::file(path, reason)
+                    })?;
             let mut sc = Self::from_parsed(f, path)?;
             sc.overrides = texts.clone();
             Ok(sc)
@@ -296,6 +302,61 @@ impl Scenario {
         base.remove("variants");
         build::for_each_variant(file, &base, path, only, finish)
     }
+}
+
+/// A clearer reason for serde's `missing field `model`` when an override
+/// created the table that lacks it (`--set channel.bit_rate=500` on a
+/// scenario without `[channel]`): name the key to set and its choices, which
+/// serde lists when the tag is given a value no variant has.
+fn missing_tag_hint(
+    before: &toml::Table,
+    after: &toml::Table,
+    overrides: &[Override],
+    message: &str,
+) -> Option<String> {
+    let tag = message
+        .strip_prefix("missing field `")?
+        .split('`')
+        .next()?
+        .to_string();
+    for o in overrides {
+        let steps = parse_path(&o.key).ok()?;
+        let Some(Step::Key(table)) = steps.first() else {
+            continue;
+        };
+        if steps.len() < 2 || before.contains_key(table) {
+            continue;
+        }
+        let Some(toml::Value::Table(created)) = after.get(table) else {
+            continue;
+        };
+        if created.contains_key(&tag) {
+            continue;
+        }
+        let mut probe = after.clone();
+        if let Some(toml::Value::Table(t)) = probe.get_mut(table) {
+            t.insert(tag.clone(), toml::Value::String("\u{1}".into()));
+        }
+        let choices = toml::Value::Table(probe)
+            .try_into::<ScenarioFile>()
+            .err()
+            .and_then(|e| {
+                let m = e.message().to_string();
+                m.split_once("expected one of ")
+                    .or_else(|| m.split_once("expected "))
+                    .map(|(_, c)| c.trim().replace('`', ""))
+            });
+        return Some(match choices {
+            Some(c) => format!(
+                "the scenario has no [{table}] table, so `{table}.{tag}` must be set too, \
+                 to one of {c} (e.g. --set {table}.{tag}=...)"
+            ),
+            None => {
+                format!("the scenario has no [{table}] table, so `{table}.{tag}` must be set too")
+            }
+        });
+    }
+    None
 }
 
 #[cfg(test)]

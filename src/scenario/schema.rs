@@ -1,6 +1,6 @@
 //! The scenario file as written ([`ScenarioFile`] and its tables), parsed by
 //! serde with `deny_unknown_fields` at every level. Every key is documented in
-//! `scenarios/README.md`; [`super::Scenario::from_parsed`] checks the values.
+//! the scenario reference (`docs/src/scenarios.md`); [`super::Scenario::from_parsed`] checks the values.
 
 use super::*;
 
@@ -45,7 +45,7 @@ pub struct ScenarioFile {
     /// Centralised baselines scored next to the distributed track (`[[baselines]]`).
     #[serde(default)]
     pub baselines: Vec<crate::estimators::baselines::BaselineCfg>,
-    /// Certified error bounds attached to the tracks (`[bounds]`, seed 003).
+    /// Certified error bounds attached to the tracks (`[bounds]`, Gholami 2015).
     #[serde(default)]
     pub bounds: Option<BoundsCfg>,
     /// What the scoring computes (`[scoring]`).
@@ -55,11 +55,11 @@ pub struct ScenarioFile {
     #[serde(default)]
     pub monte_carlo: Option<MonteCarloCfg>,
     /// Which host runs which node over zenoh (`[deploy] hosts = { a = [0, 1],
-    /// b = [2, 3] }`, `scenarios/README.md`); only `--transport zenoh` reads it.
+    /// b = [2, 3] }`, the scenario reference (`docs/src/scenarios.md`)); only `--transport zenoh` reads it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deploy: Option<crate::scenario::deploy::Placement>,
     /// Named variants of this scenario (`[[variants]]`): each is a table of
-    /// overrides deep-merged into the file (see `scenarios/README.md`).
+    /// overrides deep-merged into the file (see the scenario reference (`docs/src/scenarios.md`)).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub variants: Vec<VariantCfg>,
 }
@@ -89,7 +89,7 @@ pub struct VariantCfg {
     pub overrides: toml::Table,
 }
 
-/// A certified bound of seed 003.
+/// A certified bound of Gholami 2015.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BoundKind {
@@ -125,7 +125,7 @@ impl BoundKind {
 pub struct BoundsCfg {
     /// The bounds to compute at every sample.
     pub names: Vec<BoundKind>,
-    /// Enlargement `rho` (metres) of every measured range (seed 003 Remark 4):
+    /// Enlargement `rho` (metres) of every measured range (Gholami 2015 Remark 4):
     /// the sets are `||x - a|| <= d + rho` and `||x - t|| + ||x - r|| <= rho_mn + rho`.
     #[serde(default)]
     pub rho: f64,
@@ -208,11 +208,11 @@ pub struct MonteCarloCfg {
 #[serde(deny_unknown_fields)]
 pub struct GeometryCfg {
     /// Transmitter positions `t_m` (metres).
-    #[serde(default)]
+    #[serde(default, with = "crate::model::xy::list")]
     pub transmitters: Vec<[f64; 2]>,
     /// Receiver positions `r_n`; may be omitted when `network.generator` is
     /// `random_geometric` with `count` (receivers are then drawn).
-    #[serde(default)]
+    #[serde(default, with = "crate::model::xy::list")]
     pub receivers: Vec<[f64; 2]>,
 }
 
@@ -254,10 +254,10 @@ pub enum GeneratorCfg {
         #[serde(default)]
         count: Option<usize>,
         /// Lower corner of the layout box.
-        #[serde(default)]
+        #[serde(default, with = "crate::model::xy::option")]
         min: Option<[f64; 2]>,
         /// Upper corner of the layout box.
-        #[serde(default)]
+        #[serde(default, with = "crate::model::xy::option")]
         max: Option<[f64; 2]>,
     },
 }
@@ -292,14 +292,14 @@ pub struct AlgorithmCfg {
     #[serde(default = "default_ips")]
     pub iterations_per_sample: usize,
     /// `gtrs` (exact, eq. 13), `relaxed` or `gtrs_l0` (eq. 13 with `l0` outlier
-    /// separation, seed 004 eq. 7).
+    /// separation, Shi 2024 eq. 7).
     #[serde(default = "default_solver")]
     pub local_solver: LocalSolver,
     /// `gtrs_l0` only: how many rows of each node's cost may be outliers. Must be
     /// below the number of rows of every node that has measurements.
     #[serde(default = "default_kappa")]
     pub kappa: usize,
-    /// How each node scales its prox: `none` (seed 002 eq. 11, default) or
+    /// How each node scales its prox: `none` (Mourya 2017 eq. 11, default) or
     /// `inverse_probability` (eq. 5, step `gamma / p_v`).
     #[serde(default)]
     pub prox_scaling: crate::estimators::gossip::ProxScaling,
@@ -307,7 +307,7 @@ pub struct AlgorithmCfg {
     /// own least-squares fix of the first sample.
     #[serde(default)]
     pub init: InitMode,
-    /// `none` (seed 002 eq. 9, default) or `noise`: each row of the local
+    /// `none` (Mourya 2017 eq. 9, default) or `noise`: each row of the local
     /// cost divided by its noise standard deviation.
     #[serde(default)]
     pub row_weights: RowWeights,
@@ -336,7 +336,7 @@ pub enum InitMode {
     #[default]
     InitU,
     /// From the node's own fix of its first sample, as a deployed node would
-    /// start: the relaxed least-squares solution of its rows of seed 002
+    /// start: the relaxed least-squares solution of its rows of Mourya 2017
     /// eq. (9) where it has at least 3 rows, else the transmitters' centroid
     /// ([`crate::estimators::local::LocalProblem::first_fix`]).
     FirstFix,
@@ -346,7 +346,7 @@ pub enum InitMode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RowWeights {
-    /// Unweighted, seed 002 eq. (9) (default).
+    /// Unweighted, Mourya 2017 eq. (9) (default).
     #[default]
     None,
     /// Each row divided by its first-order noise standard deviation
