@@ -36,11 +36,12 @@ pub enum Command {
     /// Write a commented scenario file from a few layout words; it validates
     /// and runs as written.
     New(NewArgs),
-    /// The shipped scenarios, each with its description and variants.
+    /// The scenarios built into sonarnet (or the files of --dir), each with
+    /// its description and variants.
     List {
-        /// The directory of scenario files.
-        #[arg(long, default_value = "scenarios")]
-        dir: PathBuf,
+        /// List the scenario files of this directory instead.
+        #[arg(long)]
+        dir: Option<PathBuf>,
     },
     /// What a scenario file runs, in words: nodes, links, samples, noise,
     /// mode, solver, baselines, bounds, faults, channel, [expect].
@@ -120,8 +121,11 @@ pub struct NewArgs {
     pub file: PathBuf,
     /// Receivers: circle:N:RADIUS, line:N:X0,Y0:X1,Y1, grid:RxC:SPACING or
     /// random:N:XMIN,YMIN:XMAX,YMAX (metres; random drawn from --seed).
-    #[arg(long, value_name = "LAYOUT")]
-    pub receivers: String,
+    #[arg(long, value_name = "LAYOUT", required_unless_present = "from")]
+    pub receivers: Option<String>,
+    /// Copy the built-in scenario NAME instead (`sonarnet list` names them).
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["receivers", "transmitters", "network", "motion", "name", "seed"])]
+    pub from: Option<String>,
     /// Transmitters, in the same forms [default: two, a quarter of the
     /// scene either side of its centre].
     #[arg(long, value_name = "LAYOUT")]
@@ -137,8 +141,8 @@ pub struct NewArgs {
     /// Scenario name [default: the file's stem].
     #[arg(long)]
     pub name: Option<String>,
-    /// The scenario's seed.
-    #[arg(long, default_value_t = 0)]
+    /// The scenario's seed: an integer in [0, 2^64).
+    #[arg(long, default_value_t = 0, value_parser = parse_seed, allow_hyphen_values = true)]
     pub seed: u64,
     /// Overwrite an existing file.
     #[arg(long)]
@@ -244,7 +248,7 @@ pub struct BenchArgs {
 pub enum ModeArg {
     /// Every node updates every iteration; positions averaged over all nodes.
     Sync,
-    /// One random edge `(v, w)` per iteration (seed 002 eq. 11).
+    /// One random edge `(v, w)` per iteration (Mourya 2017 eq. 11).
     Async,
 }
 
@@ -260,9 +264,9 @@ impl From<ModeArg> for Mode {
 /// The command-line spelling of [`ProxScaling`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ProxScalingArg {
-    /// `prox_{gamma f_v}`, seed 002 eq. (11) (the paper's experiments).
+    /// `prox_{gamma f_v}`, Mourya 2017 eq. (11) (the paper's experiments).
     None,
-    /// `prox_{gamma p_v^-1 f_v}`, seed 002 eq. (5): step gamma / p_v.
+    /// `prox_{gamma p_v^-1 f_v}`, Mourya 2017 eq. (5): step gamma / p_v.
     InverseProbability,
 }
 
@@ -348,78 +352,92 @@ pub struct RunArgs {
     /// TOML, validated as the file is (e.g. `--set algorithm.gamma=1e-7`,
     /// `--set target.samples=20`, `--set 'geometry.receivers=[[0,0],[1,1]]'`,
     /// `--set faults[0].at_s=12`). Applied after a variant's own keys.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
+    #[arg(help_heading = "Scenario", long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Gossip mode (overrides algorithm.mode).
-    #[arg(long, value_enum)]
+    #[arg(help_heading = "Algorithm", long, value_enum)]
     pub mode: Option<ModeArg>,
     /// Prox scaling of async gossip (overrides algorithm.prox_scaling): none
     /// (eq. 11) or inverse-probability (eq. 5, each node's step gamma / p_v).
-    #[arg(long, value_enum)]
+    #[arg(help_heading = "Algorithm", long, value_enum)]
     pub prox_scaling: Option<ProxScalingArg>,
     /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
     /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
     /// outlier rows per node separated).
-    #[arg(long, value_parser = parse_solver)]
+    #[arg(help_heading = "Algorithm", long, value_parser = parse_solver)]
     pub local_solver: Option<LocalSolver>,
     /// Outlier budget of gtrs_l0: rows of each node's local cost that may be
     /// separated as outliers (overrides algorithm.kappa; must be below every
     /// node's row count; ignored by gtrs and relaxed).
-    #[arg(long, value_name = "K")]
+    #[arg(help_heading = "Algorithm", long, value_name = "K")]
     pub kappa: Option<usize>,
-    /// Run seed (overrides the scenario's seed).
-    #[arg(long)]
+    /// Run seed (overrides the scenario's seed): an integer in [0, 2^64).
+    #[arg(help_heading = "Scenario", long, value_parser = parse_seed, allow_hyphen_values = true)]
     pub seed: Option<u64>,
     /// Douglas-Rachford iterations per sample (overrides the scenario).
-    #[arg(long)]
+    #[arg(help_heading = "Algorithm", long)]
     pub iterations_per_sample: Option<usize>,
     /// A fault to inject, repeatable, after the scenario's [[faults]]:
     /// KIND:KEY=VALUE,... with the keys of a [[faults]] entry, e.g.
     /// `pause:node=3,at_s=20,for_s=10` or
     /// `partition:groups=[[0,1,2],[3,4,5]],at_sample=30,for_samples=20`
-    /// (scenarios/README.md, [[faults]]).
-    #[arg(long = "fault", value_name = "KIND:KEY=VALUE,...")]
+    /// (the book's scenario reference, [[faults]]).
+    #[arg(
+        help_heading = "Faults",
+        long = "fault",
+        value_name = "KIND:KEY=VALUE,..."
+    )]
     pub faults: Vec<String>,
     /// Random faults drawn from the run seed: a comma-separated list of
     /// kinds (pause, crash, restart, partition, link_loss, delay,
     /// clock_drift), one every --nemesis-interval-s emulated seconds.
-    #[arg(long, value_name = "KINDS")]
+    #[arg(help_heading = "Faults", long, value_name = "KINDS")]
     pub nemesis: Option<String>,
     /// Emulated seconds between two nemesis faults.
-    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    #[arg(
+        help_heading = "Faults",
+        long,
+        value_name = "SECONDS",
+        default_value_t = 30.0
+    )]
     pub nemesis_interval_s: f64,
     /// Number of samples to run (overrides target.samples; with a trace, at
     /// most its length; must exceed algorithm.burn_in).
-    #[arg(long)]
+    #[arg(help_heading = "Scenario", long)]
     pub samples: Option<usize>,
     /// Results directory [default: results/<name>-<mode>-<engine>-seed<seed>,
     /// plus every override given (solver, kappa, poll, --set keys, ...; a
     /// short hash when long)]. A previous run's files in it are replaced; a
     /// directory holding other files is refused.
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     pub out: Option<PathBuf>,
     /// Which engine runs the nodes: one OS process per receiver over iceoryx2
     /// shared memory, all nodes in this process, or one thread per node over
     /// the in-memory transport (exact same numbers) [default: processes;
     /// inprocess for Monte Carlo runs and on the acoustic channel].
-    #[arg(long, value_enum)]
+    #[arg(help_heading = "Engine and clock", long, value_enum)]
     pub engine: Option<EngineArg>,
     /// Run only this variant of a scenario with [[variants]] (repeatable;
     /// default: every variant, one results directory each).
-    #[arg(long, value_name = "NAME")]
+    #[arg(help_heading = "Scenario", long, value_name = "NAME")]
     pub variant: Vec<String>,
     /// Monte Carlo: repeat the run with seeds seed..seed+N in parallel
     /// (in-process); overrides [monte_carlo] trials. 1 = a single run.
-    #[arg(long, value_name = "N")]
+    #[arg(help_heading = "Evaluation", long, value_name = "N")]
     pub trials: Option<usize>,
     /// Centralised baselines to score next to the distributed track, with
     /// default parameters, replacing the scenario's [[baselines]]
     /// (comma separated: ogd, onm, ml, ls, l0os, lq_irls, lad, pocs, lls,
     /// distributed; l0os needs p or kappa, so give it in the file).
-    #[arg(long, value_delimiter = ',', value_name = "KINDS")]
+    #[arg(
+        help_heading = "Evaluation",
+        long,
+        value_delimiter = ',',
+        value_name = "KINDS"
+    )]
     pub baselines: Option<Vec<String>>,
     /// Exit with code 1 when an [expect] check of the scenario fails.
-    #[arg(long)]
+    #[arg(help_heading = "Evaluation", long)]
     pub check: bool,
     /// Clock of async runs: `logical` (the coordinator draws every pair;
     /// exact, reproducible) or `realtime` (free-running nodes on Poisson
@@ -427,59 +445,62 @@ pub struct RunArgs {
     /// processes, virtual time with --engine inprocess) [default: the
     /// scenario's algorithm.clock, else realtime on the acoustic channel, else
     /// logical].
-    #[arg(long, value_enum)]
+    #[arg(help_heading = "Engine and clock", long, value_enum)]
     pub clock: Option<ClockArg>,
     /// Record every node's theta after every iteration into iterations.csv
     /// (used by consensus.svg).
-    #[arg(long)]
+    #[arg(help_heading = "Engine and clock", long)]
     pub trace_iterations: bool,
     /// Multi-process engine: let each node process poll its inbox for up to N
     /// microseconds (yielding the CPU between checks) before it blocks. Trades CPU
     /// for latency while gossip messages are due within microseconds; 0, the
     /// default, blocks at once (idle nodes use ~0 % CPU either way, after N us).
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
+    #[arg(help_heading = "Engine and clock", long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u64).range(0..=1_000_000))]
     pub poll_us: u64,
     /// Liveness watchdog, in seconds (0.1 to 3600). Logical clocks: when no
     /// node has reported for half of it, every node is pinged, and a node
     /// that does not answer within the other half (stopped, wedged) ends the
     /// run, named, with the partial results written. Realtime: a node that
     /// has not answered a snapshot within it is left out like a dead node.
-    #[arg(long, value_name = "SECONDS", default_value_t = 5.0, value_parser = stall_timeout)]
+    #[arg(help_heading = "Engine and clock", long, value_name = "SECONDS", default_value_t = 5.0, value_parser = stall_timeout)]
     pub stall_timeout: f64,
     /// Transport between the node processes: iceoryx2 (shared memory, every
     /// node on this host) or zenoh (TCP; nodes here or on other hosts). Needs
     /// --engine processes (the default with zenoh).
-    #[arg(long, value_enum, default_value_t = TransportArg::Iceoryx2)]
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_enum, default_value_t = TransportArg::Iceoryx2)]
     pub transport: TransportArg,
     /// zenoh: the endpoint the coordinator listens on (repeatable)
     /// [default: a free loopback port; with a placement, tcp/0.0.0.0:7447].
-    #[arg(long, value_name = "ENDPOINT")]
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "ENDPOINT")]
     pub listen: Vec<String>,
     /// zenoh: place nodes on hosts, HOST=NODES (repeatable; ranges allowed:
     /// `a=0-2 b=3,4,5`), replacing the scenario's [deploy]. Host `local` is
     /// this one; every other host needs `sonarnet agent`.
-    #[arg(long = "place", value_name = "HOST=NODES")]
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long = "place", value_name = "HOST=NODES")]
     pub place: Vec<String>,
     /// zenoh: the run id the agents give (`sonarnet agent --run-id`)
     /// [default: a fresh one with a 64-bit random secret, printed].
-    #[arg(long, value_name = "ID")]
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "ID")]
     pub run_id: Option<String>,
     /// zenoh: a zenoh configuration file (JSON5) to start from: TLS
-    /// certificates, your own access control (README, "Across hosts").
-    #[arg(long, value_name = "FILE")]
+    /// certificates, your own access control (the book, "Across hosts").
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "FILE")]
     pub zenoh_config: Option<PathBuf>,
     /// zenoh: seconds to wait for the agents of a placement (0.1 to 3600).
-    #[arg(long, value_name = "SECONDS", default_value_t = 30.0, value_parser = seconds_up_to_an_hour)]
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "SECONDS", default_value_t = 30.0, value_parser = seconds_up_to_an_hour)]
     pub agent_wait: f64,
     /// Log coordinator and node events (with node ids) to stderr.
-    #[arg(long, short)]
+    #[arg(help_heading = "Output", long, short)]
     pub verbose: bool,
     /// Hide the progress bar.
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     pub quiet: bool,
     /// Also write report.html into the results directory.
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     pub report: bool,
+    /// Also write every plot as PNG, beside its SVG.
+    #[arg(long, help_heading = "Output")]
+    pub png: bool,
 }
 
 /// Parse a `--local-solver` value with the scenario file's spelling.
@@ -501,4 +522,28 @@ fn stall_timeout(v: &str) -> Result<f64, String> {
     } else {
         Err(format!("must be in [{}, {}] seconds", r.start(), r.end()))
     }
+}
+
+/// A `--seed` value: an integer in [0, 2^64), with a reason a user can act on
+/// (clap's own says `invalid digit found in string`, or suggests `-- -1`).
+pub fn parse_seed(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    t.parse::<u64>().map_err(|_| {
+        let why = if t.starts_with('-') {
+            "it is negative"
+        } else if t.is_empty() {
+            "it is empty"
+        } else if t.parse::<f64>().is_ok_and(f64::is_finite) && t.parse::<u128>().is_err() {
+            if t.contains(['.', 'e', 'E']) {
+                "write it as a whole number in digits"
+            } else {
+                "it is 2^64 or more"
+            }
+        } else if t.parse::<u128>().is_ok() {
+            "it is 2^64 or more"
+        } else {
+            "it is not a number"
+        };
+        format!("a seed is an integer in [0, 2^64), e.g. 0 or 42; {text:?} is not one: {why}")
+    })
 }

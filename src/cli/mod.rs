@@ -75,7 +75,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         Command::Replay(args) => replay_command(&args),
         Command::Sweep(args) => sweep::sweep_command(&args),
         Command::New(args) => scaffold::new_command(&args),
-        Command::List { dir } => scaffold::list_command(&dir),
+        Command::List { dir } => scaffold::list_command(dir.as_deref()),
         Command::Describe {
             scenario,
             variant,
@@ -533,7 +533,7 @@ fn run_monte_carlo_command(
         clock,
         out_dir,
         command_line: std::env::args().collect(),
-        progress: !args.quiet && std::io::stdout().is_terminal(),
+        progress: !args.quiet,
         check_expect: false,
         poll_us: 0,
         verbose: false,
@@ -542,28 +542,19 @@ fn run_monte_carlo_command(
         net: Default::default(),
     };
     check_out(&opts.out_dir)?;
-    let bar = opts.progress.then(|| {
-        let b = indicatif::ProgressBar::new(trials as u64);
-        if let Ok(style) = indicatif::ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} trials ({per_sec}, eta {eta})",
-        ) {
-            b.set_style(style);
-        }
-        b
-    });
-    let tick = |done: usize| {
-        if let Some(b) = &bar {
-            b.set_position(done as u64);
-        }
-    };
+    let bar = print::Progress::new(
+        opts.progress,
+        trials as u64,
+        "trials",
+        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} trials ({per_sec}, eta {eta})",
+    );
+    let tick = |done: usize| bar.set(done as u64, String::new);
     let mc = crate::pipeline::montecarlo::run_monte_carlo(sc, trials, &opts, &tick)?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    bar.finish();
     let plots = if args.report {
-        crate::report::write_report(&mc.out_dir, false).map(Some)
+        crate::report::write_report(&mc.out_dir, args.png).map(Some)
     } else {
-        crate::plot::write_run_plots(&mc.out_dir).map(|_| None)
+        crate::plot::write_run_plots_as(&mc.out_dir, args.png).map(|_| None)
     };
     print_mc_summary(sc, &mc);
     if let Ok(Some(p)) = &plots {
@@ -583,23 +574,49 @@ fn run_monte_carlo_command(
     Ok((mc.out_dir, mc.expect))
 }
 
+/// Above this wall time (seconds) a run defaults to virtual time, and a run
+/// asked for in wall time is announced with its estimate.
+const LONG_WALL_S: f64 = 60.0;
+
+/// The wall time a run on `clock` takes at least when the nodes run in wall
+/// time: one sample period per sample (0 on the logical clock).
+fn realtime_wall_s(sc: &Scenario, clock: Clock) -> f64 {
+    match (&sc.realtime, clock) {
+        (Some(r), Clock::Realtime) => sc.samples as f64 * r.sample_period_ms / 1000.0,
+        _ => 0.0,
+    }
+}
+
 fn run_single(
     args: &RunArgs,
     sc: &Scenario,
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let acoustic = sc.channel.acoustic().is_some();
-    // The acoustic channel and faults run on the discrete-event engine by
-    // default.
+    let clock = args.clock_for(sc);
+    let wall_s = realtime_wall_s(sc, clock);
+    // The acoustic channel, faults and any run that would take more than
+    // LONG_WALL_S in wall time run on the discrete-event engine (virtual
+    // time) by default.
     let engine = args.engine().unwrap_or(
-        if (acoustic || sc.has_faults()) && args.transport != TransportArg::Zenoh {
+        if (acoustic || sc.has_faults() || wall_s > LONG_WALL_S)
+            && args.transport != TransportArg::Zenoh
+        {
             EngineKind::Inprocess
         } else {
             EngineKind::Processes
         },
     );
+    if engine == EngineKind::Processes && wall_s > LONG_WALL_S && !args.quiet {
+        eprintln!(
+            "note: {} samples {} ms apart on the realtime clock take about {} of wall time \
+             with node processes; --engine inprocess runs the same in virtual time, in seconds",
+            sc.samples,
+            sc.realtime.as_ref().map_or(0.0, |r| r.sample_period_ms),
+            print::duration_words(wall_s)
+        );
+    }
     let net = net::net_options(args, sc, engine)?;
-    let clock = args.clock_for(sc);
     if args.poll_us > 0 && engine != EngineKind::Processes {
         return Err(crate::model::error::InputError::at(
             std::path::Path::new("<command line>"),
@@ -679,7 +696,7 @@ fn run_single(
         clock,
         out_dir,
         command_line: std::env::args().collect(),
-        progress: !args.quiet && std::io::stdout().is_terminal(),
+        progress: !args.quiet,
         check_expect: true,
         poll_us: args.poll_us,
         verbose: args.verbose,
@@ -691,22 +708,19 @@ fn run_single(
     pipeline::preflight(sc, &opts)?;
     let bar = progress_bar(&opts, sc.samples as u64);
     let mut tick = |k: usize, it: u64| {
-        if let Some(b) = &bar {
-            b.set_position(k as u64);
-            let secs = b.elapsed().as_secs_f64().max(1e-9);
-            b.set_message(format!("{it} iterations, {:.0} it/s", it as f64 / secs));
-        }
+        bar.set(k as u64, || {
+            let secs = bar.elapsed_s().max(1e-9);
+            format!("{it} iterations, {:.0} it/s", it as f64 / secs)
+        });
     };
     let outcome = pipeline::run(sc, &opts, &mut tick);
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    bar.finish();
     outcome.write(sc, &opts)?;
     let dir = opts.out_dir;
     let plots = if args.report {
-        crate::report::write_report(&dir, false).map(Some)
+        crate::report::write_report(&dir, args.png).map(Some)
     } else {
-        crate::plot::write_run_plots(&dir).map(|_| None)
+        crate::plot::write_run_plots_as(&dir, args.png).map(|_| None)
     };
     print_summary(&outcome, &dir);
     if let Ok(Some(p)) = &plots {

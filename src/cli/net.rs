@@ -31,7 +31,7 @@ pub const LINKS: &[&str] = if cfg!(feature = "zenoh-tls") {
 };
 
 /// What `--listen tls/...` prints: zenoh 1.10's TLS link loses frames.
-pub const TLS_LINK_WARNING: &str = "warning: zenoh's tls/ link reads and writes one rustls stream from two threads at once (zenoh issue 2557): under a run's traffic it fails with \"handshake not complete\", reconnects and loses frames, and the run stalls. Use quic/HOST:PORT: TLS 1.3 with the same certificates (README, \"Across hosts\")";
+pub const TLS_LINK_WARNING: &str = "warning: zenoh's tls/ link reads and writes one rustls stream from two threads at once (zenoh issue 2557): under a run's traffic it fails with \"handshake not complete\", reconnects and loses frames, and the run stalls. Use quic/HOST:PORT: TLS 1.3 with the same certificates (the book, \"Across hosts\")";
 
 /// Checks the endpoints given to `flag`: `PROTO/HOST:PORT` with a link this
 /// build carries ([`LINKS`]).

@@ -2,17 +2,138 @@
 
 use super::*;
 
-pub(super) fn progress_bar(opts: &RunOptions, samples: u64) -> Option<indicatif::ProgressBar> {
-    if !opts.progress {
-        return None;
+/// Progress of a run on standard error: a bar redrawn in place on a
+/// terminal, else one plain line every [`Progress::LINE_EVERY`] (a log or a
+/// CI job sees the run advance, not a wall of redraws); nothing when quiet.
+pub(super) enum Progress {
+    /// Nothing is shown.
+    Off,
+    /// indicatif's bar (standard error is a terminal).
+    Bar(indicatif::ProgressBar),
+    /// Plain lines: what is counted, the total, and when the last line went.
+    Lines {
+        unit: &'static str,
+        total: u64,
+        start: std::time::Instant,
+        last: std::sync::Mutex<std::time::Instant>,
+    },
+}
+
+impl Progress {
+    /// How often a plain progress line is written.
+    pub const LINE_EVERY: std::time::Duration = std::time::Duration::from_secs(5);
+
+    /// Progress over `total` items called `unit` (`samples`, `trials`);
+    /// `template` is the bar's indicatif template.
+    pub fn new(show: bool, total: u64, unit: &'static str, template: &str) -> Progress {
+        if !show {
+            return Progress::Off;
+        }
+        if !std::io::stderr().is_terminal() {
+            let now = std::time::Instant::now();
+            return Progress::Lines {
+                unit,
+                total,
+                start: now,
+                last: std::sync::Mutex::new(now),
+            };
+        }
+        let b = indicatif::ProgressBar::new(total);
+        if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
+            b.set_style(style);
+        }
+        Progress::Bar(b)
     }
-    let b = indicatif::ProgressBar::new(samples);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
+
+    /// `done` of the total are finished; `msg` adds to the line.
+    pub fn set(&self, done: u64, msg: impl FnOnce() -> String) {
+        match self {
+            Progress::Off => {}
+            Progress::Bar(b) => {
+                b.set_position(done);
+                b.set_message(msg());
+            }
+            Progress::Lines {
+                unit,
+                total,
+                start,
+                last,
+            } => {
+                let Ok(mut last) = last.lock() else { return };
+                if last.elapsed() < Self::LINE_EVERY {
+                    return;
+                }
+                *last = std::time::Instant::now();
+                let line = progress_line(done, *total, unit, start.elapsed().as_secs_f64(), &msg());
+                eprintln!("{line}");
+            }
+        }
+    }
+
+    /// Seconds since the progress began (for rates).
+    pub fn elapsed_s(&self) -> f64 {
+        match self {
+            Progress::Off => 0.0,
+            Progress::Bar(b) => b.elapsed().as_secs_f64(),
+            Progress::Lines { start, .. } => start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Remove the bar (lines stay as written).
+    pub fn finish(self) {
+        if let Progress::Bar(b) = self {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// One plain progress line: `progress: 30/100 samples, 12 s elapsed, about
+/// 28 s left, MSG`.
+pub(super) fn progress_line(
+    done: u64,
+    total: u64,
+    unit: &str,
+    elapsed_s: f64,
+    msg: &str,
+) -> String {
+    let left = if done > 0 && done < total {
+        format!(
+            ", about {} left",
+            duration_words(elapsed_s * (total - done) as f64 / done as f64)
+        )
+    } else {
+        String::new()
+    };
+    let m = if msg.is_empty() {
+        String::new()
+    } else {
+        format!(", {msg}")
+    };
+    format!(
+        "progress: {done}/{total} {unit}, {} elapsed{left}{m}",
+        duration_words(elapsed_s)
+    )
+}
+
+/// The progress of one run over `samples` samples.
+pub(super) fn progress_bar(opts: &RunOptions, samples: u64) -> Progress {
+    Progress::new(
+        opts.progress,
+        samples,
+        "samples",
         "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} samples, {msg}",
-    ) {
-        b.set_style(style);
+    )
+}
+
+/// A duration for a person: `45 s`, `12 min`, `1.7 h`.
+pub fn duration_words(s: f64) -> String {
+    if s < 90.0 {
+        format!("{s:.0} s")
+    } else if s < 5400.0 {
+        format!("{:.0} min", s / 60.0)
+    } else {
+        format!("{:.1} h", s / 3600.0)
     }
-    Some(b)
 }
 
 fn fmt_opt(x: Option<f64>) -> String {
@@ -61,17 +182,42 @@ pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
         m.engine, m.mode, m.clock, m.seed
     );
     println!("  samples            {}/{}", m.samples_completed, m.samples);
-    println!("  rmse               {} m", fmt_opt(m.rmse));
-    println!("  rmse_after_burn_in {} m", fmt_opt(m.rmse_after_burn_in));
-    println!("  median_error       {} m", fmt_opt(m.median_error));
-    println!("  final_error        {} m", fmt_opt(m.final_error));
-    println!("  ctte               {} m", fmt_opt(m.ctte));
-    println!("  max_disagreement   {:.3} m", m.max_disagreement);
+    if m.samples <= 1 {
+        // One snapshot: rmse, median, final error and ctte are one number.
+        println!("  error              {} m", fmt_opt(m.final_error));
+    } else {
+        println!("  rmse               {} m", fmt_opt(m.rmse));
+        println!("  rmse_after_burn_in {} m", fmt_opt(m.rmse_after_burn_in));
+        println!("  median_error       {} m", fmt_opt(m.median_error));
+        println!("  final_error        {} m", fmt_opt(m.final_error));
+        println!("  ctte               {} m", fmt_opt(m.ctte));
+    }
+    println!("  max_disagreement   {} m", eng(m.max_disagreement));
     println!("  ml_rmse            {} m", fmt_opt(m.ml_rmse));
     println!("  crlb_rms           {} m", fmt_opt(m.crlb_rms));
     println!("  iterations         {}", m.iterations);
     println!("  prox_solves        {}", m.prox_solves);
-    println!("  wall_seconds       {:.4}", m.wall_seconds);
+    println!("  wall_seconds       {} s", eng(m.wall_seconds));
+    if let Some(c) = &m.channel {
+        println!(
+            "  channel            {} of {} frames delivered ({}), mean delay {}",
+            c.delivered,
+            c.frames,
+            eng(c.delivery_ratio),
+            c.delay_mean_s
+                .map_or("-".into(), |d| format!("{} s", eng(d)))
+        );
+        if !c.lost.is_empty() {
+            let lost: Vec<String> = c.lost.iter().map(|(k, n)| format!("{k} {n}")).collect();
+            println!("  lost               {}", lost.join(", "));
+        }
+        if c.exchanges_attempted > 0 {
+            println!(
+                "  exchanges          {} of {} completed, {} timed out",
+                c.exchanges_completed, c.exchanges_attempted, c.exchanges_timed_out
+            );
+        }
+    }
     if let Some(n) = &m.note {
         println!("  note: {n}");
     }
@@ -139,7 +285,8 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
             format!("{} trials", mc.trials.len())
         },
         sc.seed,
-        sc.seed.wrapping_add(mc.requested as u64),
+        // Inclusive, as `sweep --seeds A..B` reads: 100 trials are 0..99.
+        sc.seed.wrapping_add(mc.requested as u64).wrapping_sub(1),
         sc.algorithm.mode.as_str(),
         sc.variant
             .as_ref()
@@ -153,7 +300,7 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
     let mut names: Vec<String> = vec!["theta_bar".into(), "ml".into()];
     names.extend(sc.baselines.iter().map(|b| b.name()));
     // RMS over trials: sqrt(mean of the per-trial RMSE^2), every sample of
-    // every trial pooled (what README quotes); next to the mean RMSE.
+    // every trial pooled (what the book quotes); next to the mean RMSE.
     let rms = |k: &str| {
         let v: Vec<f64> = mc
             .trials
@@ -163,21 +310,53 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
             .collect();
         (!v.is_empty()).then(|| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt())
     };
-    println!(
-        "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>12}",
-        "track", "rmse (mean)", "rmse (rms)", "median", "ctte", "regret"
-    );
-    println!("  (means over the trials; rms = sqrt(mean of the per-trial rmse^2))");
-    for n in &names {
+    // One snapshot per trial: rmse, median and ctte of a trial are its one
+    // error, so show that error's distribution across the trials instead.
+    let snapshot = sc.samples <= 1;
+    let across = |k: &str, q: f64| {
+        let v: Vec<f64> = mc
+            .trials
+            .iter()
+            .filter_map(|t| t.flat.get(k).copied())
+            .filter(|x| x.is_finite())
+            .collect();
+        crate::model::metrics::quantile(&v, q)
+    };
+    if snapshot {
+        println!(
+            "  {:<14} {:>12} {:>12} {:>12} {:>12}",
+            "track", "error (mean)", "error (rms)", "median", "90th pct"
+        );
+        println!("  (the one error of each trial, across the trials; metres)");
+    } else {
         println!(
             "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>12}",
-            n,
-            fmt_opt(mean(&format!("{n}.rmse"))),
-            fmt_opt(rms(&format!("{n}.rmse"))),
-            fmt_opt(mean(&format!("{n}.median_error"))),
-            fmt_opt(mean(&format!("{n}.ctte"))),
-            fmt_opt(mean(&format!("{n}.regret")))
+            "track", "rmse (mean)", "rmse (rms)", "median", "ctte", "regret"
         );
+        println!("  (means over the trials; rms = sqrt(mean of the per-trial rmse^2))");
+    }
+    for n in &names {
+        if snapshot {
+            let k = format!("{n}.rmse");
+            println!(
+                "  {:<14} {:>12} {:>12} {:>12} {:>12}",
+                n,
+                fmt_opt(mean(&k)),
+                fmt_opt(rms(&k)),
+                fmt_opt(across(&k, 0.5)),
+                fmt_opt(across(&k, 0.9)),
+            );
+        } else {
+            println!(
+                "  {:<14} {:>12} {:>12} {:>12} {:>12} {:>12}",
+                n,
+                fmt_opt(mean(&format!("{n}.rmse"))),
+                fmt_opt(rms(&format!("{n}.rmse"))),
+                fmt_opt(mean(&format!("{n}.median_error"))),
+                fmt_opt(mean(&format!("{n}.ctte"))),
+                fmt_opt(mean(&format!("{n}.regret")))
+            );
+        }
         if let Some(b) = &sc.bounds {
             for k in &b.all_kinds() {
                 let p = format!("{n}.bounds.{}", k.as_str());
@@ -203,7 +382,21 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
 
 #[cfg(test)]
 mod tests {
-    use super::eng;
+    use super::{duration_words, eng, progress_line};
+
+    #[test]
+    fn a_plain_progress_line_says_done_total_elapsed_and_what_is_left() {
+        assert_eq!(
+            progress_line(30, 100, "samples", 12.0, "40 iterations"),
+            "progress: 30/100 samples, 12 s elapsed, about 28 s left, 40 iterations"
+        );
+        assert_eq!(
+            progress_line(0, 5, "trials", 3.0, ""),
+            "progress: 0/5 trials, 3 s elapsed"
+        );
+        assert_eq!(duration_words(6000.0), "1.7 h");
+        assert_eq!(duration_words(600.0), "10 min");
+    }
 
     #[test]
     fn terminal_numbers_keep_five_significant_digits_and_large_ones_go_engineering() {

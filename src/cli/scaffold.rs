@@ -3,9 +3,14 @@
 use super::*;
 use crate::model::error::InputError;
 use crate::scenario::scaffold::{Layout, MotionSpec, NetworkSpec, ScaffoldSpec};
+use crate::scenario::shipped;
 use std::path::Path;
 
 pub(super) fn new_command(args: &NewArgs) -> Result<(), CliError> {
+    if let Some(from) = &args.from {
+        return copy_shipped(from, &args.file, args.force);
+    }
+    let receivers = args.receivers.as_deref().unwrap_or_default();
     let name = match &args.name {
         Some(n) => n.clone(),
         None => args
@@ -16,7 +21,7 @@ pub(super) fn new_command(args: &NewArgs) -> Result<(), CliError> {
     };
     let spec = ScaffoldSpec {
         name,
-        receivers: Layout::parse("--receivers", &args.receivers)?,
+        receivers: Layout::parse("--receivers", receivers)?,
         transmitters: args
             .transmitters
             .as_deref()
@@ -46,15 +51,7 @@ pub(super) fn new_command(args: &NewArgs) -> Result<(), CliError> {
             ),
         )
     })?;
-    if args.file.exists() && !args.force {
-        return Err(InputError::file(&args.file, "exists: choose another name, or --force").into());
-    }
-    if let Some(dir) = args.file.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| InputError::file(dir, format!("cannot create the directory: {e}")))?;
-    }
-    std::fs::write(&args.file, &text)
-        .map_err(|e| InputError::file(&args.file, format!("cannot write: {e}")))?;
+    write_new(&args.file, &text, args.force)?;
     println!(
         "wrote {} ({} receivers, {} transmitters, {} links, {} samples)",
         args.file.display(),
@@ -68,7 +65,51 @@ pub(super) fn new_command(args: &NewArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-pub(super) fn list_command(dir: &Path) -> Result<(), CliError> {
+/// Write a new scenario file, refusing to overwrite one without `--force`.
+fn write_new(file: &Path, text: &str, force: bool) -> Result<(), CliError> {
+    if file.exists() && !force {
+        return Err(InputError::file(file, "exists: choose another name, or --force").into());
+    }
+    if let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| InputError::file(dir, format!("cannot create the directory: {e}")))?;
+    }
+    std::fs::write(file, text).map_err(|e| InputError::file(file, format!("cannot write: {e}")))?;
+    Ok(())
+}
+
+/// `sonarnet new FILE --from NAME`: the built-in scenario's text, as shipped.
+fn copy_shipped(name: &str, file: &Path, force: bool) -> Result<(), CliError> {
+    let all = shipped::load(name)
+        .map_err(|e| InputError::at(Path::new("<command line>"), "--from", e.reason))?;
+    let text = shipped::text(name).unwrap_or_default();
+    write_new(file, text, force)?;
+    let variants: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+    println!(
+        "wrote {} (a copy of the built-in {}{})",
+        file.display(),
+        name.strip_suffix(".toml").unwrap_or(name),
+        if variants.is_empty() {
+            String::new()
+        } else {
+            format!("; variants {}", variants.join(", "))
+        }
+    );
+    println!("  run it:      sonarnet run {}", file.display());
+    println!("  read it:     sonarnet describe {}", file.display());
+    Ok(())
+}
+
+pub(super) fn list_command(dir: Option<&Path>) -> Result<(), CliError> {
+    let Some(dir) = dir else {
+        for (name, _) in shipped::SHIPPED {
+            print_listed(&format!("{name}.toml"), shipped::load(name));
+        }
+        println!();
+        println!("built in: copy one out with `sonarnet new FILE --from NAME`, or run it from");
+        println!("a checkout as `sonarnet run scenarios/NAME.toml`");
+        return Ok(());
+    };
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| InputError::file(dir, format!("cannot list scenarios: {e}")))?
         .flatten()
@@ -83,20 +124,25 @@ pub(super) fn list_command(dir: &Path) -> Result<(), CliError> {
         let file = p
             .file_name()
             .map_or(String::new(), |f| f.to_string_lossy().into_owned());
-        match Scenario::load_all(p) {
-            Ok(all) => {
-                let first = &all[0];
-                println!("{file}");
-                println!("    {}", one_line(&first.file.description));
-                let variants: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
-                if !variants.is_empty() {
-                    println!("    variants: {}", variants.join(", "));
-                }
-            }
-            Err(e) => println!("{file}\n    invalid: {e}"),
-        }
+        print_listed(&file, Scenario::load_all(p));
     }
     Ok(())
+}
+
+/// One entry of `sonarnet list`: the file, its description and variants.
+fn print_listed(file: &str, loaded: Result<Vec<Scenario>, InputError>) {
+    match loaded {
+        Ok(all) if !all.is_empty() => {
+            println!("{file}");
+            println!("    {}", one_line(&all[0].file.description));
+            let variants: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+            if !variants.is_empty() {
+                println!("    variants: {}", variants.join(", "));
+            }
+        }
+        Ok(_) => println!("{file}\n    (no scenario)"),
+        Err(e) => println!("{file}\n    invalid: {e}"),
+    }
 }
 
 pub(super) fn describe_command(

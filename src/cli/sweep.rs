@@ -78,24 +78,15 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
         jobs,
         out.display()
     );
-    let bar = (!args.quiet && std::io::stdout().is_terminal()).then(|| {
-        let b = indicatif::ProgressBar::new(plan.runs() as u64);
-        if let Ok(style) = indicatif::ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs ({per_sec}, eta {eta})",
-        ) {
-            b.set_style(style);
-        }
-        b
-    });
-    let tick = |n: usize| {
-        if let Some(b) = &bar {
-            b.set_position(n as u64);
-        }
-    };
+    let bar = super::print::Progress::new(
+        !args.quiet,
+        plan.runs() as u64,
+        "runs",
+        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs ({per_sec}, eta {eta})",
+    );
+    let tick = |n: usize| bar.set(n as u64, String::new);
     let outcome = run_sweep(&plan, engine, jobs, &out, &tick);
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
+    bar.finish();
     if args.plots {
         println!("drawing the plots of {} runs", outcome.runs.len());
         draw_run_plots(&outcome.runs, jobs);

@@ -1,5 +1,5 @@
 //! `sonarnet bench`: the multi-process engine's performance figures, measured
-//! in one run (README's performance table quotes them).
+//! in one run (the book's performance chapter quotes them).
 //!
 //! * **Engine overhead**: wall time of `mourya2017-spiral` (100 samples × 50
 //!   iterations) on node processes over the in-process engine, async-logical

@@ -4,17 +4,17 @@
 //! acoustic channel; PNG on request):
 //!
 //! * `tracks.svg`: the true track, the distributed estimate `theta_bar`
-//!   (seed 002 eq. (11) averaged over nodes), the centralised ML reference and
+//!   (Mourya 2017 eq. (11) averaged over nodes), the centralised ML reference and
 //!   every baseline, with transmitters, receivers and network edges to scale
-//!   (cf. seed 002 Fig. 2b); where `track.csv` has `bound_NAME` columns, the
+//!   (cf. Mourya 2017 Fig. 2b); where `track.csv` has `bound_NAME` columns, the
 //!   certified error discs around `theta_bar` at every n-th sample.
 //! * `error.svg`: error per sample of every track, the CRLB curve and the
 //!   burn-in; Monte Carlo runs draw mean curves with 5th-95th percentile bands.
 //! * `consensus.svg`: every node's position estimate against the sample (or,
-//!   with `iterations.csv`, against the iteration), as seed 002 Fig. 2a, and
+//!   with `iterations.csv`, against the iteration), as Mourya 2017 Fig. 2a, and
 //!   the consensus disagreement `max_v ||theta_v - theta_bar||`.
-//! * `ctte.svg`: running CTTE (seed 000) and, when present, dynamic regret
-//!   (seed 001) of every track; Monte Carlo runs draw mean and band.
+//! * `ctte.svg`: running CTTE (Pun-So 2022) and, when present, dynamic regret
+//!   (Pun-So 2020) of every track; Monte Carlo runs draw mean and band.
 //! * `network.svg`: the graph with per-node counters (prox solves, messages,
 //!   declines).
 //! * On the acoustic channel, `messages.svg`: a message-sequence diagram of
@@ -410,16 +410,15 @@ pub fn write_figures(
 /// and on the acoustic channel `messages.svg` and `channel.svg`).
 /// `sonarnet run` calls this after writing its outputs.
 pub fn write_run_plots(dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    write_run_plots_as(dir, false)
+}
+
+/// [`write_run_plots`], with a PNG beside every SVG when `png` is set
+/// (`sonarnet run --png`). Returns the SVG paths.
+pub fn write_run_plots_as(dir: &Path, png: bool) -> Result<Vec<PathBuf>, PlotError> {
     let data = load_run(dir)?;
     let figs = run_figures(&data);
-    write_figures(
-        &figs,
-        dir,
-        Formats {
-            svg: true,
-            png: false,
-        },
-    )?;
+    write_figures(&figs, dir, Formats { svg: true, png })?;
     Ok(figs
         .iter()
         .map(|f| dir.join(format!("{}.svg", f.name)))

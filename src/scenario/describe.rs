@@ -5,7 +5,34 @@ use super::*;
 /// A serialisable value in words: `gaussian (sigma 5)` for
 /// `{ model = "gaussian", sigma = 5.0 }`; tags (`model`, `kind`) lead.
 pub fn in_words(v: &impl Serialize) -> String {
-    fn go(v: &serde_json::Value) -> String {
+    in_words_with(v, "")
+}
+
+/// The unit of a number under `key` in a description (` m`, ` s`, ...), or
+/// `level` for a noise level (`sigma`, `mean`: ` m` for ranges, ` rad` for
+/// directions of arrival).
+fn unit_of(key: &str, level: &'static str) -> &'static str {
+    match key {
+        "sigma" | "mean" | "los_mean" | "nlos_mean" | "nlos_std" => level,
+        "bit_rate" => " bit/s",
+        "sound_speed" => " m/s",
+        "time_scale" => "x",
+        "header_bits" | "value_bits" => " bits",
+        "sample_period_ms" => " ms",
+        "wake_rate_hz" => " Hz",
+        "carrier_khz" | "bandwidth_khz" => " kHz",
+        "source_level_db" | "noise_level_db" => " dB",
+        "at_s" | "for_s" | "interval_s" | "delay_s" | "jitter_s" => " s",
+        "dr" | "r0" | "radius" | "half_width" | "center" | "position" | "start" | "min" | "max"
+        | "velocity" | "points" => " m",
+        "dt" | "t0" => " rad",
+        _ => "",
+    }
+}
+
+/// [`in_words`] with `level` as the unit of noise levels.
+pub fn in_words_with(v: &impl Serialize, level: &'static str) -> String {
+    fn go(v: &serde_json::Value, level: &'static str) -> String {
         use serde_json::Value;
         match v {
             Value::Object(m) => {
@@ -17,7 +44,14 @@ pub fn in_words(v: &impl Serialize) -> String {
                     .filter(|(k, x)| !matches!(k.as_str(), "model" | "kind") && !x.is_null())
                     // A noise schedule that does not vary says nothing.
                     .filter(|(k, x)| !(k.as_str() == "schedule" && x.as_str() == Some("constant")))
-                    .map(|(k, x)| format!("{k} {}", go(x)))
+                    .map(|(k, x)| {
+                        let u = if x.is_number() || x.is_array() {
+                            unit_of(k, level)
+                        } else {
+                            ""
+                        };
+                        format!("{k} {}{u}", go(x, level))
+                    })
                     .collect();
                 match (tag, rest.is_empty()) {
                     (Some(t), true) => t.to_string(),
@@ -25,12 +59,18 @@ pub fn in_words(v: &impl Serialize) -> String {
                     (None, _) => rest.join(", "),
                 }
             }
-            Value::Array(a) => format!("[{}]", a.iter().map(go).collect::<Vec<_>>().join(", ")),
+            Value::Array(a) => format!(
+                "[{}]",
+                a.iter()
+                    .map(|x| go(x, level))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
             Value::String(s) => s.clone(),
             other => other.to_string(),
         }
     }
-    serde_json::to_value(v).map_or_else(|e| format!("({e})"), |v| go(&v))
+    serde_json::to_value(v).map_or_else(|e| format!("({e})"), |v| go(&v, level))
 }
 
 fn metres(x: f64) -> String {
@@ -155,8 +195,12 @@ impl Scenario {
             "noise",
             format!(
                 "ranges: {}; directions: {}{}",
-                m.range_noise.as_ref().map_or("none".into(), in_words),
-                m.doa_noise.as_ref().map_or("none".into(), in_words),
+                m.range_noise
+                    .as_ref()
+                    .map_or("none".into(), |n| in_words_with(n, " m")),
+                m.doa_noise
+                    .as_ref()
+                    .map_or("none".into(), |n| in_words_with(n, " rad")),
                 if m.nlos_links == Default::default() {
                     String::new()
                 } else {

@@ -1,7 +1,7 @@
 //! Scenario files: TOML parsed into validated types.
 //!
 //! The raw file format ([`ScenarioFile`]) is documented key by key in
-//! `scenarios/README.md`. [`Scenario::load`] parses it with
+//! the scenario reference (`docs/src/scenarios.md`). [`Scenario::load`] parses it with
 //! `deny_unknown_fields`, checks every value, loads the trace, truth and
 //! schedule files it names (paths relative to the scenario file), and returns
 //! one [`InputError`] that names the file, the key or line, and the reason.
@@ -32,6 +32,7 @@ mod overrides;
 mod readers;
 mod resolve;
 pub mod scaffold;
+pub mod shipped;
 pub use describe::in_words;
 mod schema;
 
@@ -76,7 +77,7 @@ pub struct Algorithm {
     pub local_solver: LocalSolver,
     /// Outlier budget per node of `gtrs_l0`.
     pub kappa: usize,
-    /// Each node's prox scaling (seed 002 eq. 5 or eq. 11).
+    /// Each node's prox scaling (Mourya 2017 eq. 5 or eq. 11).
     pub prox_scaling: crate::estimators::gossip::ProxScaling,
     /// Where the nodes start.
     pub init: InitMode,
@@ -146,7 +147,7 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// The nominal number of rows of node `id`'s local cost (seed 002 eq. 9): one per
+    /// The nominal number of rows of node `id`'s local cost (Mourya 2017 eq. 9): one per
     /// bistatic range, two per DOA, one per one-way range. Synthetic data: what the
     /// measurements config synthesizes; a trace: the most the node has at any sample.
     pub fn nominal_rows(&self, id: usize) -> usize {
@@ -317,7 +318,7 @@ impl Scenario {
         Ok(self)
     }
 
-    /// Override the prox scaling (`algorithm.prox_scaling`, seed 002 eq. 5 or 11).
+    /// Override the prox scaling (`algorithm.prox_scaling`, Mourya 2017 eq. 5 or 11).
     pub fn with_prox_scaling(mut self, p: crate::estimators::gossip::ProxScaling) -> Self {
         self.algorithm.prox_scaling = p;
         self

@@ -109,7 +109,7 @@ pub fn session_config(
 /// The JSON5 text of a zenoh configuration file (`--zenoh-config`) for an
 /// encrypted link (`quic/...`, or `tls/...`): trust the certificate
 /// authority `root_ca`, and, for the party that listens, present
-/// `server = (private key, certificate)`. README's security section shows
+/// `server = (private key, certificate)`. The book's Across hosts chapter shows
 /// the same text.
 pub fn tls_link_config(
     root_ca: &std::path::Path,

@@ -66,7 +66,7 @@ pub(crate) fn zerr(op: impl Into<String>) -> impl FnOnce(zenoh::Error) -> Transp
 }
 
 /// zenoh's own log, on standard error, when `RUST_LOG` asks for it
-/// (README, "Across hosts": `RUST_LOG=zenoh=debug`), as zenoh's
+/// (the book, "Across hosts": `RUST_LOG=zenoh=debug`), as zenoh's
 /// `try_init_log_from_env` would set it up but for the stream: standard
 /// output carries the run's summary. Once per process; later calls do
 /// nothing.
