@@ -717,3 +717,92 @@ fn network_labels_move_off_a_transmitter_beside_their_node() {
         "the label still covers the transmitter"
     );
 }
+
+/// A Monte Carlo run of one snapshot per trial (Gholami 2015 style): three
+/// trials, with bounds on `pocs`.
+fn snapshot_data() -> RunData {
+    let mut d = data();
+    let band = |v: f64| json!({"mean": [v], "p5": [v], "p95": [v]});
+    let summary = json!({
+        "trials": 3,
+        "sample": [0],
+        "curves": {"theta_bar": {"error": band(1.0)}, "ml": {"error": band(1.2)}, "pocs": {"error": band(0.9)}},
+    });
+    let mut mc = parse_summary(Path::new("summary.json"), &summary).unwrap();
+    mc.trial_columns = [
+        "trial",
+        "seed",
+        "crlb_rms",
+        "theta_bar.rmse",
+        "theta_bar.error_x",
+        "theta_bar.error_y",
+        "ml.rmse",
+        "pocs.rmse",
+        "pocs.bounds.upp_rbbox.rel_tightness_median",
+        "pocs.bounds.upp_maxdis.rel_tightness_median",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    mc.trial_rows = [
+        [0.0, 0.0, 0.7, 0.5, 0.3, -0.4, 0.6, 0.4, 1.2, 0.8],
+        [1.0, 1.0, 0.7, 1.0, -0.6, 0.8, 1.1, 0.9, 2.0, 1.1],
+        [2.0, 2.0, 0.7, 2.0, 1.2, 1.6, 1.9, 1.5, 0.9, 0.4],
+    ]
+    .iter()
+    .map(|r| r.iter().map(|v| Some(*v)).collect())
+    .collect();
+    d.monte_carlo = Some(mc);
+    d
+}
+
+#[test]
+fn a_snapshot_monte_carlo_run_draws_error_cdfs_tightness_cdfs_and_a_scatter_not_empty_time_series()
+{
+    let d = snapshot_data();
+    let figs = run_figures(&d);
+    let names: Vec<&str> = figs.iter().map(|f| f.name.as_str()).collect();
+    assert!(
+        !names.contains(&"error") && !names.contains(&"ctte"),
+        "{names:?}"
+    );
+    for want in ["error-cdf", "tightness", "scatter"] {
+        let f = figs
+            .iter()
+            .find(|f| f.name == want)
+            .unwrap_or_else(|| panic!("no {want} in {names:?}"));
+        assert!(
+            f.panels.iter().all(|p| p.note.is_none()),
+            "{want}: {:?}",
+            f.panels[0].note
+        );
+        assert!(!f.legend.is_empty(), "{want}");
+        assert_ranges_cover(f);
+    }
+    let cdf = figs.iter().find(|f| f.name == "error-cdf").unwrap();
+    let tb = cdf.panels[0]
+        .series
+        .iter()
+        .find(|s| s.name == "theta_bar")
+        .expect("theta_bar's CDF");
+    // The staircase of three errors ends at (2.0, 1.0) and climbs in thirds.
+    assert_eq!(tb.segments[0].last(), Some(&(2.0, 1.0)));
+    assert!(tb.segments[0].contains(&(1.0, 2.0 / 3.0)));
+    let scatter = figs.iter().find(|f| f.name == "scatter").unwrap();
+    let pts = &scatter.panels[0]
+        .series
+        .iter()
+        .find(|s| s.name == "theta_bar")
+        .unwrap()
+        .segments[0];
+    assert_eq!(pts, &vec![(0.3, -0.4), (-0.6, 0.8), (1.2, 1.6)]);
+    let tight = figs.iter().find(|f| f.name == "tightness").unwrap();
+    assert_eq!(tight.panels[0].series.len(), 2);
+}
+
+#[test]
+fn the_title_of_a_monte_carlo_run_names_its_seeds_not_seed_0() {
+    let d = snapshot_data();
+    assert!(d.title().contains("seeds 7..9"), "{}", d.title());
+    assert!(!d.title().contains("seed 7)"), "{}", d.title());
+}

@@ -37,16 +37,16 @@ pub fn fmt_num(v: f64) -> String {
 pub fn caption(name: &str) -> &'static str {
     match name {
         "tracks" => {
-            "True track (black, dots at samples), distributed estimate θ̄ = mean of the node estimates (blue), centralised ML reference (orange, dashed) and any baselines. Transmitters (red triangles), receivers (squares) and network links drawn to scale, as in seed 002 Fig. 2b. Where bounds are present, the certified error discs around θ̄ are drawn at every n-th sample."
+            "True track (black, dots at samples), distributed estimate θ̄ = mean of the node estimates (blue), centralised ML reference (orange, dashed) and any baselines. Transmitters (red triangles), receivers (squares) and network links drawn to scale, as in Mourya 2017 Fig. 2b. Where bounds are present, the certified error discs around θ̄ are drawn at every n-th sample."
         }
         "error" => {
             "Position error ‖x_k − x_k*‖ per sample for every track, with the Cramér-Rao bound √tr(J⁻¹) at the true position (grey, dashed). The grey region is the burn-in, excluded from rmse_after_burn_in; red regions are the faults of the run (faults.csv). Monte Carlo runs: mean across trials with a 5th–95th percentile band."
         }
         "consensus" => {
-            "Each node's estimate θ_v (thin lines), their mean θ̄ and the true position, x and y coordinates against the sample (or against the iteration when the run traced iterations), as seed 002 Fig. 2a; bottom: the consensus disagreement maxᵥ‖θᵥ − θ̄‖."
+            "Each node's estimate θ_v (thin lines), their mean θ̄ and the true position, x and y coordinates against the sample (or against the iteration when the run traced iterations), as Mourya 2017 Fig. 2a; bottom: the consensus disagreement maxᵥ‖θᵥ − θ̄‖."
         }
         "ctte" => {
-            "Running cumulative target tracking error CTTE_k = Σ_{j≤k} ‖x_j − x_j*‖ (seed 000) of every track, and the running dynamic regret (seed 001) when present. Monte Carlo runs: mean with a 5th–95th percentile band."
+            "Running cumulative target tracking error CTTE_k = Σ_{j≤k} ‖x_j − x_j*‖ (Pun-So 2022) of every track, and the running dynamic regret (Pun-So 2020) when present. Monte Carlo runs: mean with a 5th–95th percentile band."
         }
         "network" => {
             "The gossip graph to scale. Each node is coloured by its number of prox solves and labelled with its counters: prox solves, gossip messages sent (↑) and received (↓), and declined exchanges."
@@ -56,6 +56,15 @@ pub fn caption(name: &str) -> &'static str {
         }
         "channel" => {
             "Each directed link's delivery ratio (frames delivered over frames sent, label i→j with the frames sent) against the link's length. Losses grow with range under the range loss model; collisions and half-duplex losses depend on the traffic at the receiver."
+        }
+        "error-cdf" => {
+            "Monte Carlo of one snapshot per trial: the empirical CDF across trials of each track's position error ‖x − x*‖ (the fraction of trials whose error is at most the abscissa), as Gholami 2015 Figs. 8-9 plot it, with the mean Cramér-Rao bound √tr(J⁻¹) (grey, dashed)."
+        }
+        "tightness" => {
+            "The empirical CDF across trials of each certified bound's relative tightness τ = (bound − error) / error, one panel per track that carries bounds (Gholami 2015 Sec. 6: τ ≤ 1 at the 80th percentile means the bound is below twice the actual error in 80 % of the cases)."
+        }
+        "scatter" => {
+            "Every trial's estimate minus the true position, per track, at equal scale on both axes: the truth is the cross at the origin."
         }
         "compare-error" => "Error per sample of every track: run A solid, run B dashed.",
         "compare-ctte" => "Running CTTE of every track: run A solid, run B dashed.",
@@ -71,6 +80,7 @@ h2 { font-size: 20px; border-bottom: 1px solid #ddd; padding-bottom: 4px; margin
 h3 { font-size: 16px; margin: 20px 0 6px; }
 p.sub { color: #555; margin: 0 0 12px; }
 table { border-collapse: collapse; margin: 8px 0 12px; font-size: 14px; }
+div.scroll { max-width: 100%; overflow-x: auto; }
 th, td { border: 1px solid #d4d4d4; padding: 4px 10px; text-align: left; vertical-align: top; }
 th { background: #f1f3f5; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; font-family: "DejaVu Sans Mono", monospace; }

@@ -20,13 +20,29 @@ pub(super) fn show(v: &Value) -> String {
 }
 
 pub(super) fn noise(v: Option<&Value>) -> Option<String> {
+    noise_in(v, "")
+}
+
+/// [`noise`] with `unit` after every number that is a level of the noise
+/// (`sigma`, `scale`, `mean`, ...): ` m` for ranges, ` rad` for DOA.
+pub(super) fn noise_in(v: Option<&Value>, unit: &str) -> Option<String> {
     let v = v?;
     let model = v.get("model").map(show).unwrap_or_else(|| "?".into());
+    let dimensionless = [
+        "model", "p", "weights", "schedule", "alpha", "df", "nu", "shape",
+    ];
     let rest: Vec<String> = v
         .as_object()?
         .iter()
         .filter(|(k, _)| k.as_str() != "model")
-        .map(|(k, x)| format!("{k} {}", show(x)))
+        .map(|(k, x)| {
+            let u = if x.is_number() && !dimensionless.contains(&k.as_str()) {
+                unit
+            } else {
+                ""
+            };
+            format!("{k} {}{u}", show(x))
+        })
         .collect();
     Some(if rest.is_empty() {
         model
@@ -84,9 +100,13 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     }
     add(
         "range noise",
-        noise(get(sc, &["measurements", "range_noise"])),
+        noise_in(get(sc, &["measurements", "range_noise"]), " m"),
     );
-    add("DOA noise", noise(get(sc, &["measurements", "doa_noise"])));
+    add(
+        "DOA noise",
+        noise_in(get(sc, &["measurements", "doa_noise"]), " rad"),
+    );
+    add("channel", channel_row(get(sc, &["channel"])));
     add("mode", i.run.mode.clone());
     add("local solver", i.run.local_solver.clone());
     if i.run.local_solver.as_deref() == Some("gtrs_l0") {
@@ -121,6 +141,41 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     rows
 }
 
+/// The network between the nodes in one line: ideal, or the acoustic
+/// channel's bit rate, sound speed, time scale and switches.
+fn channel_row(v: Option<&Value>) -> Option<String> {
+    let Some(v) = v else {
+        return Some("ideal (every frame arrives at once)".into());
+    };
+    let model = v.get("model").map(show).unwrap_or_else(|| "ideal".into());
+    if model != "acoustic" {
+        return Some(model);
+    }
+    let mut parts = vec!["acoustic".to_string()];
+    for (k, label, unit) in [
+        ("bit_rate", "bit rate", " bit/s"),
+        ("sound_speed", "sound speed", " m/s"),
+        ("time_scale", "time scale", "x"),
+    ] {
+        if let Some(x) = v.get(k) {
+            parts.push(format!("{label} {}{unit}", show(x)));
+        }
+    }
+    for k in ["half_duplex", "collisions"] {
+        if let Some(b) = v.get(k).and_then(Value::as_bool) {
+            parts.push(format!(
+                "{} {}",
+                k.replace('_', "-"),
+                if b { "on" } else { "off" }
+            ));
+        }
+    }
+    if let Some(l) = v.get("loss") {
+        parts.push(format!("loss {}", noise(Some(l)).unwrap_or_default()));
+    }
+    Some(parts.join(", "))
+}
+
 pub(super) fn kv_table(rows: &[(String, String)]) -> String {
     let mut s = String::from("<table class=\"kv\">\n");
     for (k, v) in rows {
@@ -136,7 +191,10 @@ pub(super) fn track_metrics_html(d: &RunData) -> String {
         return "<p class=\"note\">No track metrics (the directory has no metrics.json).</p>\n"
             .into();
     }
-    let mut s = String::from("<table id=\"track-metrics\">\n<tr><th>track</th>");
+    // Wide tables (many bounds) scroll inside the page instead of
+    // overflowing it.
+    let mut s =
+        String::from("<div class=\"scroll\">\n<table id=\"track-metrics\">\n<tr><th>track</th>");
     for c in &tm.columns {
         let unit = if TRACK_KEYS[..5].contains(&c.as_str()) {
             " (m)"
@@ -163,7 +221,7 @@ pub(super) fn track_metrics_html(d: &RunData) -> String {
         }
         s.push_str("</tr>\n");
     }
-    s.push_str("</table>\n");
+    s.push_str("</table>\n</div>\n");
     s
 }
 
@@ -212,7 +270,10 @@ pub(super) fn run_metrics_html(d: &RunData) -> String {
     }
     if let Some(Value::Object(rt)) = all.get("realtime") {
         for (k, v) in rt {
-            rows.push((format!("realtime.{k}"), show(v)));
+            rows.push((
+                format!("realtime.{k}"),
+                num(v).map_or_else(|| show(v), fmt_num),
+            ));
         }
     }
     // The acoustic channel: its scalars, the losses by reason in one row;

@@ -22,7 +22,7 @@ pub const ML: &str = "ml";
 /// What a track is, which decides its style and legend text.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TrackKind {
-    /// The distributed estimate `theta_bar = mean_i theta_i[0:2]` (seed 002).
+    /// The distributed estimate `theta_bar = mean_i theta_i[0:2]` (Mourya 2017).
     Distributed,
     /// The centralised maximum-likelihood reference.
     Reference,
@@ -42,10 +42,10 @@ pub struct Track {
     /// Error `||x_k - x_k*||` per row (m): the `error`/`NAME_error` column,
     /// else computed from the truth.
     pub error: Vec<Option<f64>>,
-    /// Running CTTE per row (m, seed 000 Sec. II): the `ctte`/`NAME_ctte`
+    /// Running CTTE per row (m, Pun-So 2022 Sec. II): the `ctte`/`NAME_ctte`
     /// column, else the running sum of `error`.
     pub ctte: Vec<Option<f64>>,
-    /// Running dynamic regret (seed 001), when the column exists.
+    /// Running dynamic regret (Pun-So 2020), when the column exists.
     pub regret: Option<Vec<Option<f64>>>,
 }
 
@@ -179,8 +179,8 @@ pub struct TrackCurves {
 /// * `curves`: one object per track, keyed `theta_bar` (the distributed
 ///   estimate), `ml` (the centralised ML reference) or a baseline's NAME as in
 ///   `track.csv`. Each of `error` (`||x_k - x_k*||`, m), `ctte` (running
-///   `sum_{j<=k} ||x_j - x_j*||`, m, seed 000) and `regret` (running dynamic
-///   regret, seed 001) is optional.
+///   `sum_{j<=k} ||x_j - x_j*||`, m, Pun-So 2022) and `regret` (running dynamic
+///   regret, Pun-So 2020) is optional.
 /// * Every curve is `{"mean", "p5", "p95"}`: the mean and the 5th and 95th
 ///   percentiles across trials at each sample (percentiles with linear
 ///   interpolation, as `metrics::quantile`). Every array has the length of
@@ -238,8 +238,14 @@ impl RunData {
         if let Some(e) = &self.info.run.engine {
             parts.push(e.clone());
         }
-        if let Some(s) = self.info.run.seed {
-            parts.push(format!("seed {s}"));
+        match (&self.monte_carlo, self.info.run.seed) {
+            // A Monte Carlo run has many seeds: name the first.
+            (Some(mc), Some(s)) => parts.push(match mc.trials {
+                Some(n) if n > 1 => format!("seeds {s}..{}", s.wrapping_add(n - 1)),
+                _ => format!("seed {s}"),
+            }),
+            (None, Some(s)) => parts.push(format!("seed {s}")),
+            _ => {}
         }
         if parts.is_empty() {
             self.info.name.clone()

@@ -123,12 +123,29 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
                     segments: vec![vec![(t, y1)]],
                     style: Style::markers(LOST, Marker::Cross, 6),
                 });
-                panel.labels.push(Label {
-                    at: (t, y1),
-                    offset: (5, 2),
-                    lines: vec![why.to_string()],
-                    size: 11,
-                });
+                // Losses at one place (a frame lost to two causes, or two
+                // frames lost together) share a label, a line per reason,
+                // instead of printing over each other.
+                let near = (t_end - t0).abs().max(1e-9) * 0.02;
+                let lane = y1;
+                match panel
+                    .labels
+                    .iter_mut()
+                    .skip(n_nodes)
+                    .find(|l| (l.at.1 - lane).abs() < 0.5 && (l.at.0 - t).abs() < near)
+                {
+                    Some(l) => {
+                        if !l.lines.iter().any(|x| x == why) {
+                            l.lines.push(why.to_string());
+                        }
+                    }
+                    None => panel.labels.push(Label {
+                        at: (t, y1),
+                        offset: (5, 2),
+                        lines: vec![why.to_string()],
+                        size: 11,
+                    }),
+                }
                 if !reasons.contains(&why) {
                     reasons.push(why);
                 }
@@ -152,19 +169,21 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
     });
     panel.x_range = (t0, t_end.max(t0 + 1e-3));
     panel.y_range = (-0.6, n_nodes as f64 - 0.4);
-    panel.caption = Some(format!(
-        "first {} of {} frames, {:.1}-{:.1} s",
-        first.len(),
-        msgs.len(),
-        t0,
-        t_end
-    ));
     if msgs.is_empty() {
         panel.note = Some("no frame was sent".into());
     }
+    // What is shown goes in the title: a caption in the plot's corner would
+    // sit on the top lane's label.
     Some(Figure {
         name: "messages".into(),
-        title: format!("Messages on the acoustic channel — {}", data.title()),
+        title: format!(
+            "Messages on the acoustic channel, first {} of {} frames ({:.1}-{:.1} s) — {}",
+            first.len(),
+            msgs.len(),
+            t0,
+            t_end,
+            data.title()
+        ),
         width: WIDTH,
         panels: vec![panel],
         legend,

@@ -4,12 +4,16 @@ mod channel;
 mod consensus;
 mod network;
 mod series;
+mod snapshot;
 mod sweep;
 mod tracks;
 pub use channel::*;
 pub use consensus::*;
 pub use network::*;
 pub use series::*;
+pub use snapshot::{
+    cdf_points, error_cdf_figure, is_snapshot, scatter_figure, tightness_cdf_figure,
+};
 pub use sweep::*;
 pub use tracks::*;
 
@@ -314,6 +318,15 @@ fn draw_geometry(data: &RunData, panel: &mut Panel, legend: &mut Vec<LegendItem>
 /// The figures of a run, in report order: tracks, error, consensus, ctte,
 /// network, and on the acoustic channel messages and channel.
 pub fn run_figures(data: &RunData) -> Vec<Figure> {
+    if is_snapshot(data) {
+        // One snapshot per trial: distributions across the trials, not
+        // curves over a one-point time axis.
+        let mut figs = vec![tracks_figure(data), error_cdf_figure(data)];
+        figs.extend(tightness_cdf_figure(data));
+        figs.extend(scatter_figure(data));
+        figs.push(network_figure(data));
+        return figs;
+    }
     let mut figs = vec![
         tracks_figure(data),
         error_figure(data),

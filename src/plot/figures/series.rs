@@ -235,11 +235,15 @@ pub fn error_figure(data: &RunData) -> Figure {
     }
 }
 
-/// `ctte.svg`: running CTTE (seed 000) and, when present, running dynamic
-/// regret (seed 001) for every track; Monte Carlo runs show mean and band.
+/// `ctte.svg`: running CTTE (Pun-So 2022) and, when present, running dynamic
+/// regret (Pun-So 2020) for every track; Monte Carlo runs show mean and band.
 pub fn ctte_figure(data: &RunData) -> Figure {
     let mut ctte = Panel::new(440, "sample k", "cumulative tracking error CTTE (m)");
-    let mut regret = Panel::new(360, "sample k", "dynamic regret");
+    let mut regret = Panel::new(
+        360,
+        "sample k",
+        "dynamic regret (m², running Σ f_t(x_t) − f_t(x̂_t))",
+    );
     let mut legend = Vec::new();
     let mut title = format!("Running CTTE — {}", data.title());
     if let Some(mc) = data.monte_carlo.as_ref().filter(|m| !m.sample.is_empty()) {
