@@ -16,6 +16,7 @@ fn main() -> ExitCode {
         let rest = argv.skip(1);
         return node_program::node_main(std::iter::once(prog).chain(rest));
     }
+    quiet_on_a_closed_pipe();
     let cli = sonarnet::cli::Cli::parse();
     match sonarnet::cli::dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -24,4 +25,24 @@ fn main() -> ExitCode {
             ExitCode::from(e.exit_code())
         }
     }
+}
+
+/// `sonarnet list | head` closes standard output early: like any Unix tool,
+/// stop quietly then instead of panicking in `println!`. SIGPIPE itself stays
+/// ignored (as Rust sets it), so that a closed socket to a node is an error
+/// the engine handles, not the end of the coordinator.
+fn quiet_on_a_closed_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
 }

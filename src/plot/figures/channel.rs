@@ -123,10 +123,10 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
                     segments: vec![vec![(t, y1)]],
                     style: Style::markers(LOST, Marker::Cross, 6),
                 });
-                // Losses at one place (a frame lost to two causes, or two
-                // frames lost together) share a label, a line per reason,
-                // instead of printing over each other.
-                let near = (t_end - t0).abs().max(1e-9) * 0.02;
+                // Losses close together on one lane share a label, a line
+                // per reason, instead of printing over each other.
+                // A label is about a tenth of the axis wide.
+                let near = (t_end - t0).abs().max(1e-9) * 0.12;
                 let lane = y1;
                 match panel
                     .labels

@@ -132,7 +132,10 @@ pub fn network_figure(data: &RunData) -> Figure {
 /// down (the text's top-left corner is at the label's offset).
 fn label_box(l: &Label, offset: (i32, i32)) -> (f64, f64, f64, f64) {
     let chars = l.lines.iter().map(|t| t.chars().count()).max().unwrap_or(0) as f64;
-    let w = chars * 0.6 * l.size as f64;
+    // DejaVu Sans averages about 0.56 em per character on these labels
+    // (digits, arrows): a wider guess leaves a left-hand label floating
+    // away from its marker.
+    let w = chars * 0.56 * l.size as f64;
     let h = l.lines.len() as f64 * 1.25 * l.size as f64;
     let (x, y) = (offset.0 as f64, offset.1 as f64);
     (x, y, x + w, y + h)
@@ -168,9 +171,9 @@ pub(crate) fn place_labels(panel: &mut Panel, transmitters: &[[f64; 2]], receive
         let (w, h) = (w as i32, h as i32);
         let candidates = [
             (15, -8),
-            (-w - 15, -8),
+            (-w - 12, -8),
             (15, -h - 10),
-            (-w - 15, -h - 10),
+            (-w - 12, -h - 10),
             (-w / 2, 12),
             (-w / 2, -h - 14),
         ];

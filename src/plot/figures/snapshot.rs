@@ -134,24 +134,47 @@ pub fn tightness_cdf_figure(data: &RunData) -> Option<Figure> {
             PALETTE[(i + 2) % PALETTE.len()]
         }
     };
+    // A few near-degenerate trials have tau in the hundreds: the axis ends
+    // at the largest 98th percentile, and the CDFs are cut there.
+    let cap = by_track
+        .iter()
+        .flat_map(|(t, bs)| bs.iter().map(move |b| (t, b)))
+        .filter_map(|(t, b)| {
+            crate::model::metrics::quantile(&column(data, &format!("{t}.bounds.{b}{suffix}")), 0.98)
+        })
+        .fold(f64::NEG_INFINITY, f64::max);
     let mut legend = Vec::new();
     let mut panels = Vec::new();
     for (track, bs) in &by_track {
         let mut panel = Panel::new(
             300,
-            "relative tightness τ = (bound − error) / error",
+            &format!(
+                "relative tightness τ = (bound − error) / error of the bounds on {}",
+                curve_label(track)
+            ),
             "fraction of trials (CDF)",
         );
-        panel.caption = Some(format!("bounds on {}", curve_label(track)));
+        let mut cut = false;
         for b in bs {
             let v = column(data, &format!("{track}.bounds.{b}{suffix}"));
             if v.is_empty() {
                 continue;
             }
+            let mut pts = cdf_points(v);
+            if cap.is_finite() && pts.iter().any(|p| p.0 > cap) {
+                let below = pts
+                    .iter()
+                    .filter(|p| p.0 <= cap)
+                    .map(|p| p.1)
+                    .fold(0.0, f64::max);
+                pts.retain(|p| p.0 <= cap);
+                pts.push((cap, below));
+                cut = true;
+            }
             let st = Style::line(color(b), 2);
             panel.series.push(Series {
                 name: format!("{track}.{b}"),
-                segments: vec![cdf_points(v)],
+                segments: vec![pts],
                 style: st,
             });
             legend.push(LegendItem {
@@ -161,6 +184,9 @@ pub fn tightness_cdf_figure(data: &RunData) -> Option<Figure> {
         }
         finish_series_panel(&mut panel, false, false);
         panel.y_range = (0.0, 1.0);
+        if cut {
+            panel.x_label = format!("{} (cut at its 98th percentile)", panel.x_label);
+        }
         panels.push(panel);
     }
     super::dedup_legend(&mut legend);
