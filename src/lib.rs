@@ -1,7 +1,7 @@
 //! sonarnet: an emulated distributed multistatic sonar network.
 //!
 //! Receivers track a moving target with asynchronous randomized Douglas-Rachford
-//! gossip (Mourya et al., CAMSAP 2017, "seed 002"), each local step an exact
+//! gossip (Mourya et al., CAMSAP 2017, "Mourya 2017"), each local step an exact
 //! generalized trust-region subproblem (GTRS) solve.
 //!
 //! # Example: a scenario-driven test
@@ -43,3 +43,9 @@ pub mod protocol;
 pub mod report;
 pub mod scenario;
 pub mod transport;
+
+/// The book's chapters that hold Rust code (`docs/src/`), compiled and run
+/// as doctests so that the guide cannot drift from the API.
+#[cfg(doctest)]
+#[doc = include_str!("../docs/src/library.md")]
+pub struct BookLibraryChapter;

@@ -249,7 +249,7 @@ fn every_variant_runs_into_its_own_directory_and_variant_picks_one() {
 
 #[test]
 fn a_toa_only_network_is_tracked_by_the_distributed_engine_in_sync_and_async_mode() {
-    // Seed 000's three anchors are the gossip nodes; each node has one
+    // Pun-So 2022's three anchors are the gossip nodes; each node has one
     // one-way range row [0, 0, 1] (g = r_v) and the same GTRS prox.
     let text = TOA
         .replace(
@@ -302,7 +302,7 @@ fn replacing_the_baselines_must_keep_every_track_the_bounds_name() {
 fn the_default_ogd_step_tracks_the_spiral_and_a_diverging_constant_step_counts_failures() {
     let t = TempDir::new("ogd-step");
     let spiral = crate::util::scenario("mourya2017-spiral.toml");
-    // README's command: the default step (1/L_t) is stable.
+    // The book's command: the default step (1/L_t) is stable.
     let out = t.path().join("default");
     let o = run_file(
         &spiral,
@@ -321,7 +321,7 @@ fn the_default_ogd_step_tracks_the_spiral_and_a_diverging_constant_step_counts_f
     let ogd = &m["baselines"]["ogd"];
     assert_eq!(ogd["failures"], 0);
     assert!(ogd["rmse"].as_f64().unwrap() < 200.0, "{ogd}");
-    // Seed 000's constant eta = 0.1 explodes on this km-scale geometry: the
+    // Pun-So 2022's constant eta = 0.1 explodes on this km-scale geometry: the
     // samples beyond 100 scene diameters are failures, no number is absurd.
     let out = t.path().join("constant");
     let o = run_file(

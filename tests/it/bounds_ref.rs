@@ -6,7 +6,7 @@
 //!
 //! `tests/golden/bounds-openblas.csv` was written by
 //! `cargo test --release --test it bounds_ref -- --ignored record` on the
-//! commit before the switch; README's performance section quotes the largest
+//! commit before the switch; the book's performance chapter quotes the largest
 //! differences this test prints.
 //!
 //! `upp_minball` with ellipses has since changed on purpose: its ball is now
@@ -56,7 +56,7 @@ fn instance(i: u64) -> (Vec<Region>, Vec2) {
     let target = Vec2::new(uni(-50.0, 50.0), uni(-50.0, 50.0));
     let n = 4 + (uni(0.0, 11.0) as usize).min(10);
     // Errors: exponential (LOS, never empty), Gaussian enlarged by 3 sigma
-    // (seed 003 Remark 4), or Gaussian with mean -2 sigma and no enlargement
+    // (Gholami 2015 Remark 4), or Gaussian with mean -2 sigma and no enlargement
     // (ranges measured short: often empty).
     let mode = uni(0.0, 3.0);
     let exponential = mode < 1.0;

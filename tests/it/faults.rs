@@ -111,7 +111,7 @@ fn assert_two_consensuses_during_the_partition(dir: &std::path::Path) -> Halves 
 /// {3, 4, 5}, for samples 30-49: each half keeps its own consensus (the
 /// nodes of a half stay closer to each other than to the other half), and
 /// within 3 samples of the heal the two halves agree again as closely as
-/// before the partition (README, Faults).
+/// before the partition (the book, Faults).
 #[test]
 fn a_partitioned_network_keeps_two_consensuses_and_agrees_again_after_the_heal() {
     let tmp = TempDir::new("faults-partition");

@@ -1,7 +1,7 @@
 //! The library's modules import each other one way only: the graph of
 //! `crate::MODULE` references between the top-level modules of `src/` (a
 //! folder is one module) has no cycle, and no module imports one of a higher
-//! layer ([`LAYERS`], README's Design section). Doc comments, `#[cfg(test)]`
+//! layer ([`LAYERS`], ARCHITECTURE.md). Doc comments, `#[cfg(test)]`
 //! modules and `tests.rs` files are not imports and are left out.
 
 use crate::util::root;

@@ -1,4 +1,4 @@
-//! Seed 002 Sec. III-C behaviour on `mourya2017-spiral`, averaged over seeds 0-4
+//! Mourya 2017 Sec. III-C behaviour on `mourya2017-spiral`, averaged over seeds 0-4
 //! with a burn-in of 10 samples.
 
 use crate::util::{TempDir, run_inprocess, scenario};
@@ -30,7 +30,7 @@ fn mean_metrics(mode: Mode, solver: LocalSolver, scaling: ProxScaling) -> (f64, 
     (s / 5.0, crlb / 5.0)
 }
 
-/// Seed 002 Sec. III-C: "after certain initial lag, the asynchronous
+/// Mourya 2017 Sec. III-C: "after certain initial lag, the asynchronous
 /// algorithm performs almost similar to the synchronous one", which holds for
 /// the general algorithm, eq. (5), and not for eq. (11) (13.95 m, 4.2x sync).
 #[test]
@@ -93,14 +93,14 @@ fn async_gtrs_tracks_the_spiral_within_20_m_and_relaxed_is_3x_worse() {
     );
 }
 
-/// The convergence study of README ("Convergence on the spiral"): mean
+/// The convergence study of the book ("Convergence on the spiral", docs/src/math.md): mean
 /// `rmse_after_burn_in` over seeds 0-4 against `iterations_per_sample` (at
 /// the file's `gamma = 2e-8`) and against `gamma` (at 50 iterations), for
 /// sync, async eq. (11) and async eq. (5). Prints both tables as Markdown
 /// and draws `target/convergence.svg`. Run it with
 /// `cargo test --release --test it -- --ignored convergence_study --nocapture`.
 #[test]
-#[ignore = "a study (165 runs, about a minute), not a check: run it to regenerate README's tables"]
+#[ignore = "a study (165 runs, about a minute), not a check: run it to regenerate the book's tables"]
 fn convergence_study() {
     use sonarnet::plot::{Figure, LegendItem, Marker, Panel, Rgb, Series, Style, Swatch};
     let modes = [
