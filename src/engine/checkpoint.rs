@@ -1,4 +1,4 @@
-//! A node process's checkpoint file (issue 17, `restart` with
+//! A node process's checkpoint file (`restart` with
 //! `state = "checkpoint"`): the node's `u` and `theta` when every
 //! `checkpoint_every`-th sample arrived ([`crate::protocol::Output::Checkpoint`]),
 //! in `checkpoints/node-<i>.json` of the run's results directory. It is

@@ -57,7 +57,7 @@ pub enum Event {
         /// How it ended (exit status, signal, error).
         how: String,
     },
-    /// A node that died is up again (restarted, issue 17; realtime clock):
+    /// A node that died is up again (restarted; realtime clock):
     /// it rejoins with the current sample's measurements.
     NodeUp {
         /// The node.

@@ -1,4 +1,4 @@
-//! The discrete-event engine (issue 16 item 3): the protocol in virtual time.
+//! The discrete-event engine: the protocol in virtual time.
 //! It runs `--engine inprocess --clock realtime`, and every clock on the
 //! acoustic channel.
 //!
@@ -24,7 +24,7 @@
 //! The coordinator's commands and the nodes' reports are the emulator's own
 //! wiring, not acoustic: they arrive at once.
 //!
-//! Faults (issue 17, [`crate::model::fault`]) are events too, applied
+//! Faults ([`crate::model::fault`]) are events too, applied
 //! exactly at their virtual time: a paused node does nothing (what reaches it
 //! waits, its clock fires once on resume, as a SIGSTOPped process's would); a
 //! crashed node is dead and the coordinator is told at once; a restarted node

@@ -237,7 +237,7 @@ pub struct RunRecord {
     /// Processes engine on the acoustic channel: every delivered frame's
     /// realised error, forwarded minus planned end of arrival (emulated ms).
     pub delivery_errors_ms: Vec<f64>,
-    /// Faults (issue 17): every fault applied, in the order applied.
+    /// Faults: every fault applied, in the order applied.
     pub faults: Vec<FaultRecord>,
     /// Faults: which nodes were paused at the end of each completed sample
     /// (empty without faults).

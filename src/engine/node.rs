@@ -526,7 +526,7 @@ mod tests {
         theta
     }
 
-    /// Issue 17: a node program that checkpoints writes its file when the
+    /// A node program that checkpoints writes its file when the
     /// sample arrives; started again with `resume`, it reports exactly the
     /// saved `theta` (not `init_u`); without `resume`, or with no file, it
     /// starts at `init_u`.

@@ -65,7 +65,7 @@ pub struct RunPlan {
     pub stall_timeout: Duration,
     /// The acoustic channel between the nodes (`None`: ideal).
     pub channel: Option<ChannelPlan>,
-    /// Faults (issue 17; realtime clock), in emulated seconds.
+    /// Faults (realtime clock), in emulated seconds.
     pub faults: Vec<crate::model::fault::Fault>,
 }
 

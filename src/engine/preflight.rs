@@ -1,6 +1,6 @@
 //! What a run on node processes needs from this machine (shared memory, file
 //! descriptors, processes, memory), computed from the plan and checked
-//! before anything is created or spawned (issue 15 items 4 and 7: 100000
+//! before anything is created or spawned (100000
 //! receivers failed at node 2855 with a misleading hint, and
 //! `iterations_per_sample = 1e8` left a 348 GB sparse file in `/dev/shm`).
 //!

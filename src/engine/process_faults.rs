@@ -1,4 +1,4 @@
-//! Faults on node processes (issue 17): the schedule of a run's faults in
+//! Faults on node processes: the schedule of a run's faults in
 //! wall time, and what each one does to a process, I/O-free. The processes
 //! engine ([`super::processes`]) asks for the due faults and carries them out
 //! with real signals: `pause` is SIGSTOP then SIGCONT, `crash` is SIGKILL

@@ -200,8 +200,8 @@ impl Processes {
         // The nodes start first, each waiting at a gate (its stdin, one pipe
         // for all) until the services exist: spawned while the coordinator
         // holds few file descriptors and mappings (the close-on-exec of
-        // every one of them is paid per spawn: O(N^2) per run otherwise,
-        // issue 20), and starting up while the services are created.
+        // every one of them is paid per spawn: O(N^2) per run otherwise),
+        // and starting up while the services are created.
         let (gate, gate_writer) = std::io::pipe()
             .map_err(|e| EngineError::StartGate(format!("creating its pipe: {e}")))?;
         for cfg in configs {
@@ -385,7 +385,7 @@ impl Processes {
         }
         let out = self.receive(timeout)?;
         // One waitpid per child: every 50 ms at most, not after every batch
-        // of READYs (that made start-up O(N^2) system calls, issue 20).
+        // of READYs (that made start-up O(N^2) system calls).
         if self.children_checked.elapsed() < Duration::from_millis(50) {
             return Ok(out);
         }

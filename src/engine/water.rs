@@ -1,4 +1,4 @@
-//! The acoustic channel of the processes engine (issue 16 item 4): the
+//! The acoustic channel of the processes engine: the
 //! coordinator is the water.
 //!
 //! On the acoustic channel a node process does not send its gossip frames to
@@ -20,7 +20,7 @@
 //! emulated ms) is kept ([`Water::into_records`]).
 //!
 //! On the ideal channel a run with link faults (partitions, link loss,
-//! extra delay) relays its gossip the same way ([`Water::ideal`], issue 17):
+//! extra delay) relays its gossip the same way ([`Water::ideal`]):
 //! the coordinator applies [`IdealLinks`], the ideal channel's one
 //! judgement, shared with the discrete-event engine, and forwards a frame at
 //! once or after its fault's delay. Only the acoustic water keeps records

@@ -1,4 +1,4 @@
-//! The underwater acoustic channel between the nodes (issue 16), I/O-free:
+//! The underwater acoustic channel between the nodes, I/O-free:
 //! how long a frame takes from one node to another, and whether it arrives.
 //!
 //! This module is the one implementation of the channel model; the
@@ -504,7 +504,7 @@ pub struct Medium {
     sent: u64,
     /// Frames sent per directed link.
     numbers: std::collections::HashMap<(u32, u32), u64>,
-    /// The faults in force on the links (issue 17: partitions, extra loss
+    /// The faults in force on the links (partitions, extra loss
     /// and delay), set by the engine as they start and end.
     pub link_faults: crate::model::fault::LinkFaults,
 }

@@ -1,4 +1,4 @@
-//! Faults as a schedule (issue 17): what can go wrong with a node or a link,
+//! Faults as a schedule: what can go wrong with a node or a link,
 //! and when. I/O-free: a [`FaultSpec`] is what a scenario's `[[faults]]` entry
 //! or a `--fault` flag says; [`FaultSpec::resolve`] checks it and turns it into
 //! a [`Fault`] in emulated seconds; the engines apply [`Fault`]s.

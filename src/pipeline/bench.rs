@@ -6,19 +6,19 @@
 //!   and sync; the best of `repeats` runs of each, start-up excluded (it is
 //!   reported separately). Measured with blocking nodes (the default) and with
 //!   `--poll-us` [`POLL_US`].
-//! * **Against the wake-up floor** (issue 20): one hop between two node
+//! * **Against the wake-up floor**: one hop between two node
 //!   processes (half a ping-pong between neighbours, the edges in turn;
 //!   [`crate::engine::processes::measure_hop`]), and the wall time over
 //!   the floor: async, the critical path of the schedule
 //!   ([`critical_path`]) times the median hop; sync, two hops per round.
 //!   Also against the strict floor (the fastest hop, p10) and, for sync,
-//!   issue 20's formula `rounds x (2 + N / cores)` hops.
+//!   the formula `rounds x (2 + N / cores)` hops.
 //! * **Scale** (`--scale 64,256,1024,2048`): a ring of N node processes
 //!   (async logical): start-up time (spawn to every READY), iterations per
 //!   second, peak RSS per node, and the coordinator's own peak RSS.
 //! * **Realtime throughput**: network-wide exchanges per second of the
 //!   free-running emulator on the spiral.
-//! * **zenoh** (issue 18): the spiral async and sync over zenoh on loopback
+//! * **zenoh**: the spiral async and sync over zenoh on loopback
 //!   TCP against the blocking iceoryx2 figures, and zenoh's one hop.
 //!
 //! Results go to stdout as a table and to `bench.json` in the output directory.
@@ -57,7 +57,7 @@ pub struct Overhead {
     /// Async: the critical path of the schedule, in pair steps
     /// ([`critical_path`]). Sync: the rounds.
     pub chain: u64,
-    /// Issue 20's wake-up floor (s): async `chain x hop` (each step of the
+    /// The wake-up floor (s): async `chain x hop` (each step of the
     /// critical path waits for one message from its partner), sync
     /// `rounds x 2 hops` (every round gathers the points at the root and
     /// sends the average back), with the median hop.
@@ -65,7 +65,7 @@ pub struct Overhead {
     /// Each repeat's processes wall time over the floor with the hops
     /// measured right after it, the median over the repeats (so that a
     /// run and its floor share the host's load of the moment): the figure
-    /// judged (issue 20's goal: at most 1.5).
+    /// judged (the goal: at most 1.5).
     pub floor_ratio: f64,
     /// The same floor with the fastest hop ([`Overhead::hop_p10_s`]): a
     /// bound no run can beat, which a run with its nodes spread over the
@@ -73,7 +73,7 @@ pub struct Overhead {
     pub strict_floor_seconds: f64,
     /// The same median ratio over the strict floor.
     pub strict_floor_ratio: f64,
-    /// Sync only: issue 20's sync formula, `rounds x (2 + N / cores)`
+    /// Sync only: the sync formula, `rounds x (2 + N / cores)`
     /// median hops (every node woken once per round, `cores` at a time).
     pub cores_floor_seconds: Option<f64>,
     /// Node processes.
@@ -168,11 +168,11 @@ pub struct BenchReport {
     pub realtime_iterations_per_second: Option<f64>,
     /// Realtime median exchanges per sample period.
     pub realtime_iterations_per_sample_median: Option<f64>,
-    /// The same node processes over zenoh on loopback TCP (issue 18).
+    /// The same node processes over zenoh on loopback TCP.
     pub zenoh: Vec<ZenohFigures>,
 }
 
-/// The spiral over zenoh against iceoryx2, and zenoh's one hop (issue 18).
+/// The spiral over zenoh against iceoryx2, and zenoh's one hop.
 #[derive(Debug, Clone, Serialize)]
 pub struct ZenohFigures {
     /// `async` or `sync`.
@@ -557,7 +557,7 @@ fn print_floor(o: &Overhead) {
     );
     if let Some(c) = o.cores_floor_seconds {
         println!(
-            "  {:5}  poll {:3} us  issue 20's sync formula, rounds x (2 + N / cores) hops: {c:8.4} s   processes / it {:5.2}x",
+            "  {:5}  poll {:3} us  the sync formula, rounds x (2 + N / cores) hops: {c:8.4} s   processes / it {:5.2}x",
             o.mode,
             o.poll_us,
             o.processes_seconds / c

@@ -216,7 +216,7 @@ pub struct RunMetrics {
     pub channel: Option<ChannelStats>,
     /// Nodes that died (the gap: they are left out of `theta_bar` from then on).
     pub deaths: Vec<Death>,
-    /// Faults applied (issue 17), with their detection, recovery and peak
+    /// Faults applied, with their detection, recovery and peak
     /// error; absent without faults.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultOutcome>,

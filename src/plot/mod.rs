@@ -1,4 +1,4 @@
-//! Plots of a results directory (issue 7), drawn with `plotters`.
+//! Plots of a results directory, drawn with `plotters`.
 //!
 //! Every run writes five SVG figures next to its outputs (seven on the
 //! acoustic channel; PNG on request):
@@ -208,7 +208,7 @@ pub struct VLine {
     pub shade_left: bool,
 }
 
-/// A shaded stretch of the x axis with a caption (a fault, issue 17).
+/// A shaded stretch of the x axis with a caption (a fault).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Span {
     /// Start.

@@ -378,6 +378,15 @@ where
                 let inside: Vec<(f64, f64)> =
                     seg.iter().copied().filter(|q| p.contains(*q)).collect();
                 draw_markers(chart, &inside, m, &s.style)?;
+            } else if s.style.width > 0 && seg.len() == 1 && p.contains(seg[0]) {
+                // A line of one point (a one-sample track, or a point
+                // between two gaps) would draw nothing: draw it as a dot of
+                // the line's colour.
+                let dot = Style {
+                    marker_size: s.style.width + 2,
+                    ..s.style
+                };
+                draw_markers(chart, seg, Marker::Circle, &dot)?;
             }
         }
     }

@@ -602,7 +602,7 @@ fn a_diverging_track_is_clipped_at_the_scene_and_named_not_allowed_to_rescale_th
 #[test]
 fn a_png_of_a_track_that_doubles_back_draws_nothing_outside_its_plot() {
     // A noisy track reversing at sharp angles: the bitmap backend's wide
-    // path joins would spike across the title and the margins (issue 19).
+    // path joins would spike across the title and the margins.
     let mut seg = Vec::new();
     for k in 0..400 {
         let t = k as f64;

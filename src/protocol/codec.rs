@@ -187,7 +187,7 @@ pub enum Control {
     Command(Command),
     /// Realtime: start the node's Poisson clock at this rate (Hz).
     StartClock(f64),
-    /// A `clock_drift` fault (issue 17): multiply the node's waits and
+    /// A `clock_drift` fault: multiply the node's waits and
     /// timers by this factor from now on (1: no drift).
     ClockFactor(f64),
     /// Exit cleanly.
@@ -195,7 +195,7 @@ pub enum Control {
     /// The coordinator's liveness check number `seq`: the node's event loop
     /// answers at once ([`encode_pong`]), whatever its protocol state.
     Ping(u64),
-    /// Measure one hop between two node processes (issue 20): ping-pong
+    /// Measure one hop between two node processes: ping-pong
     /// `count` times with neighbour `peer` ([`encode_probe`]), one probe
     /// at a time, and report each round trip halved ([`encode_hops`]).
     /// Answered by the node's event loop, not the protocol core.

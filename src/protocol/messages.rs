@@ -68,7 +68,7 @@ pub struct NodeConfig {
     #[serde(default)]
     pub round_timeout_s: Option<f64>,
     /// Write a checkpoint of `u` and `theta` ([`Output::Checkpoint`]) when
-    /// every `checkpoint_every`-th sample arrives (issue 17, a node that may
+    /// every `checkpoint_every`-th sample arrives (a node that may
     /// restart from its checkpoint). `None`: never.
     #[serde(default)]
     pub checkpoint_every: Option<u32>,
@@ -305,7 +305,7 @@ pub enum Report {
     /// Logical clocks, only with [`NodeConfig::trace_iterations`]: the node
     /// completed its part of iteration (sync: round) `iteration`. Without the
     /// trace nothing reads it, and a frame per step to the coordinator would
-    /// cost a node process as much as the step's own arithmetic (issue 20).
+    /// cost a node process as much as the step's own arithmetic.
     IterationDone {
         /// Node id.
         node: u32,

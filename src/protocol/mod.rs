@@ -1198,7 +1198,7 @@ mod tests {
         );
     }
 
-    /// Issue 17: a node that checkpoints writes `u` and `theta` when every
+    /// A node that checkpoints writes `u` and `theta` when every
     /// `checkpoint_every`-th sample arrives; restored from a checkpoint it
     /// resumes exactly at it (its next sample does not reset it); a fresh
     /// node starts at `init_u`. NodeUp puts a neighbour back in its list.

@@ -1,4 +1,4 @@
-//! Self-contained HTML report of a results directory (issue 7).
+//! Self-contained HTML report of a results directory.
 //!
 //! `sonarnet report DIR` writes `DIR/report.html`: the scenario summary, the
 //! metrics table of every track (distributed `theta_bar`, centralised ML,

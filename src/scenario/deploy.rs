@@ -1,4 +1,4 @@
-//! `[deploy]`: which host runs which node (issue 18). Nodes on a host other
+//! `[deploy]`: which host runs which node. Nodes on a host other
 //! than [`LOCAL_HOST`] are started by that host's agent (`sonarnet agent`)
 //! and talk over zenoh.
 

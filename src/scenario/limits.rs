@@ -1,6 +1,6 @@
 //! Size limits: every count a scenario or a flag gives has a documented
 //! range, and the memory a run's record implies is computed before the run
-//! and refused above [`MAX_RECORD_BYTES`] (issue 15 item 4: values such as
+//! and refused above [`MAX_RECORD_BYTES`] (values such as
 //! `iterations_per_sample = 9223372036854775807` or `samples = 1e9` aborted
 //! in an allocation or inside iceoryx2).
 

@@ -335,7 +335,7 @@ pub trait Transport {
     /// `flush`, or before this endpoint next blocks in [`Transport::recv`],
     /// whichever comes first. For frames the receiver needs only soon, not at
     /// once: a node's report of a sample while it has the next ones queued
-    /// (issue 20: on the polled spiral these reports woke the coordinator up
+    /// (on the polled spiral these reports woke the coordinator up
     /// to six times a sample, each wake-up taking a CPU from the gossip).
     /// By default the same as `flush`.
     fn flush_lazily(&mut self, lazy: Endpoint) -> Result<(), TransportError> {

@@ -1,4 +1,4 @@
-//! The acoustic channel on the discrete-event engine (issue 16): exact
+//! The acoustic channel on the discrete-event engine: exact
 //! delays, seeded loss, deterministic runs, and its outputs.
 
 use crate::util::{TempDir, read_rows, scenario};
@@ -165,7 +165,7 @@ fn lost_frames(rows: &[Vec<String>], kind: &str, to: Option<&str>) -> u64 {
         .count() as u64
 }
 
-/// Sync rounds over a lossy channel (issue 16 item 2): the root averages at
+/// Sync rounds over a lossy channel: the root averages at
 /// its round timeout the points that came, so every reflected point lost on
 /// the way to the root or late is one point missing from its round; a node
 /// without the root's Average keeps its state, so every Average lost or late
@@ -197,7 +197,7 @@ fn sync_rounds_on_a_lossy_channel_count_each_missing_point_and_each_missed_avera
     assert_eq!(out.metrics.samples_completed, sc.samples);
 }
 
-/// Async logical steps over a lossy channel (issue 16 item 2): a node whose
+/// Async logical steps over a lossy channel: a node whose
 /// partner's point is lost or late keeps its state for that step; the frames
 /// lost or late account for the steps timed out, up to the frames still on
 /// their way when the run ended (at most one per node).
@@ -246,7 +246,7 @@ fn channel_delivered(rows: &[Vec<String>]) -> (f64, f64) {
     (ok as f64 / rows.len().max(1) as f64, rows.len() as f64)
 }
 
-/// Issue 16 items 4 and 7: the processes engine applies the same channel.
+/// The processes engine applies the same channel.
 /// A run at `time_scale = 10` completes; every delivered frame's planned delay
 /// is exactly distance / c + bits / rate, and none is forwarded early (the
 /// realised error, reported as p50 and p99, is never negative); its delivery
@@ -322,7 +322,7 @@ fn an_acoustic_processes_run_agrees_with_the_discrete_event_engine() {
     );
 }
 
-/// Issue 16 item 5: an acoustic run draws `messages.svg` and `channel.svg`,
+/// An acoustic run draws `messages.svg` and `channel.svg`,
 /// and the HTML report shows both with the channel's metrics; a run on the
 /// ideal channel draws neither.
 #[test]
@@ -353,7 +353,7 @@ fn an_acoustic_run_draws_the_message_diagram_and_the_delivery_by_length() {
 }
 
 /// The discrete-event engine is the fast path for Monte Carlo runs over the
-/// channel (issue 16 item 3): trials of an acoustic variant run in virtual
+/// channel: trials of an acoustic variant run in virtual
 /// time, each from its own seed (so each has its own channel fates), trial 0
 /// is the single run of the base seed number for number, and the channel's
 /// metrics are columns of `trials.csv`. Node processes are refused.

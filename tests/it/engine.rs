@@ -365,7 +365,7 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
     }
 }
 
-/// Issue 16 item 3: the discrete-event engine, given a logical clock on the
+/// The discrete-event engine, given a logical clock on the
 /// ideal channel, runs the same coordinator and node cores as the in-process
 /// engine and gives its numbers bit for bit, in both modes.
 #[test]

@@ -1,4 +1,4 @@
-//! Faults as a schedule (issue 17) on the discrete-event engine: each kind
+//! Faults as a schedule on the discrete-event engine: each kind
 //! through `scenarios/mourya2017-spiral-faults.toml`, which every-scenario
 //! test also runs; here the properties the issue names.
 
@@ -308,8 +308,8 @@ fn faults_are_shaded_on_the_error_plot_and_listed_in_the_report() {
     );
 }
 
-/// On node processes a pause is SIGSTOP and SIGCONT and a crash SIGKILL
-/// (issue 17 item 3): a paused node that outlasts the stall timeout is
+/// On node processes a pause is SIGSTOP and SIGCONT and a crash SIGKILL: a
+/// paused node that outlasts the stall timeout is
 /// reported, a crashed one is detected when the coordinator reaps it (its
 /// `detected_s` is after the kill), both runs write faults.csv, and neither
 /// leaves a process or a shared-memory file behind.
@@ -360,7 +360,7 @@ fn node_processes_take_real_signals_for_pause_and_crash_and_leave_nothing_behind
     assert_eq!(read_rows(&pause.join("faults.csv")).len(), 1);
 }
 
-/// A `restart` on node processes (issue 17 item 1): the coordinator kills
+/// A `restart` on node processes: the coordinator kills
 /// the node, removes what the dead process left in shared memory, and
 /// starts a new process, which rejoins when it is ready (detected at once,
 /// alive again in nodes.csv after the restart). With `state =
@@ -431,7 +431,7 @@ fn node_processes_restart_a_node_from_its_checkpoint_file_and_leave_nothing_behi
 }
 
 /// Link faults on the ideal channel of node processes go through the
-/// coordinator's relay (issue 17 item 3): a partition {0, 1, 2} / {3, 4, 5}
+/// coordinator's relay: a partition {0, 1, 2} / {3, 4, 5}
 /// for samples 30-49 keeps two consensuses, and after the heal the halves
 /// agree again: closer than the nodes of one half were during the
 /// partition, and within a third of the distance between the halves then.

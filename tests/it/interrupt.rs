@@ -1,4 +1,4 @@
-//! Ctrl-C and SIGTERM of in-process and Monte Carlo runs (issue 15 item 5):
+//! Ctrl-C and SIGTERM of in-process and Monte Carlo runs:
 //! the completed work is written, marked `interrupted`, and the exit code is 1.
 
 use crate::util::*;

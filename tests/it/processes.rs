@@ -282,8 +282,8 @@ fn a_64_node_ring_completes_over_processes() {
 }
 
 /// The coordinator of a running 64-node ring holds no more open files than
-/// preflight counts on (9 per node plus 64; it held 12 per node before the
-/// shared down service, which kept 2048 nodes from starting: issue 20).
+/// preflight counts on (9 per node plus 64; at 12 per node, 2048 nodes could
+/// not start).
 #[test]
 fn the_coordinator_of_a_64_node_ring_holds_at_most_9_files_per_node() {
     let tmp = TempDir::new("ring64-fds");
@@ -448,7 +448,7 @@ fn launch_run_id(pid: u32) -> String {
 
 /// `kill -9` of the coordinator: its nodes notice (SIGTERM from the kernel,
 /// `PR_SET_PDEATHSIG`) and leave, and the last one to leave removes what
-/// the coordinator could not (issue 15 item 9: 33-35 files in `/dev/shm`
+/// the coordinator could not (33-35 files in `/dev/shm`
 /// and 47-51 under the iceoryx2 root were left until the next run).
 #[test]
 fn a_killed_coordinator_leaves_no_process_and_no_file_behind() {
@@ -482,7 +482,7 @@ fn files_below(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     out
 }
 
-/// Issue 15 item 8: each user has an iceoryx2 root of their own, and one
+/// Each user has an iceoryx2 root of their own, and one
 /// that belongs to another user is refused. Runs the processes engine as
 /// `nobody` (uid 65534) through `setpriv`, so it needs root; elsewhere it
 /// says SKIPPED. The second user's root is put back as it was found (absent).
@@ -927,7 +927,7 @@ fn a_node_program_that_cannot_start_records_the_run_id_and_leaves_nothing_behind
     assert_nothing_left(&run_id_of(&out));
 }
 
-/// The hop measurement of `sonarnet bench` (issue 20): neighbouring node
+/// The hop measurement of `sonarnet bench`: neighbouring node
 /// processes ping-pong, the edges in turn (50 hops take three of the
 /// spiral's six edges, 20 + 20 + 10), blocking and polling; every probe is
 /// answered, each hop is a positive, finite time, and the measuring runs

@@ -1,4 +1,4 @@
-//! Plots and the HTML report (issue 7): every run leaves its SVG plots,
+//! Plots and the HTML report: every run leaves its SVG plots,
 //! `sonarnet report` writes a self-contained page that renders in headless
 //! Chromium without errors, two runs compare side by side, and bad input
 //! exits with code 2 and one clear message.

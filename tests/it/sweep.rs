@@ -1,4 +1,4 @@
-//! `sonarnet sweep` (issue 19): the grid times the seeds, the tables, the
+//! `sonarnet sweep`: the grid times the seeds, the tables, the
 //! plot and the page, input errors before any work, Ctrl-C.
 
 use crate::util::{

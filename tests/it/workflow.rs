@@ -1,4 +1,4 @@
-//! The researcher's workflow (issue 19): `--set`, provenance in `run.json`,
+//! The researcher's workflow: `--set`, provenance in `run.json`,
 //! `scenario.toml` and `sonarnet replay`, results directories that never mix
 //! runs.
 

@@ -1,4 +1,4 @@
-//! Runs over zenoh (issue 18): the coordinator and two agents as separate
+//! Runs over zenoh: the coordinator and two agents as separate
 //! processes, each with its own zenoh session on loopback TCP, iceoryx2 out
 //! of the path.
 

@@ -1,5 +1,5 @@
 //! Realtime membership: a node that dies is left out while the rest of the
-//! graph is connected; a node that is up again (a restart, issue 17) rejoins.
+//! graph is connected; a node that is up again (a restart) rejoins.
 
 use super::*;
 

@@ -1,4 +1,4 @@
-//! Where the node processes run (issue 18): children of the coordinator, or
+//! Where the node processes run: children of the coordinator, or
 //! children of a per-host agent (`sonarnet agent`) that the coordinator
 //! drives over zenoh ([`crate::engine::agent`]). [`NodeProc`] gives both
 //! the few operations the engine needs of a process: has it exited (and how),

@@ -227,7 +227,7 @@ pub(crate) fn spawn_child(
     // posix_spawn (a vfork-like clone that shares the coordinator's memory
     // until exec), not fork, whose copy of the coordinator's page tables
     // grows with the shared memory it maps for the run: O(N) per spawn,
-    // O(N^2) per run (issue 20). The node program sets its own
+    // O(N^2) per run. The node program sets its own
     // PR_SET_PDEATHSIG and checks `coordinator_pid` ([`NodeLaunch`]).
     cmd.process_group(0);
     cmd.spawn().map_err(|e| EngineError::Spawn {

@@ -1,4 +1,4 @@
-//! The acoustic channel's figures (issue 16 item 5): `messages.svg`, a
+//! The acoustic channel's figures: `messages.svg`, a
 //! message-sequence diagram of the first frames, and `channel.svg`, the
 //! delivery ratio against link length.
 

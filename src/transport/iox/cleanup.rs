@@ -45,9 +45,9 @@ pub(super) fn parse_prefix(name: &str) -> Option<&str> {
 /// made a 256-node run take tens of seconds to set up instead of about one. Falls
 /// back to the iceoryx2 default where `/dev/shm` does not exist.
 ///
-/// One per user, `/dev/shm/sonarnet-iceoryx2-<uid>/`, mode 0700 (issue 15 item
-/// 8: a shared directory belonged to whoever created it first, so another
-/// user's runs failed, and its owner could reach every other user's runs).
+/// One per user, `/dev/shm/sonarnet-iceoryx2-<uid>/`, mode 0700: a shared
+/// directory would belong to whoever created it first, so another user's
+/// runs would fail, and its owner could reach every other user's runs.
 pub(super) fn root_dir() -> String {
     // SAFETY: getuid has no failure mode.
     let uid = unsafe { libc::getuid() };
@@ -242,7 +242,7 @@ pub fn cleanup_stale_resources() -> Result<CleanupReport, TransportError> {
 /// SIGKILLed, say), and the run's global management segment once no process
 /// of it is alive. A node program calls it as it leaves a run whose
 /// coordinator is gone, after dropping its own transport, so the last node to
-/// leave removes the rest of the run (issue 15 item 9: a SIGKILLed
+/// leave removes the rest of the run (a SIGKILLed
 /// coordinator used to leave 80 files until the next run's
 /// [`cleanup_stale_resources`]). Other runs are not looked at.
 pub fn cleanup_run(run_id: &str) -> Result<CleanupReport, TransportError> {

@@ -29,7 +29,7 @@
 //! the nodes' wake-up services: a node and its in-neighbours open those, whoever
 //! comes first creating it. The coordinator wakes node `i` through `i`'s listener
 //! on its one `down` service (iceoryx2's `notify_single_listener`), so it holds one
-//! notifier for the run and no event service per node (issue 20: 9 descriptors per
+//! notifier for the run and no event service per node (9 descriptors per
 //! node instead of 12). All pub-sub
 //! services have history 0, one borrowed sample per subscriber, publishers loan one
 //! sample at a time, and event ids go up to 1 (only id 0 is used). iceoryx2 nodes
@@ -1009,7 +1009,7 @@ mod tests {
         assert_eq!(run_resources(topo.run_id()), Vec::<PathBuf>::new());
     }
 
-    /// Issue 20: a lazily flushed frame is readable at once, its wake-up
+    /// A lazily flushed frame is readable at once, its wake-up
     /// stays owed, and the sender gives it before it blocks (or at its next
     /// plain flush), so a receiver that waits for it is never stranded.
     #[test]

@@ -20,7 +20,7 @@ pub(super) fn endpoint_index(t: &RunTopology, e: Endpoint) -> usize {
 /// in-neighbours) twice over, for the exited incarnations of restarted
 /// ones, plus slack. Sized per endpoint, not N for everyone: iceoryx2
 /// allocates and clears these slots when the subscriber is created, which
-/// made every node O(N) and start-up O(N^2) (issue 20).
+/// made every node O(N) and start-up O(N^2).
 pub(super) fn expired_connections(t: &RunTopology, me: Endpoint) -> usize {
     match me {
         Endpoint::Node(i) if !t.broadcast() => 2 * (1 + t.in_neighbours(i).len()) + 8,
@@ -93,7 +93,7 @@ pub(super) fn node_wake_spec(t: &RunTopology, i: u32) -> EventSpec {
 /// coordinator), one listener per node, named [`down_listener_name`]. The
 /// coordinator wakes node `i` alone (`notify_single_listener`), so it holds
 /// one notifier for the whole run instead of one event service, notifier,
-/// port tag and management segment per node (issue 20: 4 descriptors per
+/// port tag and management segment per node (4 descriptors per
 /// node fewer, which brings 2048 nodes under a 20 000-descriptor limit).
 pub(super) fn down_wake_spec(t: &RunTopology) -> EventSpec {
     EventSpec {

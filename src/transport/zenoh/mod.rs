@@ -1,4 +1,4 @@
-//! [`Transport`] over zenoh 1.x (issue 18): the same frames as over
+//! [`Transport`] over zenoh 1.x: the same frames as over
 //! iceoryx2, between processes on one host or on many. The only module of the
 //! crate that uses zenoh.
 //!
