@@ -299,29 +299,24 @@ pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::
     let mean = |k: &str| mc.stats.get(k).and_then(|s| s.get("mean").copied());
     let mut names: Vec<String> = vec!["theta_bar".into(), "ml".into()];
     names.extend(sc.baselines.iter().map(|b| b.name()));
-    // RMS over trials: sqrt(mean of the per-trial RMSE^2), every sample of
-    // every trial pooled (what the book quotes); next to the mean RMSE.
-    let rms = |k: &str| {
-        let v: Vec<f64> = mc
-            .trials
+    // The finite values of metric `k` across the trials.
+    let values = |k: &str| -> Vec<f64> {
+        mc.trials
             .iter()
             .filter_map(|t| t.flat.get(k).copied())
             .filter(|x| x.is_finite())
-            .collect();
+            .collect()
+    };
+    // RMS over trials: sqrt(mean of the per-trial RMSE^2), every sample of
+    // every trial pooled (what the book quotes); next to the mean RMSE.
+    let rms = |k: &str| {
+        let v = values(k);
         (!v.is_empty()).then(|| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt())
     };
     // One snapshot per trial: rmse, median and ctte of a trial are its one
     // error, so show that error's distribution across the trials instead.
     let snapshot = sc.samples <= 1;
-    let across = |k: &str, q: f64| {
-        let v: Vec<f64> = mc
-            .trials
-            .iter()
-            .filter_map(|t| t.flat.get(k).copied())
-            .filter(|x| x.is_finite())
-            .collect();
-        crate::model::metrics::quantile(&v, q)
-    };
+    let across = |k: &str, q: f64| crate::model::metrics::quantile(&values(k), q);
     if snapshot {
         println!(
             "  {:<14} {:>12} {:>12} {:>12} {:>12}",

@@ -6,18 +6,24 @@ use crate::util::root;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+/// The lines of a Markdown text outside fenced code blocks.
+fn prose_lines(text: &str) -> Vec<&str> {
+    let mut fenced = false;
+    text.lines()
+        .filter(|l| {
+            if l.trim_start().starts_with("```") {
+                fenced = !fenced;
+                return false;
+            }
+            !fenced
+        })
+        .collect()
+}
+
 /// The anchors mdBook and GitHub give the headings of a Markdown file.
 fn anchors(text: &str) -> BTreeSet<String> {
     let mut out = BTreeSet::new();
-    let mut fenced = false;
-    for l in text.lines() {
-        if l.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if fenced {
-            continue;
-        }
+    for l in prose_lines(text) {
         if let Some(h) = l.strip_prefix('#') {
             let h = h.trim_start_matches('#').trim().to_lowercase();
             let a: String = h
@@ -34,15 +40,7 @@ fn anchors(text: &str) -> BTreeSet<String> {
 /// The `[text](target)` links outside code blocks and code spans.
 fn links(text: &str) -> Vec<String> {
     let mut out = Vec::new();
-    let mut fenced = false;
-    for l in text.lines() {
-        if l.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if fenced {
-            continue;
-        }
+    for l in prose_lines(text) {
         // Drop code spans: a `[x](y)` inside backticks is not a link.
         let plain: String = l.split('`').step_by(2).collect::<Vec<_>>().join("");
         let mut rest = plain.as_str();
