@@ -43,6 +43,7 @@ pub mod protocol;
 pub mod report;
 pub mod scenario;
 pub mod transport;
+pub mod world;
 
 /// The book's chapters that hold Rust code (`docs/src/`), compiled and run
 /// as doctests so that the guide cannot drift from the API.

@@ -33,16 +33,14 @@
 //! delay act on every frame between two nodes, on either channel; a drifting
 //! clock scales the node's Poisson waits and timers.
 
-use super::{
-    Action, Coordinator, EngineError, Event, FaultRecord, MessageRecord, Progress, RunPlan,
-    RunRecord,
-};
+use super::{Action, Coordinator, EngineError, Event, MessageRecord, Progress, RunPlan, RunRecord};
 use crate::model::channel::{Frame, Medium, Reason};
-use crate::model::fault::{FaultKind, IdealLinks};
+use crate::model::fault::IdealLinks;
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
 use crate::protocol::{Command, Input, NodeCore, Output, PeerMsg};
+use crate::world::faults::{FaultStep, FaultWorld, at};
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
@@ -64,10 +62,8 @@ enum Ev {
     ToCoordinator(Event),
     /// The arrival of a frame on the acoustic channel ends: judge it.
     Arrive(Frame, PeerMsg),
-    /// Fault `0` starts.
-    FaultStart(usize),
-    /// Fault `0` ends.
-    FaultEnd(usize),
+    /// The next event of the fault schedule is due.
+    Fault,
 }
 
 /// The event queue: `(time, class, sequence) -> event`, so events at one
@@ -83,7 +79,7 @@ struct Queue {
 
 impl Queue {
     fn push(&mut self, at: Duration, ev: Ev) {
-        let class = u8::from(matches!(ev, Ev::FaultStart(_) | Ev::FaultEnd(_)));
+        let class = u8::from(matches!(ev, Ev::Fault));
         self.events.insert((at, class, self.next), ev);
         self.next += 1;
     }
@@ -99,13 +95,6 @@ fn wait(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs).map_or(DAY, |d| d.min(DAY))
 }
 
-/// An absolute emulated time in seconds as a virtual time (nanoseconds:
-/// the processes engine records its fault times through it too, so that
-/// both engines write the same `t_s`).
-pub(crate) fn at(secs: f64) -> Duration {
-    Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX)
-}
-
 /// One node of the run as the engine sees it.
 struct Slot {
     core: NodeCore,
@@ -114,10 +103,8 @@ struct Slot {
     dead: bool,
     /// Incarnation (bumped by a restart).
     epoch: u32,
-    /// Paused: inputs held until it resumes, and whether its clock fired.
-    paused: bool,
-    /// Paused at some time since the last sample completed.
-    was_paused: bool,
+    /// While the node is paused: the inputs held until it resumes, and
+    /// whether its clock fired.
     held: Vec<Input>,
     tick_due: bool,
     /// Waits and timers are multiplied by this (clock drift).
@@ -139,10 +126,7 @@ struct Des<'a> {
     /// Link faults on the ideal channel (the medium has its own).
     links: IdealLinks,
     messages: Vec<MessageRecord>,
-    faults: Vec<FaultRecord>,
-    /// Index into `faults` of each fault of the plan, once applied.
-    applied: Vec<Option<usize>>,
-    paused_masks: Vec<Vec<bool>>,
+    faults: FaultWorld,
 }
 
 /// Run `plan` in virtual time (a realtime clock, or any clock on the
@@ -167,8 +151,6 @@ pub fn run_des(
                 rate: None,
                 dead: false,
                 epoch: 0,
-                paused: false,
-                was_paused: false,
                 held: Vec::new(),
                 tick_due: false,
                 clock_factor: 1.0,
@@ -186,15 +168,15 @@ pub fn run_des(
             .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links)),
         links: IdealLinks::default(),
         messages: Vec::new(),
-        faults: Vec::new(),
-        applied: vec![None; plan.faults.len()],
-        paused_masks: Vec::new(),
+        faults: FaultWorld::new(
+            &plan.faults,
+            plan.n(),
+            plan.realtime.map(|rt| rt.sample_period.as_secs_f64()),
+        )
+        .with_crashes_seen_at_once(),
     };
-    for (id, f) in plan.faults.iter().enumerate() {
-        des.queue.push(at(f.at_s), Ev::FaultStart(id));
-        if let Some(u) = f.until_s {
-            des.queue.push(at(u), Ev::FaultEnd(id));
-        }
+    if let Some(t) = des.faults.next_at() {
+        des.queue.push(t, Ev::Fault);
     }
     // Nothing judged from now on can overlap what ended this long ago.
     let horizon = plan.channel.as_ref().map_or(0.0, |c| {
@@ -234,7 +216,6 @@ pub fn run_des(
         medium,
         messages,
         faults,
-        paused_masks,
         ..
     } = des;
     let mut rec = coord.into_record(result.is_err());
@@ -244,10 +225,8 @@ pub fn run_des(
         rec.emulated_seconds = Some(emulated);
         rec.events = Some(handled);
     }
-    if !plan.faults.is_empty() {
-        rec.faults = faults;
-        rec.paused = paused_masks;
-        rec.paused.truncate(rec.thetas.len());
+    if !faults.is_empty() {
+        (rec.faults, rec.paused) = faults.into_records(rec.thetas.len());
     }
     (rec, result)
 }
@@ -286,15 +265,7 @@ impl Des<'_> {
                     samples,
                     iterations,
                 } => {
-                    if !self.plan.faults.is_empty() {
-                        // Paused at any time during the sample.
-                        let mask: Vec<bool> = self
-                            .nodes
-                            .iter_mut()
-                            .map(|s| std::mem::replace(&mut s.was_paused, s.paused))
-                            .collect();
-                        self.paused_masks.resize(samples, mask);
-                    }
+                    self.faults.sample_done(samples);
                     progress(samples, iterations)
                 }
                 Action::Abandon { node } => self.abandon(node),
@@ -312,14 +283,7 @@ impl Des<'_> {
             return;
         };
         slot.dead = true;
-        for (id, f) in self.plan.faults.iter().enumerate() {
-            if let (FaultKind::Pause { node: p }, Some(r)) = (&f.kind, self.applied[id])
-                && *p == node
-                && self.faults[r].detected_s.is_none()
-            {
-                self.faults[r].detected_s = Some(self.now.as_secs_f64());
-            }
-        }
+        self.faults.abandoned(node, self.now.as_secs_f64());
     }
 
     fn event(&mut self, ev: Ev) {
@@ -329,8 +293,7 @@ impl Des<'_> {
                 self.coord.handle(now, [e], &mut self.actions);
                 return;
             }
-            Ev::FaultStart(id) => return self.fault_start(id),
-            Ev::FaultEnd(id) => return self.fault_end(id),
+            Ev::Fault => return self.fault(),
             Ev::Tick(node, epoch) => {
                 let Some(slot) = self.nodes.get_mut(node as usize) else {
                     return;
@@ -338,7 +301,7 @@ impl Des<'_> {
                 if slot.dead || slot.epoch != epoch {
                     return;
                 }
-                if slot.paused {
+                if self.faults.is_paused(node) {
                     // A stopped process's clock fires once when it resumes.
                     slot.tick_due = true;
                     return;
@@ -383,7 +346,7 @@ impl Des<'_> {
         if slot.dead {
             return;
         }
-        if slot.paused {
+        if self.faults.is_paused(node) {
             slot.held.push(input);
             return;
         }
@@ -466,23 +429,17 @@ impl Des<'_> {
         }
     }
 
-    fn record(&mut self, id: usize, detected: bool) {
-        let t = self.now.as_secs_f64();
-        // Sample k's measurements arrive at k periods: a fault at that time
-        // belongs to sample k, whatever the order of the events at it.
-        let sample = match self.plan.realtime {
-            Some(rt) if !rt.sample_period.is_zero() => {
-                (t / rt.sample_period.as_secs_f64() + 1e-9).floor() as u32
-            }
-            _ => self.coord.sample(),
-        };
-        self.applied[id] = Some(self.faults.len());
-        self.faults.push(FaultRecord {
-            fault: self.plan.faults[id].clone(),
-            t_s: t,
-            sample,
-            detected_s: detected.then_some(t),
-        });
+    /// The next fault event is due: carry out its steps, then wait for the
+    /// one after it.
+    fn fault(&mut self) {
+        let sample = self.coord.sample();
+        let steps = self.faults.next_due(self.now, sample).unwrap_or_default();
+        for step in steps {
+            self.fault_step(step);
+        }
+        if let Some(t) = self.faults.next_at() {
+            self.queue.push(t.max(self.now), Ev::Fault);
+        }
     }
 
     /// Node `node` dies; the coordinator is told at once.
@@ -492,8 +449,8 @@ impl Des<'_> {
             return;
         }
         slot.dead = true;
-        slot.paused = false;
         slot.held.clear();
+        self.faults.died(node, self.now.as_secs_f64());
         self.coord.handle(
             self.now,
             [Event::NodeDied {
@@ -504,25 +461,13 @@ impl Des<'_> {
         );
     }
 
-    fn fault_start(&mut self, id: usize) {
-        let kind = self.plan.faults[id].kind.clone();
-        match kind {
-            FaultKind::Pause { node } => {
-                self.record(id, false);
-                let slot = &mut self.nodes[node as usize];
-                if !slot.dead {
-                    slot.paused = true;
-                    slot.was_paused = true;
-                }
-            }
-            FaultKind::Crash { node } => {
-                self.record(id, true);
-                self.kill(node, "crashed (fault)");
-            }
-            FaultKind::Restart {
-                node, checkpoint, ..
-            } => {
-                self.record(id, true);
+    fn fault_step(&mut self, step: FaultStep) {
+        match step {
+            // The world paused it: inputs wait in `held`.
+            FaultStep::Stop(_) => {}
+            FaultStep::Cont(node) => self.resume(node),
+            FaultStep::Kill(node) => self.kill(node, "crashed (fault)"),
+            FaultStep::Restart(node, checkpoint) => {
                 self.kill(node, "restarted (fault)");
                 let slot = &mut self.nodes[node as usize];
                 let cfg = self.plan.nodes[node as usize].clone();
@@ -534,54 +479,43 @@ impl Des<'_> {
                 slot.rate = None;
                 slot.tick_due = false;
                 slot.epoch += 1;
+                self.faults.restarted(node);
                 self.coord
                     .handle(self.now, [Event::NodeUp { node }], &mut self.actions);
             }
-            FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
-                self.record(id, false);
+            FaultStep::LinkStart(id, kind) => {
                 self.links.faults.start(id, &kind);
                 if let Some(m) = &mut self.medium {
                     m.link_faults.start(id, &kind);
                 }
             }
-            FaultKind::ClockDrift { node, ppm } => {
-                self.record(id, false);
-                self.nodes[node as usize].clock_factor = 1.0 / (1.0 + ppm * 1e-6);
-            }
-        }
-    }
-
-    fn fault_end(&mut self, id: usize) {
-        match self.plan.faults[id].kind {
-            FaultKind::Pause { node } => {
-                let slot = &mut self.nodes[node as usize];
-                if !slot.paused {
-                    return;
-                }
-                slot.paused = false;
-                let held = std::mem::take(&mut slot.held);
-                let tick = std::mem::take(&mut slot.tick_due);
-                for input in held {
-                    self.deliver(node, input);
-                }
-                let slot = &mut self.nodes[node as usize];
-                if tick && !slot.dead {
-                    if let Some(rate) = slot.rate {
-                        let w = slot.core.draw_wait(rate) * slot.clock_factor;
-                        self.queue
-                            .push(self.now + wait(w), Ev::Tick(node, slot.epoch));
-                    }
-                    self.deliver(node, Input::Command(Command::Tick));
-                }
-            }
-            FaultKind::Partition { .. } | FaultKind::LinkLoss { .. } | FaultKind::Delay { .. } => {
+            FaultStep::LinkEnd(id) => {
                 self.links.faults.end(id);
                 if let Some(m) = &mut self.medium {
                     m.link_faults.end(id);
                 }
             }
-            FaultKind::ClockDrift { node, .. } => self.nodes[node as usize].clock_factor = 1.0,
-            FaultKind::Crash { .. } | FaultKind::Restart { .. } => {}
+            FaultStep::Drift(node, factor) => self.nodes[node as usize].clock_factor = factor,
+        }
+    }
+
+    /// A paused node goes on: what reached it is delivered, and its clock
+    /// fires once if it fired while it was paused.
+    fn resume(&mut self, node: u32) {
+        let slot = &mut self.nodes[node as usize];
+        let held = std::mem::take(&mut slot.held);
+        let tick = std::mem::take(&mut slot.tick_due);
+        for input in held {
+            self.deliver(node, input);
+        }
+        let slot = &mut self.nodes[node as usize];
+        if tick && !slot.dead {
+            if let Some(rate) = slot.rate {
+                let w = slot.core.draw_wait(rate) * slot.clock_factor;
+                self.queue
+                    .push(self.now + wait(w), Ev::Tick(node, slot.epoch));
+            }
+            self.deliver(node, Input::Command(Command::Tick));
         }
     }
 }

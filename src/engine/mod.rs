@@ -20,7 +20,6 @@ pub mod interrupt;
 pub mod node;
 pub mod plan;
 pub mod preflight;
-pub mod process_faults;
 pub mod processes;
 pub mod threads;
 pub mod water;
@@ -191,8 +190,9 @@ pub trait Network {
     /// The coordinator gave up on `node` ([`Action::Abandon`]): make sure it
     /// is gone (a node process is killed and reaped). Nothing by default.
     fn abandon(&mut self, _node: u32) {}
-    /// A sample is complete ([`Action::Progress`]). Nothing by default.
-    fn sample_done(&mut self) {}
+    /// `samples` samples are complete ([`Action::Progress`]). Nothing by
+    /// default.
+    fn sample_done(&mut self, _samples: usize) {}
 }
 
 /// What a run produced, complete or not.
@@ -238,24 +238,10 @@ pub struct RunRecord {
     /// realised error, forwarded minus planned end of arrival (emulated ms).
     pub delivery_errors_ms: Vec<f64>,
     /// Faults: every fault applied, in the order applied.
-    pub faults: Vec<FaultRecord>,
+    pub faults: Vec<crate::world::faults::FaultRecord>,
     /// Faults: which nodes were paused at the end of each completed sample
     /// (empty without faults).
     pub paused: Vec<Vec<bool>>,
-}
-
-/// A fault as the engine applied it (a row of `faults.csv` before scoring).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FaultRecord {
-    /// The fault.
-    pub fault: crate::model::fault::Fault,
-    /// When it was applied (emulated s).
-    pub t_s: f64,
-    /// The sample in progress then.
-    pub sample: u32,
-    /// When the coordinator noticed it (a crash, or a pause that outlasted
-    /// the stall timeout), emulated s.
-    pub detected_s: Option<f64>,
 }
 
 /// One frame between two nodes on the acoustic channel (a row of
@@ -373,7 +359,7 @@ pub fn drive(
                     samples,
                     iterations,
                 } => {
-                    net.sample_done();
+                    net.sample_done(samples);
                     progress(samples, iterations);
                     Ok(())
                 }

@@ -15,7 +15,7 @@
 //! 3. Every node reports READY; [`drive`](super::drive) then runs the
 //!    [`Coordinator`](super::Coordinator) over [`Processes`], with logical or
 //!    realtime clocks. A child that exits is an [`Event::NodeDied`]. Faults
-//!    ([`super::process_faults`], `faults.rs`) are real signals and real
+//!    (the steps of [`crate::world::faults`], `faults.rs`) are real signals and real
 //!    respawns: a restarted node gets a new process (fresh, or from its
 //!    checkpoint file, [`super::checkpoint`]) and is an [`Event::NodeUp`]
 //!    once it reports READY.
@@ -23,7 +23,6 @@
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
-use super::process_faults::{FaultSchedule, FaultStep};
 use super::water::{ChannelClock, Water};
 use super::{Clock, EngineError, Event, Network, RunPlan, RunRecord};
 use crate::estimators::gossip::Mode;
@@ -32,6 +31,7 @@ use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
 use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, IoxTransport, Transport, TransportChoice, TransportError};
+use crate::world::faults::{FaultStep, FaultWorld};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -70,9 +70,7 @@ pub struct Processes {
     delivered: Vec<(u32, crate::protocol::PeerMsg)>,
     /// The run's faults, their wall-clock origin and emulated seconds per
     /// wall second ([`Processes::arm_faults`]).
-    faults: Option<(FaultSchedule, Instant, f64)>,
-    /// Per completed sample, the nodes paused during it (with faults).
-    paused_masks: Vec<Vec<bool>>,
+    faults: Option<(FaultWorld, Instant, f64)>,
     /// The node program, and what every node is told at start (node 0's
     /// configuration), to start a node again (a `restart` fault).
     program: NodeProgram,
@@ -165,7 +163,6 @@ impl Processes {
             water,
             delivered: Vec::new(),
             faults: None,
-            paused_masks: Vec::new(),
             program: prog.clone(),
             launch0,
             checkpoints: checkpoint_dir(&configs, &run_id, opts)?,
@@ -466,7 +463,7 @@ impl Processes {
     fn is_paused(&self, node: u32) -> bool {
         self.faults
             .as_ref()
-            .is_some_and(|(s, _, _)| s.paused.get(node as usize).copied().unwrap_or(false))
+            .is_some_and(|(s, _, _)| s.is_paused(node))
     }
 
     /// Send `frames` to node `node`, or hold them while it is paused (a
@@ -565,7 +562,7 @@ impl Processes {
             if self.is_paused(i as u32) {
                 self.signal(i as u32, libc::SIGCONT);
                 if let Some((s, _, _)) = self.faults.as_mut() {
-                    s.unpause(i as u32);
+                    s.released(i as u32);
                 }
                 let _ = self.release(i as u32);
             }
@@ -672,8 +669,9 @@ impl Network for Processes {
                 slice = slice.min(due);
             }
             if let (Some(now), Some((sched, _, scale))) = (self.fault_now(), self.faults.as_ref())
-                && let Some(wait) = sched.next_in(now)
+                && let Some(next) = sched.next_at()
             {
+                let wait = (next.as_secs_f64() - now).max(0.0);
                 slice = slice.min(Duration::from_secs_f64((wait / scale).min(0.05)));
             }
             for x in self.receive(slice)? {
@@ -694,7 +692,7 @@ impl Network for Processes {
                 if let Some(w) = &mut self.water {
                     w.set_dead(node);
                 }
-                self.fault_noticed(node);
+                self.fault_died(node);
                 out.push(Event::NodeDied { node, how });
             }
             if !out.is_empty() || deadline.is_some_and(|d| Instant::now() >= d) {
@@ -709,16 +707,15 @@ impl Network for Processes {
 
     /// SIGKILL and reap the node's process (it is stopped or wedged); it is
     /// dead from now on, and its death is not reported again.
-    fn sample_done(&mut self) {
-        if self.faults.is_some() {
-            let m = self.sample_paused();
-            self.paused_masks.push(m);
+    fn sample_done(&mut self, samples: usize) {
+        if let Some((s, _, _)) = self.faults.as_mut() {
+            s.sample_done(samples);
         }
     }
 
     fn abandon(&mut self, node: u32) {
         let i = node as usize;
-        self.fault_noticed(node);
+        self.fault_abandoned(node);
         if let Some(Some(child)) = self.children.get_mut(i) {
             child.kill();
             child.wait();
@@ -957,8 +954,7 @@ pub fn run_processes(
     procs.arm_faults(plan);
     let (mut rec, res) = super::drive(plan, real, &mut procs, progress);
     if !plan.faults.is_empty() {
-        rec.faults = procs.take_faults();
-        rec.paused = std::mem::take(&mut procs.paused_masks);
+        (rec.faults, rec.paused) = procs.take_faults(rec.thetas.len());
     }
     if let Some((messages, errors)) = procs.take_water(offset_s) {
         rec.emulated_seconds =

@@ -129,10 +129,11 @@ fn find_cycle(g: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
 
 /// The layers, lowest first; a module may import modules of its own layer
 /// or lower ones only.
-const LAYERS: [&[&str]; 7] = [
+const LAYERS: [&[&str]; 8] = [
     &["model"],
     &["estimators", "transport"],
     &["scenario", "protocol"],
+    &["world"],
     &["engine"],
     &["pipeline"],
     &["plot", "report"],

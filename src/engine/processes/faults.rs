@@ -1,5 +1,5 @@
-//! Faults on node processes ([`super::super::process_faults`]): the
-//! coordinator side carries out the schedule with real signals.
+//! Faults on node processes: the coordinator carries out the steps of the
+//! run's [`FaultWorld`] with real signals and new processes.
 
 use super::*;
 
@@ -9,11 +9,9 @@ impl Processes {
         if plan.faults.is_empty() {
             return;
         }
-        let period = plan
-            .realtime
-            .map_or(0.0, |rt| rt.sample_period.as_secs_f64());
+        let period = plan.realtime.map(|rt| rt.sample_period.as_secs_f64());
         let scale = plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale);
-        let sched = FaultSchedule::new(&plan.faults, self.children.len(), period);
+        let sched = FaultWorld::new(&plan.faults, self.children.len(), period);
         self.faults = Some((sched, Instant::now(), scale));
     }
 
@@ -30,7 +28,12 @@ impl Processes {
         let Some((sched, _, _)) = self.faults.as_mut() else {
             return;
         };
-        for step in sched.due(now) {
+        let mut steps = Vec::new();
+        let sample = sched.samples_done() as u32;
+        while let Some(due) = sched.next_due(crate::world::faults::at(now), sample) {
+            steps.extend(due);
+        }
+        for step in steps {
             match step {
                 FaultStep::Stop(n) => self.signal(n, libc::SIGSTOP),
                 FaultStep::Cont(n) => {
@@ -80,9 +83,11 @@ impl Processes {
             child.kill();
             child.wait();
         }
-        // A paused node that restarts is not paused any more.
-        if let Some((s, _, _)) = self.faults.as_mut() {
-            s.unpause(node);
+        // Its old incarnation is gone: not paused any more.
+        if let Some(now) = self.fault_now()
+            && let Some((s, _, _)) = self.faults.as_mut()
+        {
+            s.died(node, now);
         }
         self.held[i].clear();
         if !self.dead[i] {
@@ -129,38 +134,50 @@ impl Processes {
         }
         self.restarting[i] = false;
         self.dead[i] = false;
+        if let Some((s, _, _)) = self.faults.as_mut() {
+            s.restarted(node);
+        }
         if let Some(w) = &mut self.water {
             w.set_alive(node);
         }
         self.events.push(Event::NodeUp { node });
     }
 
-    /// Node `node` was noticed dead or abandoned: a fault that did it is
-    /// detected now.
-    pub(super) fn fault_noticed(&mut self, node: u32) {
+    /// Node `node` was found dead (its process reaped): a crash that
+    /// killed it is detected now.
+    pub(super) fn fault_died(&mut self, node: u32) {
         if let Some(h) = self.held.get_mut(node as usize) {
             h.clear();
         }
         if let Some(now) = self.fault_now()
             && let Some((sched, _, _)) = self.faults.as_mut()
         {
-            sched.noticed(node, now);
+            sched.died(node, now);
         }
     }
 
-    /// The applied faults.
-    pub fn take_faults(&mut self) -> Vec<crate::engine::FaultRecord> {
-        self.faults
-            .take()
-            .map(|(s, _, _)| s.records)
-            .unwrap_or_default()
+    /// The coordinator gave up on node `node`: a pause or crash that caused
+    /// it is detected now.
+    pub(super) fn fault_abandoned(&mut self, node: u32) {
+        if let Some(h) = self.held.get_mut(node as usize) {
+            h.clear();
+        }
+        if let Some(now) = self.fault_now()
+            && let Some((sched, _, _)) = self.faults.as_mut()
+        {
+            sched.abandoned(node, now);
+        }
     }
 
-    /// A sample completed: the nodes paused during it (empty without faults).
-    pub fn sample_paused(&mut self) -> Vec<bool> {
+    /// The applied faults and the paused masks of the first `samples`
+    /// samples.
+    pub fn take_faults(
+        &mut self,
+        samples: usize,
+    ) -> (Vec<crate::world::faults::FaultRecord>, Vec<Vec<bool>>) {
         self.faults
-            .as_mut()
-            .map(|(s, _, _)| s.sample_mask())
+            .take()
+            .map(|(s, _, _)| s.into_records(samples))
             .unwrap_or_default()
     }
 }
