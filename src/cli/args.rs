@@ -1,6 +1,7 @@
 //! The command line's clap types: subcommands, flags and their help text.
 
 use super::*;
+use crate::engine::TransportKind;
 use crate::estimators::gossip::ProxScaling;
 
 /// Emulated distributed multistatic sonar network: asynchronous Douglas-Rachford
@@ -92,16 +93,6 @@ pub struct AgentArgs {
     pub verbose: bool,
 }
 
-/// The command-line spelling of the transport.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum TransportArg {
-    /// Shared memory: every node on this host.
-    #[default]
-    Iceoryx2,
-    /// zenoh over TCP: nodes on this host or on others (`--place`, `[deploy]`).
-    Zenoh,
-}
-
 /// Seconds in [0.1, 3600].
 pub(crate) fn seconds_up_to_an_hour(v: &str) -> Result<f64, String> {
     let t: f64 = v
@@ -174,7 +165,7 @@ pub struct SweepArgs {
     pub variant: Vec<String>,
     /// The engine of every run.
     #[arg(long, value_enum, default_value = "inprocess")]
-    pub engine: EngineArg,
+    pub engine: EngineKind,
     /// Runs at once [default: the number of CPUs; 1 with --engine processes].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=256))]
     pub jobs: Option<u64>,
@@ -242,102 +233,40 @@ pub struct BenchArgs {
     pub out: PathBuf,
 }
 
-/// The command-line spelling of [`Mode`] (library types carry no clap derive;
-/// the doc comments are the `--help` text of each value).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ModeArg {
-    /// Every node updates every iteration; positions averaged over all nodes.
-    Sync,
-    /// One random edge `(v, w)` per iteration (Mourya 2017 eq. 11).
-    Async,
-}
-
-impl From<ModeArg> for Mode {
-    fn from(m: ModeArg) -> Self {
-        match m {
-            ModeArg::Sync => Mode::Sync,
-            ModeArg::Async => Mode::Async,
+/// The library's named enums ([`crate::named_enum!`]) on the command line:
+/// their names (with `-` for `_` as an alias) and their doc comments as help.
+macro_rules! value_enum {
+    ($($t:ty),+) => {$(
+        impl clap::ValueEnum for $t {
+            fn value_variants<'a>() -> &'a [Self] {
+                <$t>::ALL
+            }
+            fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+                let name = self.as_str();
+                let v = clap::builder::PossibleValue::new(name).help(self.help());
+                Some(if name.contains('_') {
+                    v.alias(name.replace('_', "-"))
+                } else {
+                    v
+                })
+            }
         }
-    }
+    )+};
 }
-
-/// The command-line spelling of [`ProxScaling`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ProxScalingArg {
-    /// `prox_{gamma f_v}`, Mourya 2017 eq. (11) (the paper's experiments).
-    None,
-    /// `prox_{gamma p_v^-1 f_v}`, Mourya 2017 eq. (5): step gamma / p_v.
-    InverseProbability,
-}
-
-impl From<ProxScalingArg> for ProxScaling {
-    fn from(p: ProxScalingArg) -> Self {
-        match p {
-            ProxScalingArg::None => ProxScaling::None,
-            ProxScalingArg::InverseProbability => ProxScaling::InverseProbability,
-        }
-    }
-}
-
-/// The command-line spelling of [`EngineKind`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum EngineArg {
-    /// All nodes in one thread of this process.
-    Inprocess,
-    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
-    Processes,
-    /// One thread per node in this process, over the in-memory transport.
-    Threads,
-}
-
-impl From<EngineArg> for EngineKind {
-    fn from(e: EngineArg) -> Self {
-        match e {
-            EngineArg::Inprocess => EngineKind::Inprocess,
-            EngineArg::Processes => EngineKind::Processes,
-            EngineArg::Threads => EngineKind::Threads,
-        }
-    }
-}
-
-/// The command-line spelling of [`Clock`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ClockArg {
-    /// The coordinator sequences rounds/iterations; results are exact.
-    Logical,
-    /// Free-running nodes on Poisson clocks (async; processes or in-process).
-    Realtime,
-}
+value_enum!(Mode, ProxScaling, EngineKind, Clock, TransportKind);
 
 impl RunArgs {
-    /// `--mode` as the library's type.
+    /// `--mode`.
     pub fn mode(&self) -> Option<Mode> {
-        self.mode.map(Mode::from)
+        self.mode
     }
-    /// `--engine` as the library's type.
+    /// `--engine`.
     pub fn engine(&self) -> Option<EngineKind> {
-        self.engine.map(EngineKind::from)
+        self.engine
     }
-    /// `--clock` as the library's type (logical when not given).
+    /// `--clock` (logical when not given).
     pub fn clock(&self) -> Clock {
-        self.clock.map_or(Clock::Logical, Clock::from)
-    }
-    /// The clock of a run of `sc`: `--clock`, else the scenario's own
-    /// ([`crate::pipeline::default_clock`]).
-    pub fn clock_for(&self, sc: &crate::scenario::Scenario) -> Clock {
-        match self.clock {
-            Some(c) => c.into(),
-            None => crate::pipeline::default_clock(sc),
-        }
-    }
-}
-
-impl From<ClockArg> for Clock {
-    fn from(c: ClockArg) -> Self {
-        match c {
-            ClockArg::Logical => Clock::Logical,
-            ClockArg::Realtime => Clock::Realtime,
-        }
+        self.clock.unwrap_or(Clock::Logical)
     }
 }
 
@@ -356,11 +285,12 @@ pub struct RunArgs {
     pub set: Vec<String>,
     /// Gossip mode (overrides algorithm.mode).
     #[arg(help_heading = "Algorithm", long, value_enum)]
-    pub mode: Option<ModeArg>,
+    pub mode: Option<Mode>,
     /// Prox scaling of async gossip (overrides algorithm.prox_scaling): none
-    /// (eq. 11) or inverse-probability (eq. 5, each node's step gamma / p_v).
+    /// (eq. 11) or inverse_probability (eq. 5, each node's step gamma / p_v;
+    /// `inverse-probability` is accepted too).
     #[arg(help_heading = "Algorithm", long, value_enum)]
-    pub prox_scaling: Option<ProxScalingArg>,
+    pub prox_scaling: Option<ProxScaling>,
     /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
     /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
     /// outlier rows per node separated).
@@ -416,7 +346,7 @@ pub struct RunArgs {
     /// the in-memory transport (exact same numbers) [default: processes;
     /// inprocess for Monte Carlo runs and on the acoustic channel].
     #[arg(help_heading = "Engine and clock", long, value_enum)]
-    pub engine: Option<EngineArg>,
+    pub engine: Option<EngineKind>,
     /// Run only this variant of a scenario with [[variants]] (repeatable;
     /// default: every variant, one results directory each).
     #[arg(help_heading = "Scenario", long, value_name = "NAME")]
@@ -446,7 +376,7 @@ pub struct RunArgs {
     /// scenario's algorithm.clock, else realtime on the acoustic channel, else
     /// logical].
     #[arg(help_heading = "Engine and clock", long, value_enum)]
-    pub clock: Option<ClockArg>,
+    pub clock: Option<Clock>,
     /// Record every node's theta after every iteration into iterations.csv
     /// (used by consensus.svg).
     #[arg(help_heading = "Engine and clock", long)]
@@ -467,8 +397,8 @@ pub struct RunArgs {
     /// Transport between the node processes: iceoryx2 (shared memory, every
     /// node on this host) or zenoh (TCP; nodes here or on other hosts). Needs
     /// --engine processes (the default with zenoh).
-    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_enum, default_value_t = TransportArg::Iceoryx2)]
-    pub transport: TransportArg,
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_enum, default_value_t = TransportKind::Iceoryx2)]
+    pub transport: TransportKind,
     /// zenoh: the endpoint the coordinator listens on (repeatable)
     /// [default: a free loopback port; with a placement, tcp/0.0.0.0:7447].
     #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "ENDPOINT")]

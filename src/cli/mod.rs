@@ -1,8 +1,9 @@
 //! The `sonarnet` command line (clap derive). `main` stays thin: it parses,
 //! calls [`dispatch`], prints the error chain once, and maps it to an exit code.
 
+use crate::estimators::gossip::ProxScaling;
 use crate::estimators::prox::LocalSolver;
-use crate::pipeline::{self, Clock, EngineKind, RunError, RunOptions};
+use crate::pipeline::{self, Clock, EngineKind, RunError, RunOptions, RunStatus};
 use crate::scenario::{Mode, Scenario};
 use clap::{Parser, Subcommand};
 use std::io::IsTerminal;
@@ -179,7 +180,7 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
             sc = sc.with_seed(s);
         }
         if let Some(p) = args.prox_scaling {
-            sc = sc.with_prox_scaling(p.into());
+            sc = sc.with_prox_scaling(p);
         }
         if let Some(m) = args.mode() {
             sc = sc.with_mode(m)?;
@@ -222,22 +223,6 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         out.push(sc);
     }
     Ok(out)
-}
-
-/// Load the scenario and apply the command-line overrides; a file with
-/// several variants needs `--variant`.
-pub fn resolve_scenario(args: &RunArgs) -> Result<Scenario, CliError> {
-    let mut all = resolve_scenarios(args)?;
-    if all.len() != 1 {
-        let names: Vec<String> = all.iter().filter_map(|s| s.variant.clone()).collect();
-        return Err(crate::model::error::InputError::at(
-            std::path::Path::new("<command line>"),
-            "--variant",
-            format!("pick one variant of {}", names.join(", ")),
-        )
-        .into());
-    }
-    Ok(all.remove(0))
 }
 
 fn run_command(args: RunArgs) -> Result<(), CliError> {
@@ -330,7 +315,7 @@ fn replay_command(args: &ReplayArgs) -> Result<(), CliError> {
                 .into(),
         ));
     }
-    if rj.status.as_deref() == Some("interrupted") {
+    if rj.status == Some(RunStatus::Interrupted) {
         return Err(bad(
             "was interrupted: there is no complete run to reproduce".into(),
         ));
@@ -371,7 +356,7 @@ fn replay_command(args: &ReplayArgs) -> Result<(), CliError> {
     match run_command(run_args) {
         Ok(()) => {}
         // A failed run is reproduced too: its partial results are compared.
-        Err(CliError::RunFailed { .. }) if rj.status.as_deref() == Some("failed") => {}
+        Err(CliError::RunFailed { .. }) if rj.status == Some(RunStatus::Failed) => {}
         Err(e) => return Err(e),
     }
     let diff = crate::pipeline::replay::compare_results(dir, &out)
@@ -433,11 +418,11 @@ pub fn override_suffix(args: &RunArgs) -> String {
     }
     if let Some(p) = args.prox_scaling {
         parts.push(match p {
-            ProxScalingArg::None => "unscaled".into(),
-            ProxScalingArg::InverseProbability => "invprob".into(),
+            ProxScaling::None => "unscaled".into(),
+            ProxScaling::InverseProbability => "invprob".into(),
         });
     }
-    if args.transport == TransportArg::Zenoh {
+    if args.transport == crate::engine::TransportKind::Zenoh {
         parts.push("zenoh".into());
     }
     if args.poll_us > 0 {
@@ -496,32 +481,10 @@ fn run_monte_carlo_command(
     trials: usize,
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
-    let cli = std::path::Path::new("<command line>");
     // Trials run in-process: logical clocks directly, realtime clocks and the
     // acoustic channel in virtual time (the discrete-event engine); both are
     // exact and deterministic from each trial's seed.
-    let clock = args.clock_for(sc);
-    if args.engine().is_some_and(|e| e != EngineKind::Inprocess) || args.poll_us > 0 {
-        return Err(crate::model::error::InputError::at(
-            cli,
-            if args.poll_us > 0 {
-                "--poll-us"
-            } else {
-                "--engine"
-            },
-            "Monte Carlo trials run in-process (logical clocks, or realtime clocks and the acoustic \
-             channel in virtual time); drop --engine processes|threads or use --trials 1",
-        )
-        .into());
-    }
-    if clock == Clock::Realtime && sc.algorithm.mode != Mode::Async {
-        return Err(crate::model::error::InputError::at(
-            cli,
-            "--clock",
-            "realtime clocks need async mode",
-        )
-        .into());
-    }
+    let (_, clock) = resolve(args, sc, trials)?;
     let out_dir = default_dir(
         args,
         sc,
@@ -574,17 +537,29 @@ fn run_monte_carlo_command(
     Ok((mc.out_dir, mc.expect))
 }
 
-/// Above this wall time (seconds) a run defaults to virtual time, and a run
-/// asked for in wall time is announced with its estimate.
-const LONG_WALL_S: f64 = 60.0;
-
-/// The wall time a run on `clock` takes at least when the nodes run in wall
-/// time: one sample period per sample (0 on the logical clock).
-fn realtime_wall_s(sc: &Scenario, clock: Clock) -> f64 {
-    match (&sc.realtime, clock) {
-        (Some(r), Clock::Realtime) => sc.samples as f64 * r.sample_period_ms / 1000.0,
-        _ => 0.0,
-    }
+/// The engine and clock of a run of `sc` with `trials` trials as `args`
+/// ask ([`crate::engine::RunConfig::resolve`]): a refusal names the flag
+/// (on the command line) or the scenario key (in its file).
+fn resolve(args: &RunArgs, sc: &Scenario, trials: usize) -> Result<(EngineKind, Clock), CliError> {
+    let cfg = crate::engine::RunConfig {
+        engine: args.engine(),
+        clock: args.clock,
+        transport: args.transport,
+        poll_us: args.poll_us,
+        trials,
+    };
+    cfg.resolve(sc).map_err(|r| {
+        let cli = std::path::Path::new("<command line>");
+        let e = match r.key {
+            crate::engine::Key::Flag(flag) => {
+                crate::model::error::InputError::at(cli, flag, r.reason)
+            }
+            crate::engine::Key::Scenario(key) => {
+                crate::model::error::InputError::at(&sc.path, key, r.reason)
+            }
+        };
+        e.into()
+    })
 }
 
 fn run_single(
@@ -592,22 +567,9 @@ fn run_single(
     sc: &Scenario,
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
-    let acoustic = sc.channel.acoustic().is_some();
-    let clock = args.clock_for(sc);
-    let wall_s = realtime_wall_s(sc, clock);
-    // The acoustic channel, faults and any run that would take more than
-    // LONG_WALL_S in wall time run on the discrete-event engine (virtual
-    // time) by default.
-    let engine = args.engine().unwrap_or(
-        if (acoustic || sc.has_faults() || wall_s > LONG_WALL_S)
-            && args.transport != TransportArg::Zenoh
-        {
-            EngineKind::Inprocess
-        } else {
-            EngineKind::Processes
-        },
-    );
-    if engine == EngineKind::Processes && wall_s > LONG_WALL_S && !args.quiet {
+    let (engine, clock) = resolve(args, sc, 1)?;
+    let wall_s = crate::engine::config::realtime_wall_s(sc, clock);
+    if engine == EngineKind::Processes && wall_s > crate::engine::LONG_WALL_S && !args.quiet {
         eprintln!(
             "note: {} samples {} ms apart on the realtime clock take about {} of wall time \
              with node processes; --engine inprocess runs the same in virtual time, in seconds",
@@ -617,65 +579,6 @@ fn run_single(
         );
     }
     let net = net::net_options(args, sc, engine)?;
-    if args.poll_us > 0 && engine != EngineKind::Processes {
-        return Err(crate::model::error::InputError::at(
-            std::path::Path::new("<command line>"),
-            "--poll-us",
-            "polling applies to node processes: it needs --engine processes",
-        )
-        .into());
-    }
-    if sc.has_faults() && engine == EngineKind::Threads {
-        return Err(crate::model::error::InputError::at(
-            &sc.path,
-            "faults",
-            "faults run on --engine inprocess or processes, not threads",
-        )
-        .into());
-    }
-    if sc.has_faults() && clock != Clock::Realtime {
-        return Err(crate::model::error::InputError::at(
-            &sc.path,
-            "faults",
-            "faults run on the realtime clock (--clock realtime, or algorithm.clock = \"realtime\")",
-        )
-        .into());
-    }
-    if acoustic && engine == EngineKind::Threads {
-        return Err(crate::model::error::InputError::at(
-            &sc.path,
-            "channel.model",
-            "the acoustic channel runs on --engine inprocess (the discrete-event engine) or --engine processes, not threads",
-        )
-        .into());
-    }
-    if clock == Clock::Realtime {
-        let cli = std::path::Path::new("<command line>");
-        if engine == EngineKind::Threads || sc.algorithm.mode != Mode::Async {
-            return Err(crate::model::error::InputError::at(
-                cli,
-                "--clock",
-                "realtime clocks need async mode and --engine processes (wall time) or inprocess (virtual time)",
-            )
-            .into());
-        }
-        if sc.algorithm.schedule.is_some() {
-            return Err(crate::model::error::InputError::at(
-                &sc.path,
-                "algorithm.schedule",
-                "a replayed schedule sequences the logical clock; with --clock realtime every node draws its own exchanges",
-            )
-            .into());
-        }
-        if sc.realtime.is_none() {
-            return Err(crate::model::error::InputError::at(
-                &sc.path,
-                "realtime",
-                "--clock realtime needs a [realtime] table (sample_period_ms, wake_rate_hz)",
-            )
-            .into());
-        }
-    }
     let out_dir = default_dir(
         args,
         sc,

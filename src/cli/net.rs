@@ -79,7 +79,7 @@ pub(super) fn net_options(
     sc: &Scenario,
     engine: EngineKind,
 ) -> Result<NetOptions, CliError> {
-    if args.transport == TransportArg::Iceoryx2 {
+    if args.transport == crate::engine::TransportKind::Iceoryx2 {
         for (flag, given) in [
             ("--listen", !args.listen.is_empty()),
             ("--place", !args.place.is_empty()),

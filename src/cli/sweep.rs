@@ -41,7 +41,7 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
             "note: [monte_carlo] is ignored: a sweep runs each grid point once per --seeds seed"
         );
     }
-    let engine: EngineKind = args.engine.into();
+    let engine: EngineKind = args.engine;
     let out = args.out.clone().unwrap_or_else(|| {
         let keys: Vec<&str> = plan
             .axes

@@ -13,6 +13,7 @@
 
 pub mod agent;
 pub mod checkpoint;
+pub mod config;
 pub mod coordinator;
 pub mod des;
 pub mod inprocess;
@@ -24,6 +25,7 @@ pub mod processes;
 pub mod threads;
 pub mod water;
 
+pub use config::{Key, LONG_WALL_S, Refused, RunConfig, TransportKind};
 pub use coordinator::{Action, Coordinator, Event, Timer};
 pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
 
@@ -31,7 +33,6 @@ use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
 use crate::protocol::Counters;
 use crate::protocol::codec::Control;
-use serde::{Deserialize, Serialize};
 use std::time::{Duration, Instant};
 
 /// Why a run stopped early.
@@ -162,6 +163,9 @@ pub enum EngineError {
     /// The engine cannot run this combination (e.g. realtime clocks in-process).
     #[error("unsupported: {0}")]
     Unsupported(String),
+    /// The run cannot be what it was asked to be ([`RunConfig::resolve`]).
+    #[error("{0}")]
+    Refused(#[from] Refused),
     /// Internal inconsistency (a bug): the protocol stalled.
     #[error("protocol stalled: {0}")]
     Stalled(String),
@@ -412,98 +416,57 @@ pub fn run_inprocess(
     drive(plan, real, &mut net, progress)
 }
 
-/// Which engine runs the nodes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EngineKind {
-    /// All nodes in one thread of this process.
-    Inprocess,
-    /// One `sonarnet-node` OS process per receiver, over iceoryx2.
-    Processes,
-    /// One thread per node in this process, over the in-memory transport
-    /// ([`threads`]): the node program's loop without processes.
-    Threads,
-}
-
-impl EngineKind {
-    /// Name as written to outputs.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            EngineKind::Inprocess => "inprocess",
-            EngineKind::Processes => "processes",
-            EngineKind::Threads => "threads",
-        }
+crate::named_enum! {
+    /// Which engine runs the nodes ([`inprocess`], [`des`], [`processes`],
+    /// [`threads`]).
+    pub enum EngineKind {
+        /// All nodes in one thread of this process (in virtual time for
+        /// realtime clocks and the acoustic channel).
+        Inprocess = "inprocess",
+        /// One `sonarnet-node` OS process per receiver, over iceoryx2.
+        Processes = "processes",
+        /// One thread per node in this process, over the in-memory transport.
+        Threads = "threads",
     }
 }
 
-/// How a run is clocked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Clock {
-    /// The coordinator sequences rounds/iterations; results are exact.
-    Logical,
-    /// Free-running nodes on Poisson clocks (async only): in wall time on
-    /// node processes, in virtual time in-process ([`des`]).
-    Realtime,
-}
-
-impl Clock {
-    /// Name as written to outputs.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Clock::Logical => "logical",
-            Clock::Realtime => "realtime",
-        }
+crate::named_enum! {
+    /// How a run is clocked.
+    pub enum Clock {
+        /// The coordinator sequences rounds/iterations; results are exact.
+        Logical = "logical",
+        /// Free-running nodes on Poisson clocks (async only): in wall time on
+        /// node processes, in virtual time in-process.
+        Realtime = "realtime",
     }
 }
 
-/// The one entry point of the engines: run `plan` on `real` with the engine
-/// `kind` (`popts` applies to node processes only). Realtime clocks run on
-/// node processes (wall time) or in-process in virtual time ([`des`]); asking
-/// for them on the threads engine is an error before anything starts.
+/// The one entry point of the engines: run `plan` on `real` on the engine
+/// its [`RunConfig`] chose (`popts` applies to node processes only): logical
+/// clocks on the ideal channel on the in-process, threads or processes
+/// engine; realtime clocks and the acoustic channel in-process in virtual
+/// time ([`des`]) or on node processes in wall time.
 pub fn run(
     plan: &RunPlan,
     real: &Realization,
-    kind: EngineKind,
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    let why_not = match kind {
-        EngineKind::Inprocess => None,
-        EngineKind::Threads => plan
-            .faults
-            .first()
-            .map(|_| "faults run on --engine inprocess or processes, not threads".to_string()),
-        EngineKind::Processes => None,
-    };
-    if let Some(why) = why_not {
-        return (
-            RunRecord::empty(plan.n()),
-            Err(EngineError::Unsupported(why)),
-        );
-    }
-    if plan.channel.is_some() && kind == EngineKind::Threads {
-        return (
+    match (plan.engine, plan.clock) {
+        (EngineKind::Inprocess, Clock::Logical) if plan.channel.is_none() => {
+            run_inprocess(plan, real, progress)
+        }
+        (EngineKind::Inprocess, _) => des::run_des(plan, real, progress),
+        (EngineKind::Threads, Clock::Logical) if plan.channel.is_none() => {
+            threads::run_threads(plan, real, progress)
+        }
+        (EngineKind::Processes, _) => processes::run_processes(plan, real, popts, progress),
+        // `RunConfig::resolve` refuses these before a plan exists.
+        (EngineKind::Threads, _) => (
             RunRecord::empty(plan.n()),
             Err(EngineError::Unsupported(
-                "the acoustic channel runs on the discrete-event engine (--engine inprocess) or on node processes (--engine processes), not threads".into(),
+                "the threads engine runs logical clocks on the ideal channel".into(),
             )),
-        );
-    }
-    match (kind, plan.clock) {
-        (EngineKind::Inprocess, Clock::Logical) if plan.channel.is_some() => {
-            des::run_des(plan, real, progress)
-        }
-        (EngineKind::Inprocess, Clock::Logical) => run_inprocess(plan, real, progress),
-        (EngineKind::Inprocess, Clock::Realtime) => des::run_des(plan, real, progress),
-        (EngineKind::Threads, Clock::Logical) => threads::run_threads(plan, real, progress),
-        (EngineKind::Processes, _) => processes::run_processes(plan, real, popts, progress),
-        (other, Clock::Realtime) => (
-            RunRecord::empty(plan.n()),
-            Err(EngineError::Unsupported(format!(
-                "realtime clocks need the processes or the in-process engine, not {}",
-                other.as_str()
-            ))),
         ),
     }
 }

@@ -6,7 +6,7 @@
 //! engine and the [`Coordinator`](super::coordinator::Coordinator) read the
 //! plan, never the scenario.
 
-use super::{Clock, EngineError};
+use super::{Clock, EngineError, EngineKind, RunConfig};
 use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
@@ -38,6 +38,8 @@ pub struct RunPlan {
     pub seed: u64,
     /// Sync rounds or async pairwise gossip.
     pub mode: Mode,
+    /// The engine that runs it ([`RunConfig::resolve`]).
+    pub engine: EngineKind,
     /// Logical (exact, sequenced by the coordinator) or realtime clocks.
     pub clock: Clock,
     /// Samples to run.
@@ -87,20 +89,15 @@ pub struct ChannelPlan {
 }
 
 impl RunPlan {
-    /// The plan of `sc` (with its own seed `sc.seed`) on `clock`.
-    ///
-    /// A realtime clock needs async mode and a `[realtime]` table
-    /// ([`EngineError::Unsupported`] otherwise).
-    pub fn new(sc: &Scenario, clock: Clock) -> Result<RunPlan, EngineError> {
+    /// The plan of `sc` (with its own seed `sc.seed`) as `cfg` asks (a
+    /// [`Clock`] alone: in-process on that clock). A combination that
+    /// cannot run is [`EngineError::Refused`] ([`RunConfig::resolve`]).
+    pub fn new(sc: &Scenario, cfg: impl Into<RunConfig>) -> Result<RunPlan, EngineError> {
+        let (engine, clock) = cfg.into().resolve(sc)?;
         let mode = sc.algorithm.mode;
         let (node_mode, realtime) = match clock {
             Clock::Logical => (logical_mode(mode), None),
             Clock::Realtime => {
-                if mode != Mode::Async {
-                    return Err(EngineError::Unsupported(
-                        "--clock realtime needs async mode".into(),
-                    ));
-                }
                 let Some(rt) = &sc.realtime else {
                     return Err(EngineError::Unsupported(
                         "--clock realtime needs a [realtime] table in the scenario".into(),
@@ -120,11 +117,6 @@ impl RunPlan {
                 (NodeMode::Realtime, Some(rt))
             }
         };
-        if clock == Clock::Realtime && sc.algorithm.schedule.is_some() {
-            return Err(EngineError::Unsupported(
-                "algorithm.schedule: a replayed schedule sequences the logical clock; the realtime clock draws its own exchanges".into(),
-            ));
-        }
         let gammas = prox_steps_of(sc);
         let mut nodes: Vec<NodeConfig> = (0..sc.graph.len())
             .map(|i| node_config(sc, i, node_mode, gammas[i]))
@@ -134,11 +126,6 @@ impl RunPlan {
         if let (Some(nem), Some(rt)) = (&sc.nemesis, &realtime) {
             let horizon = sc.samples as f64 * rt.sample_period.as_secs_f64();
             faults.extend(nem.draw(sc.seed, horizon, sc.graph.len(), sc.graph.edges()));
-        }
-        if (!sc.faults.is_empty() || sc.nemesis.is_some()) && clock != Clock::Realtime {
-            return Err(EngineError::Unsupported(
-                "faults run on the realtime clock (--clock realtime): a logical clock has no time to schedule them in".into(),
-            ));
         }
         let checkpointed: Vec<(u32, u32)> = faults
             .iter()
@@ -205,6 +192,7 @@ impl RunPlan {
         Ok(RunPlan {
             seed: sc.seed,
             mode,
+            engine,
             clock,
             samples: sc.samples,
             iterations_per_sample: sc.algorithm.iterations_per_sample,

@@ -3,7 +3,7 @@
 //! and the same frames, topology and coordinator as the processes engine,
 //! without processes or shared memory. It gives the in-process numbers bit
 //! for bit, and it is how a second [`crate::transport::Transport`] runs the
-//! real node loop. Library only (no `--engine` value).
+//! real node loop (`--engine threads`: logical clocks on the ideal channel).
 
 use super::node::{NodeError, NodeLoop, run_node};
 use super::processes::{NetworkLayout, network_layout};

@@ -237,12 +237,6 @@ impl BaselineCfg {
         })
     }
 
-    /// True for the stateful online trackers (their regret is also reported
-    /// in Pun-So 2020's prediction form, `regret_pred`).
-    pub fn is_online(&self) -> bool {
-        matches!(self, BaselineCfg::Ogd { .. } | BaselineCfg::Onm { .. })
-    }
-
     /// Check the parameters against the scenario geometry (`what` says which
     /// measurements exist). Returns the reason of the first problem.
     pub fn validate(&self, geometry: &Geometry, has_bistatic: bool) -> Result<(), String> {

@@ -4,25 +4,14 @@
 //! bit-identical values.
 
 use crate::model::geometry::{Vec2, Vec3};
-use serde::{Deserialize, Serialize};
 
-/// Gossip mode of the Douglas-Rachford engine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Mode {
-    /// Every node updates every iteration; positions averaged over all nodes.
-    Sync,
-    /// One random edge `(v, w)` per iteration (Mourya 2017 eq. 11).
-    Async,
-}
-
-impl Mode {
-    /// Lower-case name as used in files.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Mode::Sync => "sync",
-            Mode::Async => "async",
-        }
+crate::named_enum! {
+    /// Gossip mode of the Douglas-Rachford engine.
+    pub enum Mode {
+        /// Every node updates every iteration; positions averaged over all nodes.
+        Sync = "sync",
+        /// One random edge `(v, w)` per iteration (Mourya 2017 eq. 11).
+        Async = "async",
     }
 }
 
@@ -52,27 +41,17 @@ pub fn dr_update(u: &mut Vec3, theta: &Vec3, r: &Vec3, a: Vec2) {
     *u += z - theta;
 }
 
-/// How a computing node scales its prox (Mourya 2017 eq. 5 against eq. 11).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ProxScaling {
-    /// `prox_{gamma f_v}`: eq. (11), the paper's experiments (default).
-    #[default]
-    None,
-    /// `prox_{gamma p_v^{-1} f_v}` of eq. (5), `p_v = P(v computes)`: the
-    /// prox of `f_v / p_v` with step `gamma`, which is the prox of `f_v` with
-    /// step `gamma / p_v`. A node that computes rarely weighs its own data more.
-    InverseProbability,
-}
-
-impl ProxScaling {
-    /// Lower-case name as used in files.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ProxScaling::None => "none",
-            ProxScaling::InverseProbability => "inverse_probability",
-        }
+crate::named_enum! {
+    /// How a computing node scales its prox (Mourya 2017 eq. 5 against eq. 11).
+    pub enum ProxScaling {
+        /// `prox_{gamma f_v}`: eq. (11), the paper's experiments (default).
+        None = "none",
+        /// `prox_{gamma p_v^-1 f_v}` of eq. (5), `p_v = P(v computes)`: the
+        /// prox of `f_v` with step `gamma / p_v`, so a node that computes
+        /// rarely weighs its own data more.
+        InverseProbability = "inverse_probability",
     }
+    default None
 }
 
 /// `p_v = P(v computes)` of every node under the schedule of Mourya 2017

@@ -13,6 +13,7 @@ pub mod graph;
 pub mod measure;
 pub mod metrics;
 pub mod motion;
+pub mod names;
 pub mod noise;
 pub mod rng;
 pub mod synth;

@@ -86,9 +86,9 @@ pub fn evaluate(
         .map(|k| metrics::disagreement(&record.alive_thetas(k)))
         .fold(0.0, f64::max);
     let status = match error {
-        None => "ok",
-        Some(EngineError::Interrupted { .. }) => "interrupted",
-        Some(_) => "failed",
+        None => RunStatus::Ok,
+        Some(EngineError::Interrupted { .. }) => RunStatus::Interrupted,
+        Some(_) => RunStatus::Failed,
     };
     let note = if real.truth.is_none() {
         Some(
@@ -120,7 +120,7 @@ pub fn evaluate(
         variant: sc.variant.clone(),
         samples_completed: done,
         samples: sc.samples,
-        status: status.into(),
+        status,
         error: error.map(|e| e.to_string()),
         note,
         startup_seconds: record.startup_seconds,

@@ -93,19 +93,24 @@ pub struct NetOptions {
     pub run_id: Option<String>,
 }
 
-/// The clock a scenario runs on when the caller does not choose one: its
-/// `algorithm.clock`, else realtime on the acoustic channel or with faults
-/// (which need it), else logical.
-pub fn default_clock(sc: &Scenario) -> Clock {
-    match sc.algorithm.clock {
-        Some(crate::scenario::ClockCfg::Realtime) => Clock::Realtime,
-        Some(crate::scenario::ClockCfg::Logical) => Clock::Logical,
-        None if sc.channel.acoustic().is_some() || sc.has_faults() => Clock::Realtime,
-        None => Clock::Logical,
-    }
-}
+pub use crate::engine::config::default_clock;
 
 impl RunOptions {
+    /// The engine and clock of these options, as [`crate::engine::RunPlan::new`]
+    /// takes them.
+    pub fn run_config(&self) -> crate::engine::RunConfig {
+        crate::engine::RunConfig {
+            engine: Some(self.engine),
+            clock: Some(self.clock),
+            transport: match self.net.transport {
+                crate::transport::TransportChoice::Zenoh(_) => crate::engine::TransportKind::Zenoh,
+                _ => crate::engine::TransportKind::Iceoryx2,
+            },
+            poll_us: self.poll_us,
+            trials: 1,
+        }
+    }
+
     /// A run in this process with logical clocks, no progress bar, `[expect]`
     /// checked; nothing is written unless [`Scenario::run_and_write`] is used
     /// (then into `out_dir`, here `results/library-run`).
@@ -235,7 +240,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
         let e = EngineError::Interrupted {
             sample: record.thetas.len() as u32,
         };
-        metrics.status = "interrupted".into();
+        metrics.status = RunStatus::Interrupted;
         metrics.error = Some(format!("{e} (while scoring: every sample had been run)"));
         error = Some(e);
     }
@@ -261,7 +266,7 @@ pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
         return Ok(());
     }
     // A plan that cannot be built is reported by the run itself.
-    let Ok(plan) = crate::engine::RunPlan::new(sc, opts.clock) else {
+    let Ok(plan) = crate::engine::RunPlan::new(sc, opts.run_config()) else {
         return Ok(());
     };
     let needs = crate::engine::preflight::needs(&plan);
@@ -317,10 +322,10 @@ pub fn execute(
             .then(|| opts.out_dir.join("checkpoints")),
         ..Default::default()
     };
-    let plan = crate::engine::RunPlan::new(sc, opts.clock)
+    let plan = crate::engine::RunPlan::new(sc, opts.run_config())
         .and_then(|p| p.with_stall_timeout(opts.stall_timeout));
     let (record, res) = match plan {
-        Ok(plan) => crate::engine::run(&plan, &real, opts.engine, &popts, progress),
+        Ok(plan) => crate::engine::run(&plan, &real, &popts, progress),
         Err(e) => (RunRecord::empty(sc.graph.len()), Err(e)),
     };
     Executed {

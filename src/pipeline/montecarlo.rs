@@ -21,7 +21,9 @@
 //!   `metrics.json`, ...), so the track plots have a representative trial.
 
 use crate::model::metrics;
-use crate::pipeline::{self, Band, ExpectResult, McSummary, RunError, RunOptions, TrackBands};
+use crate::pipeline::{
+    self, Band, ExpectResult, McSummary, RunError, RunOptions, RunStatus, TrackBands,
+};
 use crate::scenario::Scenario;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -44,8 +46,8 @@ pub struct Trial {
     pub trial: usize,
     /// Its seed.
     pub seed: u64,
-    /// `ok` or `failed`.
-    pub status: String,
+    /// How the trial ended.
+    pub status: RunStatus,
     /// Why it failed.
     pub error: Option<String>,
     /// Flat metrics.
@@ -127,7 +129,7 @@ fn trial_of(i: usize, seed: u64, out: &pipeline::Outcome, idx: &[usize]) -> Tria
     Trial {
         trial: i,
         seed,
-        status: m.status.clone(),
+        status: m.status,
         error: m.error.clone(),
         flat,
         curves,
@@ -245,11 +247,11 @@ pub fn run_monte_carlo(
     let all: Vec<Trial> = std::iter::once(first)
         .chain(rest.into_iter().flatten())
         .collect();
-    let interrupted =
-        crate::engine::interrupt::requested() || all.iter().any(|t| t.status == INTERRUPTED);
+    let interrupted = crate::engine::interrupt::requested()
+        || all.iter().any(|t| t.status == RunStatus::Interrupted);
     let trials_out: Vec<Trial> = all
         .into_iter()
-        .filter(|t| t.status != INTERRUPTED)
+        .filter(|t| t.status != RunStatus::Interrupted)
         .collect();
     let run = McRun {
         requested: trials,
@@ -258,9 +260,6 @@ pub fn run_monte_carlo(
     };
     write_outputs(sc, &trials_out, &idx, opts, &run)
 }
-
-/// The status of a trial or run stopped by SIGINT/SIGTERM.
-const INTERRUPTED: &str = "interrupted";
 
 /// How the trials went, for the summary.
 struct McRun {
@@ -295,7 +294,7 @@ fn write_outputs(
             let mut row = vec![
                 t.trial.to_string(),
                 t.seed.to_string(),
-                u8::from(t.status != "ok").to_string(),
+                u8::from(t.status != RunStatus::Ok).to_string(),
             ];
             row.extend(
                 cols.iter()
@@ -315,7 +314,7 @@ fn write_outputs(
             (c.clone(), stats(&v))
         })
         .collect();
-    let failed = trials.iter().filter(|t| t.status != "ok").count();
+    let failed = trials.iter().filter(|t| t.status != RunStatus::Ok).count();
     let expect =
         pipeline::expect_results(crate::scenario::expect::check(&sc.expect, &|n: &str| {
             lookup(&stats_map, n)
@@ -358,7 +357,11 @@ fn write_outputs(
         .any(|c| !c.is_empty())
         .then(|| band(crlb_cols));
     let summary = McSummary {
-        status: Some(if run.interrupted { INTERRUPTED } else { "ok" }.into()),
+        status: Some(if run.interrupted {
+            RunStatus::Interrupted
+        } else {
+            RunStatus::Ok
+        }),
         trials_requested: Some(run.requested as u64),
         trials: Some(trials.len() as u64),
         failed_trials: Some(failed),

@@ -6,6 +6,21 @@
 
 use super::*;
 
+crate::named_enum! {
+    /// How a run, trial or sweep ended (`status` in `run.json`,
+    /// `metrics.json`, `summary.json` and a sweep's `runs.csv`).
+    pub enum RunStatus {
+        /// Every sample was run.
+        Ok = "ok",
+        /// SIGINT or SIGTERM stopped it; what was completed is written.
+        Interrupted = "interrupted",
+        /// An error stopped it; what was completed is written, and the error
+        /// says where.
+        Failed = "failed",
+    }
+    default Ok
+}
+
 /// Per-node counters as written to `metrics.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NodeCounters {
@@ -201,8 +216,8 @@ pub struct RunMetrics {
     pub samples_completed: usize,
     /// Samples asked for.
     pub samples: usize,
-    /// `ok`, `failed` or `interrupted`.
-    pub status: String,
+    /// How the run ended.
+    pub status: RunStatus,
     /// Why the run stopped early.
     pub error: Option<String>,
     /// Why some metrics are missing.
@@ -402,9 +417,9 @@ pub struct RunJson {
     /// When the run started, UTC (`2026-12-03T01:02:03Z`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub started_utc: Option<String>,
-    /// `ok`, `failed` or `interrupted`.
+    /// How the run ended.
     #[serde(default)]
-    pub status: Option<String>,
+    pub status: Option<RunStatus>,
     /// Multi-process: `iceoryx2` or `zenoh` (absent for in-process engines).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub transport: Option<String>,
@@ -496,7 +511,7 @@ pub struct McSummary {
     pub trials_requested: Option<u64>,
     /// `ok`, or `interrupted` (Ctrl-C/SIGTERM: fewer trials than requested).
     #[serde(default)]
-    pub status: Option<String>,
+    pub status: Option<RunStatus>,
     /// The scenario variant.
     #[serde(default)]
     pub variant: Option<String>,

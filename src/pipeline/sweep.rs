@@ -5,7 +5,7 @@
 
 use crate::engine::EngineKind;
 use crate::model::error::InputError;
-use crate::pipeline::{self, RunError, RunOptions};
+use crate::pipeline::{self, RunError, RunOptions, RunStatus};
 use crate::scenario::{Override, Scenario};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -233,8 +233,8 @@ pub struct SweepRun {
     pub point: usize,
     /// Its seed.
     pub seed: u64,
-    /// `ok`, `failed` or `interrupted`.
-    pub status: String,
+    /// How the run ended.
+    pub status: RunStatus,
     /// Every scalar metric ([`pipeline::RunMetrics::flat`]).
     pub metrics: BTreeMap<String, f64>,
     /// `[expect]` checks that held, and all of them.
@@ -279,7 +279,7 @@ pub fn run_sweep(
     let runs: Vec<SweepRun> = results
         .into_iter()
         .flatten()
-        .filter(|r| r.status != "interrupted")
+        .filter(|r| r.status != RunStatus::Interrupted)
         .collect();
     SweepOutcome {
         interrupted: crate::engine::interrupt::requested() || runs.len() < tasks.len(),
@@ -303,7 +303,7 @@ fn run_one(plan: &SweepPlan, p: usize, seed: u64, engine: EngineKind, out: &Path
         SweepRun {
             point: p,
             seed,
-            status: "failed".into(),
+            status: RunStatus::Failed,
             metrics: BTreeMap::new(),
             expect: (0, 0),
             dir: dir.clone(),
@@ -316,7 +316,7 @@ fn run_one(plan: &SweepPlan, p: usize, seed: u64, engine: EngineKind, out: &Path
         Ok(o) => SweepRun {
             point: p,
             seed,
-            status: o.metrics.status.clone(),
+            status: o.metrics.status,
             metrics: o.metrics.flat(),
             expect: (
                 o.metrics.expect.iter().filter(|c| c.holds).count(),
@@ -369,13 +369,13 @@ pub fn summarise(plan: &SweepPlan, runs: &[SweepRun]) -> Summary {
     (0..plan.points.len())
         .map(|p| {
             let here: Vec<&SweepRun> = runs.iter().filter(|r| r.point == p).collect();
-            let ok = here.iter().filter(|r| r.status == "ok").count();
+            let ok = here.iter().filter(|r| r.status == RunStatus::Ok).count();
             let stats = names
                 .iter()
                 .map(|m| {
                     let v: Vec<f64> = here
                         .iter()
-                        .filter(|r| r.status == "ok")
+                        .filter(|r| r.status == RunStatus::Ok)
                         .filter_map(|r| r.metrics.get(*m).copied())
                         .collect();
                     ((*m).clone(), mean_std(&v))
@@ -425,7 +425,7 @@ pub fn write_tables(plan: &SweepPlan, o: &SweepOutcome, out: &Path) -> Result<()
             let mut row = point_cells(r.point);
             row.extend([
                 r.seed.to_string(),
-                r.status.clone(),
+                r.status.to_string(),
                 r.expect.0.to_string(),
                 r.expect.1.to_string(),
             ]);

@@ -17,7 +17,7 @@ impl Outcome {
             started,
         } = self;
         let done = record.thetas.len();
-        let status = m.status.as_str();
+        let status = m.status;
         let dir = &opts.out_dir;
         std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
             path: dir.clone(),
@@ -402,7 +402,7 @@ fn write_run_json(
     dir: &Path,
     sc: &Scenario,
     opts: &RunOptions,
-    status: &str,
+    status: RunStatus,
     error: Option<&EngineError>,
     run_id: Option<&str>,
     started: std::time::SystemTime,
@@ -424,7 +424,7 @@ fn write_run_json(
         local_solver: Some(sc.algorithm.local_solver.as_str().into()),
         poll_us: Some(opts.poll_us),
         command_line: opts.command_line.clone(),
-        status: Some(status.into()),
+        status: Some(status),
         error: error.map(|e| e.to_string()),
         run_id: run_id.map(str::to_owned),
         stall_timeout_s: Some(opts.stall_timeout.as_secs_f64()),

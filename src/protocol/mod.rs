@@ -173,11 +173,6 @@ impl NodeCore {
         self.counters
     }
 
-    /// True while the node is inside a realtime exchange.
-    pub fn in_exchange(&self) -> bool {
-        self.exchange.is_some()
-    }
-
     /// Neighbours still considered alive.
     pub fn live_neighbours(&self) -> &[u32] {
         &self.alive

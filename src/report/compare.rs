@@ -64,8 +64,8 @@ pub fn comparison_html(
     let _ = writeln!(
         s,
         "<tr><th>status</th><td>{}</td><td>{}</td></tr>\n</table>",
-        status_html(a.info.run.status.as_deref()),
-        status_html(b.info.run.status.as_deref())
+        status_html(a.info.run.status),
+        status_html(b.info.run.status)
     );
     // Metrics diff.
     s.push_str("<h2 id=\"metrics\">Metrics diff</h2>\n<table id=\"metrics-diff\">\n<tr><th>metric</th><th>A</th><th>B</th><th>B − A</th><th>B / A</th></tr>\n");

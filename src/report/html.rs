@@ -165,10 +165,10 @@ pub(super) fn figure_html(fig: &Figure, svg: &str) -> String {
     )
 }
 
-pub(super) fn status_html(s: Option<&str>) -> String {
+pub(super) fn status_html(s: Option<crate::pipeline::RunStatus>) -> String {
     match s {
-        Some("ok") => "<span class=\"status-ok\">ok</span>".into(),
-        Some(s) => format!("<span class=\"status-bad\">{}</span>", esc(s)),
+        Some(crate::pipeline::RunStatus::Ok) => "<span class=\"status-ok\">ok</span>".into(),
+        Some(s) => format!("<span class=\"status-bad\">{s}</span>"),
         None => "-".into(),
     }
 }

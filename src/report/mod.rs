@@ -39,7 +39,7 @@ pub fn report_html(d: &RunData, figs: &[(Figure, String)]) -> String {
         "<h1>{}</h1>\n<p class=\"sub\">{} · status {}</p>\n",
         esc(&d.title()),
         esc(d.info.description.as_deref().unwrap_or("")),
-        status_html(d.info.run.status.as_deref())
+        status_html(d.info.run.status)
     );
     if let Some(e) = &d.info.run.error {
         let _ = writeln!(

@@ -420,21 +420,40 @@ fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
 #[test]
 fn realtime_clocks_on_the_threads_engine_are_refused_before_anything_runs() {
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
-    let real = sc.realize();
-    let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
-    let (rec, res) = sonarnet::engine::run(
-        &plan,
-        &real,
-        pipeline::EngineKind::Threads,
-        &Default::default(),
-        &mut |_, _| {},
-    );
-    assert!(rec.thetas.is_empty());
-    let e = res.expect_err("realtime on threads must be refused");
+    let cfg = sonarnet::engine::RunConfig {
+        engine: Some(pipeline::EngineKind::Threads),
+        clock: Some(Clock::Realtime),
+        ..Default::default()
+    };
+    let e = RunPlan::new(&sc, cfg).expect_err("realtime on threads must be refused");
     assert!(
-        e.to_string()
-            .contains("realtime clocks need the processes or the in-process engine"),
-        "{e}"
+        matches!(
+            &e,
+            sonarnet::engine::EngineError::Refused(r) if r.key == sonarnet::engine::Key::Flag("--engine")
+        ),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("not threads"), "{e}");
+    // The command line asks the same plan, before anything starts.
+    let spiral = scenario("mourya2017-spiral.toml");
+    let o = crate::util::sonarnet(
+        &[
+            "run",
+            spiral.to_str().unwrap(),
+            "--engine",
+            "threads",
+            "--clock",
+            "realtime",
+            "--samples",
+            "20",
+        ],
+        std::time::Duration::from_secs(60),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("<command line>: --engine") && err.contains("not threads"),
+        "{err}"
     );
 }
 

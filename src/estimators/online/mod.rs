@@ -398,11 +398,6 @@ impl OgdTracker {
         self.name = name.into();
         self
     }
-
-    /// The step-size rule.
-    pub fn step_size(&self) -> StepSize {
-        self.step
-    }
 }
 
 impl Tracker for OgdTracker {
