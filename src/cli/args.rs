@@ -1,8 +1,14 @@
 //! The command line's clap types: subcommands, flags and their help text.
 
-use super::*;
 use crate::engine::TransportKind;
 use crate::estimators::gossip::ProxScaling;
+use crate::estimators::prox::LocalSolver;
+use crate::pipeline::Clock;
+use crate::pipeline::EngineKind;
+use crate::scenario::Mode;
+use clap::Parser;
+use clap::Subcommand;
+use std::path::PathBuf;
 
 /// Emulated distributed multistatic sonar network: asynchronous Douglas-Rachford
 /// gossip with exact GTRS local steps.

@@ -1,7 +1,8 @@
 //! What the command line reports: [`CliError`] and its exit codes, and the
 //! error chain printed once ([`error_report`]).
 
-use super::*;
+use crate::pipeline::RunError;
+use std::path::PathBuf;
 
 /// How a command failed; decides the exit code.
 #[derive(Debug, thiserror::Error)]

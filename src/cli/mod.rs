@@ -2,11 +2,9 @@
 //! calls [`dispatch`], prints the error chain once, and maps it to an exit code.
 
 use crate::estimators::gossip::ProxScaling;
-use crate::estimators::prox::LocalSolver;
-use crate::pipeline::{self, Clock, EngineKind, RunError, RunOptions, RunStatus};
-use crate::scenario::{Mode, Scenario};
-use clap::{Parser, Subcommand};
-use std::io::IsTerminal;
+use crate::pipeline::{self, Clock, EngineKind, RunOptions, RunStatus};
+use crate::scenario::Scenario;
+use clap::Parser;
 use std::path::PathBuf;
 
 mod args;
@@ -16,7 +14,10 @@ mod print;
 mod scaffold;
 mod sweep;
 
-pub use args::*;
+pub use args::{
+    AgentArgs, BenchArgs, Cli, Command, NewArgs, ReplayArgs, ReportArgs, RunArgs, SweepArgs,
+    parse_seed,
+};
 pub use errors::{CliError, error_report};
 pub use print::eng;
 use print::{print_mc_summary, print_summary, progress_bar};

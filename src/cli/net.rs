@@ -1,9 +1,13 @@
 //! The network flags of `sonarnet run` (`--transport`, `--listen`, `--place`,
 //! `--run-id`, `--zenoh-config`, `--agent-wait`) and `sonarnet agent`.
 
-use super::*;
+use super::AgentArgs;
+use super::RunArgs;
+use crate::cli::errors::CliError;
 use crate::model::error::InputError;
+use crate::pipeline::EngineKind;
 use crate::pipeline::NetOptions;
+use crate::scenario::Scenario;
 use crate::scenario::deploy::Placement;
 use crate::transport::{TransportChoice, ZenohSettings};
 use std::path::Path;

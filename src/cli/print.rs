@@ -1,6 +1,9 @@
 //! Terminal output: progress bars and run summaries.
 
-use super::*;
+use crate::pipeline;
+use crate::pipeline::RunOptions;
+use crate::scenario::Scenario;
+use std::io::IsTerminal;
 
 /// Progress of a run on standard error: a bar redrawn in place on a
 /// terminal, else one plain line every [`Progress::LINE_EVERY`] (a log or a

@@ -1,10 +1,13 @@
 //! `sonarnet new`, `sonarnet list`, `sonarnet describe`.
 
-use super::*;
+use super::NewArgs;
+use crate::cli::errors::CliError;
 use crate::model::error::InputError;
+use crate::scenario::Scenario;
 use crate::scenario::scaffold::{Layout, MotionSpec, NetworkSpec, ScaffoldSpec};
 use crate::scenario::shipped;
 use std::path::Path;
+use std::path::PathBuf;
 
 pub(super) fn new_command(args: &NewArgs) -> Result<(), CliError> {
     if let Some(from) = &args.from {

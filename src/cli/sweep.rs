@@ -1,9 +1,17 @@
 //! `sonarnet sweep`: parse and validate the whole grid, run it with a
 //! progress bar, write the tables, the plot and the page, print a summary.
 
-use super::*;
+use super::SweepArgs;
+use crate::cli::check_out;
+use crate::cli::errors::CliError;
+use crate::cli::print;
+use crate::pipeline;
+use crate::pipeline::EngineKind;
+use crate::pipeline::RunOptions;
 use crate::pipeline::sweep::{Axis, SweepPlan, metric_key, parse_seeds, run_sweep, summarise};
 use crate::scenario::Override;
+use crate::scenario::Scenario;
+use std::path::PathBuf;
 
 pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
     let sets = args

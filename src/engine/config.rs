@@ -5,7 +5,8 @@
 //! and, before any work starts, by the command line and the pipeline; a
 //! refusal is one [`Refused`] naming the flag or scenario key to change.
 
-use super::{Clock, EngineKind};
+use super::Clock;
+use super::EngineKind;
 use crate::estimators::gossip::Mode;
 use crate::scenario::{ClockCfg, Scenario};
 

@@ -32,7 +32,9 @@
 //! Either way the engine is told to make sure it is gone ([`Action::Abandon`]).
 
 use super::plan::{RunPlan, Scheduler};
-use super::{EngineError, LOOKAHEAD, RunRecord};
+use crate::engine::EngineError;
+use crate::engine::LOOKAHEAD;
+use crate::engine::RunRecord;
 use crate::estimators::gossip::Mode;
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;

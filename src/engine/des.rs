@@ -33,7 +33,14 @@
 //! delay act on every frame between two nodes, on either channel; a drifting
 //! clock scales the node's Poisson waits and timers.
 
-use super::{Action, Coordinator, EngineError, Event, MessageRecord, Progress, RunPlan, RunRecord};
+use crate::engine::EngineError;
+use crate::engine::MessageRecord;
+use crate::engine::Progress;
+use crate::engine::RunRecord;
+use crate::engine::coordinator::Action;
+use crate::engine::coordinator::Coordinator;
+use crate::engine::coordinator::Event;
+use crate::engine::plan::RunPlan;
 use crate::model::channel::{Frame, Medium, Reason};
 use crate::model::fault::IdealLinks;
 use crate::model::geometry::Vec3;

@@ -2,7 +2,9 @@
 //! routed through a FIFO queue. Exact and deterministic; the multi-process
 //! engine is held to bit-for-bit agreement with it.
 
-use super::{EngineError, Event, Network};
+use crate::engine::EngineError;
+use crate::engine::Network;
+use crate::engine::coordinator::Event;
 use crate::protocol::codec::Control;
 use crate::protocol::{Input, NodeConfig, NodeCore, Output};
 use std::collections::VecDeque;

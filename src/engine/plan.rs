@@ -6,7 +6,10 @@
 //! engine and the [`Coordinator`](super::coordinator::Coordinator) read the
 //! plan, never the scenario.
 
-use super::{Clock, EngineError, EngineKind, RunConfig};
+use super::Clock;
+use super::EngineKind;
+use crate::engine::EngineError;
+use crate::engine::config::RunConfig;
 use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};

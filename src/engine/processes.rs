@@ -23,15 +23,20 @@
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
+use super::Clock;
 use super::water::{ChannelClock, Water};
-use super::{Clock, EngineError, Event, Network, RunPlan, RunRecord};
+use crate::engine::EngineError;
+use crate::engine::Network;
+use crate::engine::RunRecord;
+use crate::engine::coordinator::Event;
+use crate::engine::plan::RunPlan;
 use crate::estimators::gossip::Mode;
 use crate::model::synth::Realization;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
 use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, IoxTransport, Transport, TransportChoice, TransportError};
-use crate::world::faults::{FaultStep, FaultWorld};
+use crate::world::faults::FaultWorld;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -40,7 +45,12 @@ mod faults;
 pub mod fleet;
 mod launch;
 pub use fleet::{NodeProc, Placement, RemoteFleet};
-pub use launch::*;
+use launch::checkpoint_dir;
+pub(crate) use launch::spawn_child;
+pub use launch::{
+    NodeLaunch, NodeProgram, ProcessOptions, TEMP_CHECKPOINTS, default_node_program, guard_parent,
+    wait_at_gate,
+};
 
 /// The coordinator side of a multi-process run.
 pub struct Processes {

@@ -7,7 +7,12 @@
 
 use super::node::{NodeError, NodeLoop, run_node};
 use super::processes::{NetworkLayout, network_layout};
-use super::{EngineError, Event, Network, Progress, RunPlan, RunRecord};
+use crate::engine::EngineError;
+use crate::engine::Network;
+use crate::engine::Progress;
+use crate::engine::RunRecord;
+use crate::engine::coordinator::Event;
+use crate::engine::plan::RunPlan;
 use crate::model::synth::Realization;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder};
 use crate::transport::wire::Frame;

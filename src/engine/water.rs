@@ -29,7 +29,8 @@
 //! [`Water`] is I/O-free: times are passed in, and what to forward is
 //! returned.
 
-use super::{ChannelPlan, MessageRecord};
+use crate::engine::MessageRecord;
+use crate::engine::plan::ChannelPlan;
 use crate::model::channel::{Frame, Medium, Reason};
 use crate::model::fault::IdealLinks;
 use crate::protocol::PeerMsg;

@@ -61,7 +61,7 @@ pub mod list {
 
 /// An optional point (`#[serde(default, with = "crate::model::xy::option")]`).
 pub mod option {
-    use super::*;
+    use super::{Deserialize, Deserializer, Serialize, Serializer, point};
 
     /// Read an optional point.
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 2]>, D::Error> {

@@ -1,8 +1,27 @@
 //! Scoring one run: the baselines on the same realization, every track scored
 //! ([`super::score`]), the metrics of `metrics.json`, and the `[expect]` checks.
 
-use super::*;
+use super::ChannelStats;
+use super::Death;
+use super::ExpectResult;
+use super::FaultOutcome;
+use super::LinkStats;
+use super::NodeCounters;
+use super::RealtimeStats;
+use super::RunMetrics;
+use super::RunStatus;
+use crate::engine::Clock;
+use crate::engine::EngineError;
+use crate::engine::RunRecord;
 use crate::estimators::gossip::Mode;
+use crate::model::geometry::Vec2;
+use crate::model::metrics;
+use crate::pipeline::RunOptions;
+use crate::pipeline::score;
+use crate::pipeline::score::Scored;
+use crate::scenario::Realization;
+use crate::scenario::Scenario;
+use std::collections::BTreeMap;
 
 /// The `distributed` baseline: the DR engine again, in-process, on the same
 /// realization, with the baseline's own local solver, mode and iteration

@@ -25,19 +25,17 @@ pub mod sweep;
 mod write;
 
 pub use evaluate::{check_expect, evaluate, expect_results, unknown_metric};
-pub use results::*;
+pub use results::{
+    Band, ChannelStats, Death, ExpectResult, FaultOutcome, LinkStats, McSummary, NodeCounters,
+    RealtimeStats, RunJson, RunMetrics, RunStatus, TrackBands,
+};
 pub use write::{check_out_dir, write_csv, write_json, write_trace, write_track_csv};
 
 use crate::engine::{EngineError, RunRecord};
 use crate::model::error::InputError;
-use crate::model::geometry::Vec2;
-use crate::model::metrics;
-use crate::pipeline::score::{BoundMetrics, Scored, TrackMetrics};
-use crate::protocol::Counters;
+use crate::pipeline::score::Scored;
 use crate::scenario::{Realization, Scenario};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 pub use crate::engine::{Clock, EngineKind};

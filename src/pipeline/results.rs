@@ -4,7 +4,13 @@
 //! writers ([`super::Outcome::write`], [`super::montecarlo`]) and the readers
 //! (the plots and the report, [`crate::plot::data`]) use these same types.
 
-use super::*;
+use crate::pipeline::score;
+use crate::pipeline::score::BoundMetrics;
+use crate::pipeline::score::TrackMetrics;
+use crate::protocol::Counters;
+use serde::Deserialize;
+use serde::Serialize;
+use std::collections::BTreeMap;
 
 crate::named_enum! {
     /// How a run, trial or sweep ended (`status` in `run.json`,

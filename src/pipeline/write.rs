@@ -2,7 +2,22 @@
 //! `nodes.csv`, `schedule.csv`, `iterations.csv`, `messages.csv`, `faults.csv`,
 //! `measurements.csv`, `truth.csv`) and `metrics.json`.
 
-use super::*;
+use super::RunJson;
+use super::RunStatus;
+use crate::engine::Clock;
+use crate::engine::EngineError;
+use crate::engine::EngineKind;
+use crate::model::geometry::Vec2;
+use crate::pipeline::Outcome;
+use crate::pipeline::RunError;
+use crate::pipeline::RunOptions;
+use crate::pipeline::score;
+use crate::pipeline::score::Scored;
+use crate::scenario::Realization;
+use crate::scenario::Scenario;
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
 
 impl Outcome {
     /// Write the results directory `opts.out_dir` of this run of `sc`. Always

@@ -1,6 +1,14 @@
 //! Drawing a [`Figure`] with plotters (SVG string or PNG file).
 
-use super::{Disc, Figure, LegendItem, Marker, Panel, PlotError, Rgb, Style, Swatch};
+use super::Disc;
+use super::Figure;
+use super::LegendItem;
+use super::Marker;
+use super::Panel;
+use super::PlotError;
+use super::Rgb;
+use super::Style;
+use super::Swatch;
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;

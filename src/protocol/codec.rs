@@ -468,7 +468,11 @@ pub struct NodeDecoder {
 impl NodeDecoder {
     /// Feed one frame; returns a complete input when one is finished.
     pub fn feed(&mut self, f: &Frame) -> Result<Option<NodeInput>, DecodeError> {
-        use kind::*;
+        use kind::{
+            ACCEPT, AVERAGE, CLOCK_FACTOR, DECLINE, MEAS_BISTATIC, MEAS_DOA, MEAS_RANGE, NODE_DOWN,
+            NODE_UP, PING, PLAN_END, PLAN_STEP, PROBE, PROBE_BACK, PROBE_PEER, REFLECT, REQUEST,
+            SAMPLE_END, SNAPSHOT, START_CLOCK, STOP, SYNC_ROUNDS,
+        };
         let c = |c: Command| Ok(Some(NodeInput::Control(Control::Command(c))));
         match f.kind {
             MEAS_BISTATIC => {
@@ -554,7 +558,7 @@ impl NodeDecoder {
 
 /// The gossip message a peer frame carries (`None` for another kind).
 pub fn decode_peer(f: &Frame) -> Option<PeerMsg> {
-    use kind::*;
+    use kind::{ACCEPT, AVERAGE, DECLINE, REFLECT, REQUEST};
     let (from, seq) = (f.from, f.seq);
     Some(match f.kind {
         REFLECT => PeerMsg::Reflect {
@@ -715,7 +719,10 @@ pub struct ReportDecoder {
 impl ReportDecoder {
     /// Feed one frame; returns a complete input when one is finished.
     pub fn feed(&mut self, f: &Frame) -> Result<Option<CoordinatorInput>, DecodeError> {
-        use kind::*;
+        use kind::{
+            ACCEPT, AVERAGE, COUNTERS, DECLINE, FAILED, HOPS, ITER_DONE, LATE, LOSS_COUNTERS, PONG,
+            READY, REFLECT, REQUEST, SAMPLE_DONE, SNAPSHOT_REPLY, TIMING,
+        };
         let counters = |s: &Self| s.counters.get(&f.from).copied().unwrap_or_default();
         match f.kind {
             COUNTERS => {

@@ -24,7 +24,7 @@ pub mod codec;
 mod messages;
 pub mod words;
 
-pub use messages::*;
+pub use messages::{Command, Counters, Input, NodeConfig, NodeMode, Output, PeerMsg, Report};
 
 use crate::estimators::gossip::{dr_update, mean_position, pair_average};
 use crate::estimators::local::LocalProblem;

@@ -1,8 +1,26 @@
 //! `sonarnet report A B`: two runs side by side, with a metrics diff table and overlaid
 //! curves.
 
-use super::*;
-
+use crate::plot;
+use crate::plot::Figure;
+use crate::plot::Formats;
+use crate::plot::PlotError;
+use crate::plot::data::RunData;
+use crate::plot::load_run;
+use crate::report::default_comparison_path;
+use crate::report::html::esc;
+use crate::report::html::figure_html;
+use crate::report::html::fmt_num;
+use crate::report::html::inline_svg;
+use crate::report::html::page_head;
+use crate::report::html::page_tail;
+use crate::report::html::status_html;
+use crate::report::sections::scenario_summary;
+use crate::report::sections::shell_quote;
+use crate::report::tables::comparison_metrics;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::path::PathBuf;
 pub(super) fn better_is_lower(key: &str) -> Option<bool> {
     let last = key.rsplit('.').next().unwrap_or(key);
     match last {

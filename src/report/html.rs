@@ -1,7 +1,7 @@
 //! HTML pieces: escaping, numbers, captions, the page head and tail (style, the self-
 //! test script), inline figures.
 
-use super::*;
+use super::Figure;
 
 /// Escape text for HTML.
 pub fn esc(s: &str) -> String {

@@ -18,15 +18,23 @@ mod html;
 mod sections;
 mod sweep;
 mod tables;
-pub use compare::*;
-pub use html::*;
-pub use sections::*;
-pub use sweep::*;
-pub use tables::*;
+pub use compare::{comparison_html, write_comparison};
+pub use html::{caption, esc, fmt_num};
+use html::{figure_html, page_head, page_tail, status_html};
+#[cfg(test)]
+use sections::shell_quote;
+use sections::{
+    bounds_html, faults_html, kv_table, monte_carlo_html, nodes_html, reproduce_html,
+    run_metrics_html, track_metrics_html,
+};
+pub use sections::{group_by_track, scenario_summary, trial_stats};
+pub use sweep::{sweep_plot, write_sweep_report};
+pub use tables::{MetricsTable, TRACK_KEYS, comparison_metrics, track_metrics};
 
-use crate::plot::data::{ML, RunData, THETA_BAR};
+use crate::plot::data::RunData;
+#[cfg(test)]
+use crate::plot::data::{ML, THETA_BAR};
 use crate::plot::{self, Figure, Formats, PlotError, load_run};
-use serde_json::{Map, Value};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -1,8 +1,15 @@
 //! The sections of a run's report: scenario summary, metrics, bounds, nodes, Monte
 //! Carlo statistics, and how to reproduce the run.
 
-use super::*;
-
+use crate::plot::data::RunData;
+use crate::report::html::esc;
+use crate::report::html::fmt_num;
+use crate::report::tables::TRACK_KEYS;
+use crate::report::tables::num;
+use crate::report::tables::track_metrics;
+use serde_json::Map;
+use serde_json::Value;
+use std::fmt::Write as _;
 pub(super) fn get<'a>(v: &'a Value, path: &[&str]) -> Option<&'a Value> {
     let mut c = v;
     for k in path {

@@ -2,9 +2,20 @@
 //! `report.html`, with the grid, the chosen metric per point (mean ± std
 //! over the seeds), and a link to every run.
 
-use super::*;
 use crate::pipeline::sweep::{Summary, SweepOutcome, SweepPlan, metric_key, summarise};
+use crate::plot;
+use crate::plot::Figure;
+use crate::plot::PlotError;
 use crate::plot::figures::{SweepCurve, sweep_figure};
+use crate::report::html::esc;
+use crate::report::html::fmt_num;
+use crate::report::html::inline_svg;
+use crate::report::html::page_head;
+use crate::report::html::page_tail;
+use crate::report::sections::kv_table;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::path::PathBuf;
 
 /// The sweep figure of `metric` (a full name, see [`metric_key`]).
 pub fn sweep_plot(plan: &SweepPlan, summary: &Summary, metric: &str) -> Figure {

@@ -2,8 +2,12 @@
 //! flattened for comparisons. Both read the typed `metrics.json`
 //! ([`RunMetrics`]) and compute nothing.
 
-use super::*;
 use crate::pipeline::RunMetrics;
+use crate::plot::data::ML;
+use crate::plot::data::RunData;
+use crate::plot::data::THETA_BAR;
+use serde_json::Map;
+use serde_json::Value;
 
 /// Track metrics shown first, in this order (m, except `regret`).
 pub const TRACK_KEYS: [&str; 6] = [

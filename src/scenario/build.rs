@@ -2,7 +2,31 @@
 //! into a [`Scenario`], with one [`InputError`] naming the file, the key or
 //! line, and the reason.
 
-use super::*;
+use super::BoundsCfg;
+use super::ClockCfg;
+use super::GeneratorCfg;
+use super::InitU;
+use super::ScenarioFile;
+use crate::estimators::gossip::Mode;
+use crate::model::error::InputError;
+use crate::model::geometry::Vec2;
+use crate::model::geometry::Vec3;
+use crate::model::geometry::v2;
+use crate::model::graph::Graph;
+use crate::model::measure::Geometry;
+use crate::model::rng::SonarRng;
+use crate::model::rng::Stream;
+use crate::model::rng::stream_rng;
+use crate::scenario::Algorithm;
+use crate::scenario::DataSource;
+use crate::scenario::Scenario;
+use crate::scenario::readers::read_schedule;
+use crate::scenario::readers::read_trace;
+use crate::scenario::readers::read_truth;
+use rand::RngExt;
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::path::PathBuf;
 
 /// The range of `realtime.sample_period_ms`: 0.1 ms to one hour.
 pub const SAMPLE_PERIOD_MS: (f64, f64) = (0.1, 3.6e6);

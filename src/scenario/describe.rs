@@ -1,6 +1,11 @@
 //! `sonarnet describe FILE`: what a scenario runs, in words.
 
-use super::*;
+use crate::estimators::gossip::Mode;
+use crate::estimators::prox::LocalSolver;
+use crate::scenario::DataSource;
+use crate::scenario::Scenario;
+use crate::scenario::expect;
+use serde::Serialize;
 
 /// A serialisable value in words: `gaussian (sigma 5)` for
 /// `{ model = "gaussian", sigma = 5.0 }`; tags (`model`, `kind`) lead.

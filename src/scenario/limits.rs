@@ -4,7 +4,10 @@
 //! `iterations_per_sample = 9223372036854775807` or `samples = 1e9` aborted
 //! in an allocation or inside iceoryx2).
 
-use super::*;
+use crate::estimators::gossip::Mode;
+use crate::model::error::InputError;
+use crate::scenario::Scenario;
+use crate::scenario::cli_error;
 
 /// Most receivers (nodes): `geometry.receivers`, `network.generator.count`.
 pub const MAX_RECEIVERS: usize = 4096;

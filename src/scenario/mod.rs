@@ -15,14 +15,11 @@ pub use crate::scenario::expect::ExpectCfg;
 
 use crate::estimators::prox::LocalSolver;
 use crate::model::error::InputError;
-use crate::model::geometry::{Vec2, Vec3, v2};
+use crate::model::geometry::{Vec2, Vec3};
 use crate::model::graph::Graph;
 use crate::model::measure::{Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
 use crate::model::motion::Motion;
-use crate::model::rng::{SonarRng, Stream, stream_rng};
-use rand::RngExt;
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeSet;
+use crate::model::rng::{Stream, stream_rng};
 use std::path::{Path, PathBuf};
 
 mod build;
@@ -43,7 +40,11 @@ pub use limits::{
 };
 pub use overrides::Override;
 pub use readers::{read_schedule, read_trace, read_truth};
-pub use schema::*;
+pub use schema::{
+    AlgorithmCfg, BoundKind, BoundsCfg, ClockCfg, GeneratorCfg, GeometryCfg, InitMode, InitU,
+    MonteCarloCfg, NetworkCfg, RealtimeCfg, RowWeights, ScenarioFile, ScoringCfg, TargetCfg,
+    VariantCfg,
+};
 
 /// Where the measurements come from.
 #[derive(Debug, Clone, PartialEq)]

@@ -2,7 +2,12 @@
 //! (`algorithm.gamma`, `geometry.receivers`, `faults[0].at_s`), the value
 //! parsed as TOML and the result validated exactly as the file is.
 
-use super::*;
+use super::ScenarioFile;
+use crate::model::error::InputError;
+use crate::scenario::Scenario;
+use crate::scenario::build;
+use crate::scenario::cli_error;
+use std::path::Path;
 
 /// One `--set KEY=VALUE` override.
 #[derive(Debug, Clone, PartialEq)]

@@ -2,7 +2,15 @@
 //! validated measurements, positions and schedules; an error names the file
 //! and the line.
 
-use super::*;
+use crate::model::error::InputError;
+use crate::model::geometry::Vec2;
+use crate::model::graph::Graph;
+use crate::model::measure::Geometry;
+use crate::model::measure::NodeMeasurements;
+use crate::model::measure::SampleMeasurements;
+use serde::Deserialize;
+use std::collections::BTreeSet;
+use std::path::Path;
 
 #[derive(Debug, Deserialize)]
 struct TraceRow {

@@ -2,7 +2,12 @@
 //! directory): the file with every override applied, so that
 //! `sonarnet run DIR/scenario.toml` reproduces the run.
 
-use super::*;
+use super::MonteCarloCfg;
+use super::ScenarioFile;
+use super::VariantCfg;
+use crate::scenario::DataSource;
+use crate::scenario::Scenario;
+use std::path::Path;
 
 impl Scenario {
     /// The scenario file this run amounts to: the file as loaded (with

@@ -2,7 +2,12 @@
 //! (`circle:8:1500`, `grid:3x4:500`, `rgg:1200`, `spiral`), which validates
 //! and runs as written.
 
-use super::*;
+use crate::model::error::InputError;
+use crate::model::rng::Stream;
+use crate::model::rng::stream_rng;
+use crate::scenario::cli_error;
+use rand::RngExt;
+use std::collections::BTreeSet;
 
 /// Largest node count `sonarnet new` lays out.
 pub const MAX_LAYOUT_POINTS: usize = 4096;
@@ -499,6 +504,8 @@ wake_rate_hz = 2000.0
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scenario::Scenario;
+    use std::path::Path;
 
     #[test]
     fn layouts_put_their_points_where_they_say() {

@@ -2,7 +2,13 @@
 //! serde with `deny_unknown_fields` at every level. Every key is documented in
 //! the scenario reference (`docs/src/scenarios.md`); [`super::Scenario::from_parsed`] checks the values.
 
-use super::*;
+use crate::estimators::gossip::Mode;
+use crate::estimators::prox::LocalSolver;
+use crate::model::motion::Motion;
+use crate::model::synth::MeasurementsCfg;
+use crate::scenario::expect::ExpectCfg;
+use serde::Deserialize;
+use serde::Serialize;
 
 /// The raw scenario file (`deny_unknown_fields` at every level).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

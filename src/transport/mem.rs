@@ -9,7 +9,10 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use super::{Endpoint, RunTopology, Transport, TransportError};
+use crate::transport::Endpoint;
+use crate::transport::RunTopology;
+use crate::transport::Transport;
+use crate::transport::TransportError;
 use crate::transport::wire::Frame;
 
 #[derive(Debug, Default)]

@@ -1,7 +1,12 @@
 //! Realtime membership: a node that dies is left out while the rest of the
 //! graph is connected; a node that is up again (a restart) rejoins.
 
-use super::*;
+use crate::engine::EngineError;
+use crate::engine::coordinator::Action;
+use crate::engine::coordinator::Coordinator;
+use crate::engine::coordinator::send;
+use crate::protocol::Command;
+use crate::protocol::codec::Control;
 
 impl Coordinator<'_> {
     /// A node is up again during a realtime run: its neighbours may call it

@@ -1,7 +1,13 @@
 //! Faults on node processes: the coordinator carries out the steps of the
 //! run's [`FaultWorld`] with real signals and new processes.
 
-use super::*;
+use crate::engine::coordinator::Event;
+use crate::engine::plan::RunPlan;
+use crate::engine::processes::Processes;
+use crate::protocol::codec::Control;
+use crate::world::faults::FaultStep;
+use crate::world::faults::FaultWorld;
+use std::time::Instant;
 
 impl Processes {
     /// Apply `plan`'s faults from now on (the run's emulated time 0).

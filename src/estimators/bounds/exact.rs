@@ -77,8 +77,10 @@
 //! that over the sine of the crossing angle, so the allowance covers crossing
 //! angles down to about `1e-6` rad.
 
+use super::BoundOutcome;
+use super::FEAS_TOL;
+use super::Intersection;
 use super::region::{EllipseGeom, Quadratic, Region};
-use super::{BoundOutcome, FEAS_TOL, Intersection};
 use crate::estimators::prox::gtrs::quartic_seeds;
 use crate::model::geometry::Vec2;
 

@@ -1,7 +1,14 @@
 //! Initial estimates: exact or OLS (Pun-So 2022 eq. (15)-(17)), and the closed-form linear
 //! LS of one-way and bistatic ranges.
 
-use super::*;
+use crate::estimators::online::Mat2;
+use crate::estimators::online::TrackError;
+use crate::estimators::online::check_x0;
+use crate::model::geometry::Vec2;
+use crate::model::measure::Geometry;
+use crate::model::measure::SampleMeasurements;
+use serde::Deserialize;
+use serde::Serialize;
 
 /// How a tracker's `x_0` is chosen (Pun-So 2022 Sec. V).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

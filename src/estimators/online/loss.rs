@@ -1,7 +1,12 @@
 //! The time-varying least-squares loss of one sample (Pun-So 2022 eq. (3); bistatic terms
 //! as Pun-So 2020), with its gradient and Hessian.
 
-use super::*;
+use crate::estimators::online::COINCIDENT_REL;
+use crate::estimators::online::Mat2;
+use crate::estimators::online::TrackError;
+use crate::model::geometry::Vec2;
+use crate::model::measure::Geometry;
+use crate::model::measure::SampleMeasurements;
 
 /// Value, gradient and (optionally) Hessian of `f_t` at one point.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -18,7 +18,7 @@
 //!   Sec. V-A), dynamic regret (Pun-So 2020 Sec. II) and CTTE (Pun-So 2022 Sec. II)
 //!   accumulators;
 //! * the target trajectories of Pun-So 2022 eq. (19) and Pun-So 2020 Sec. V
-//!   ([`walk_trajectory`] of a [`Walk`]).
+//!   ([`walk_trajectory`] of a [`Walk`](crate::model::motion::Walk)).
 //!
 //! # The loss
 //!
@@ -44,15 +44,13 @@ mod init;
 mod loss;
 mod regret;
 mod walks;
-pub use init::*;
-pub use loss::*;
-pub use regret::*;
-pub use walks::*;
+pub use init::{Init, LiftedRow, lifted_bistatic_ls, ols_position, ols_toa};
+pub use loss::{LossEval, loss, loss_grad, loss_grad_hess, term_count};
+pub use regret::{Ctte, DynamicRegret, XHat, XHatOptions, regret_term, x_hat};
+pub use walks::{trajectory_eq19, walk_trajectory};
 
 use crate::model::geometry::Vec2;
 use crate::model::measure::{Geometry, SampleMeasurements};
-use crate::model::motion::Walk;
-use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
 /// A 2x2 matrix (Hessians of `f_t`).
@@ -515,6 +513,7 @@ impl Tracker for OnmTracker {
 mod tests {
     use super::*;
     use crate::model::measure::NodeMeasurements;
+    use crate::model::motion::Walk;
     use crate::model::rng::{SonarRng, Stream, stream_rng};
     use approx::assert_abs_diff_eq;
     use proptest::prelude::*;

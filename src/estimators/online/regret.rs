@@ -1,12 +1,20 @@
 //! The least-squares estimates `x_hat_t` (Pun-So 2022 Sec. V-A), dynamic regret (Pun-So 2020
 //! Sec. II) and CTTE (Pun-So 2022 Sec. II) accumulators.
 
-use super::*;
+use super::loss_grad;
+use crate::estimators::online::TrackError;
+use crate::estimators::online::commit;
+use crate::estimators::online::loss;
+use crate::model::geometry::Vec2;
+use crate::model::measure::Geometry;
+use crate::model::measure::SampleMeasurements;
+use serde::Deserialize;
+use serde::Serialize;
 
 /// Options of the gradient-descent computation of `x_hat_t` (Pun-So 2022 Sec. V-A).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct XHatOptions {
-    /// GD step; `None` means `1 / m_eff` with `m_eff` = [`LossEval::weight`]
+    /// GD step; `None` means `1 / m_eff` with `m_eff` = [`LossEval::weight`](crate::estimators::online::LossEval::weight)
     /// (`= 1/m` of Pun-So 2022 for TOA; bistatic terms count 4 because their
     /// curvature `2 ||u_t + u_r||^2` can reach 8).
     pub step: Option<f64>,

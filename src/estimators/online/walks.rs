@@ -1,7 +1,11 @@
 //! The target trajectories of Pun-So 2022 eq. (19) and Pun-So 2020 Sec. V, from the random
 //! walks of [`crate::model::motion::Walk`].
 
-use super::*;
+use crate::estimators::online::TrackError;
+use crate::estimators::online::check_x0;
+use crate::model::geometry::Vec2;
+use crate::model::motion::Walk;
+use rand::RngExt;
 
 /// `len` positions of the random walk `walk` starting at `start` (`len = 0`
 /// gives an empty vector).

@@ -1,7 +1,9 @@
 //! The estimators' configurations (`[[baselines]]` parameters), each checked where it
 //! enters.
 
-use super::*;
+use crate::estimators::robust::RobustError;
+use serde::Deserialize;
+use serde::Serialize;
 
 /// Starting point `e^0` of an estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -26,7 +28,7 @@ pub(super) fn default_l0os_tol() -> f64 {
     1e-4
 }
 
-/// Parameters of [`l0os`] (Shi 2024 Algorithm 1).
+/// Parameters of [`l0os`](crate::estimators::robust::l0os) (Shi 2024 Algorithm 1).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct L0osConfig {
@@ -81,11 +83,11 @@ pub(super) fn default_smooth_tol() -> f64 {
     1e-7
 }
 
-/// Parameters of [`lq_irls`] and [`lad`].
+/// Parameters of [`lq_irls`](crate::estimators::robust::lq_irls) and [`lad`](crate::estimators::robust::lad).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IrlsConfig {
-    /// Exponent `q` (default 1.5 as Shi 2024 Sec. IV-A; [`lad`] forces 1).
+    /// Exponent `q` (default 1.5 as Shi 2024 Sec. IV-A; [`lad`](crate::estimators::robust::lad) forces 1).
     #[serde(default = "default_q")]
     pub q: f64,
     /// Smoothing `eps > 0` (metres) of `(r^2 + eps^2)^{q/2}` (default `1e-3`).
@@ -120,7 +122,7 @@ pub(super) fn default_ls_max_iter() -> usize {
     100
 }
 
-/// Parameters of [`ls`].
+/// Parameters of [`ls`](crate::estimators::robust::ls).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LsConfig {

@@ -1,6 +1,13 @@
 //! L0-norm outlier separation (Shi 2024 Sec. III, eq. (7), (19)-(20)).
 
-use super::*;
+use super::L0osConfig;
+use crate::estimators::robust::BistaticLink;
+use crate::estimators::robust::Estimate;
+use crate::estimators::robust::RobustError;
+use crate::estimators::robust::problem::Problem;
+use crate::estimators::robust::problem::hard_threshold;
+use crate::model::geometry::Vec2;
+use crate::model::measure::Geometry;
 
 /// Shi 2024 Algorithm 1 (`l0`-norm outlier separation, `l0-OS`): minimise
 /// `f(e, o) = sum_{i,j} (s_{ij} - ||e - t_i|| - ||e - r_j|| - o_{ij})^2`

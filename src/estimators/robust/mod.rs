@@ -23,11 +23,13 @@ mod config;
 mod l0os;
 mod problem;
 mod smooth;
-pub use config::*;
-pub use l0os::*;
+pub use config::{Init, IrlsConfig, L0osConfig, LsConfig, kappa_from_fraction};
+use l0os::check_tol;
+pub use l0os::l0os;
 pub(crate) use problem::hard_threshold;
-use problem::*;
-pub use smooth::*;
+#[cfg(test)]
+use smooth::Loss;
+pub use smooth::{lad, lq_irls, ls};
 
 use serde::{Deserialize, Serialize};
 

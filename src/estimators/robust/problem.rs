@@ -2,7 +2,11 @@
 //! linearisation, the linear initialisation and the iterate updates shared by the
 //! estimators.
 
-use super::*;
+use super::Init;
+use crate::estimators::robust::BistaticLink;
+use crate::estimators::robust::RobustError;
+use crate::model::geometry::Vec2;
+use crate::model::measure::Geometry;
 
 /// The links resolved to sensor positions, validated.
 pub(super) struct Problem {

@@ -1,7 +1,16 @@
 //! The smooth robust losses: lq-IRLS, LAD and plain LS (Shi 2024 Sec. IV), one
 //! majorise-minimise solver.
 
-use super::*;
+use super::Init;
+use super::IrlsConfig;
+use super::LsConfig;
+use super::check_tol;
+use crate::estimators::robust::BistaticLink;
+use crate::estimators::robust::Estimate;
+use crate::estimators::robust::RobustError;
+use crate::estimators::robust::problem::Problem;
+use crate::model::geometry::Vec2;
+use crate::model::measure::Geometry;
 
 /// The loss `phi(r)` of the smooth estimators.
 #[derive(Debug, Clone, Copy)]

@@ -1,7 +1,18 @@
 //! `run.json` and `summary.json`, read into the plots' types; an error names the file
 //! and the key.
 
-use super::*;
+use crate::model::error::InputError;
+use crate::pipeline::Band;
+use crate::pipeline::McSummary;
+use crate::pipeline::RunJson;
+use crate::plot::data::BandCurve;
+use crate::plot::data::ML;
+use crate::plot::data::MonteCarlo;
+use crate::plot::data::RunInfo;
+use crate::plot::data::THETA_BAR;
+use crate::plot::data::TrackCurves;
+use serde_json::Value;
+use std::path::Path;
 
 pub(super) fn str_at(v: &Value, path: &[&str]) -> Option<String> {
     let mut cur = v;

@@ -5,11 +5,11 @@
 
 mod json;
 mod tables;
-pub use json::*;
-pub use tables::*;
+pub use json::{parse_run_json, parse_summary};
+pub use tables::{Csv, MessageRow, parse_messages, parse_node_points, parse_track_csv, read_csv};
 
 use crate::model::error::InputError;
-use crate::pipeline::{Band, McSummary, NodeCounters, RunJson, RunMetrics};
+use crate::pipeline::{NodeCounters, RunJson, RunMetrics};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 

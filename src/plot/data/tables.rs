@@ -1,7 +1,15 @@
 //! The CSV files of a results directory (`track.csv`, `nodes.csv`, `iterations.csv`,
 //! `trials.csv`), read with the line of every error.
 
-use super::*;
+use crate::model::error::InputError;
+use crate::plot::data::BoundSeries;
+use crate::plot::data::ML;
+use crate::plot::data::NodePoint;
+use crate::plot::data::THETA_BAR;
+use crate::plot::data::Track;
+use crate::plot::data::TrackKind;
+use crate::plot::data::TrackTable;
+use std::path::Path;
 
 /// A CSV file as strings.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -2,8 +2,21 @@
 //! message-sequence diagram of the first frames, and `channel.svg`, the
 //! delivery ratio against link length.
 
-use super::*;
+use crate::plot::Figure;
+use crate::plot::Label;
+use crate::plot::LegendItem;
+use crate::plot::Marker;
+use crate::plot::Panel;
+use crate::plot::Rgb;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
 use crate::plot::data::MessageRow;
+use crate::plot::data::RunData;
+use crate::plot::figures::BLACK;
+use crate::plot::figures::PALETTE;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::linear_range;
 use std::collections::BTreeMap;
 
 /// Frames drawn in `messages.svg` (the first ones, by send time).

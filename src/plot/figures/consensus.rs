@@ -1,6 +1,21 @@
 //! `consensus.svg`: every node's estimate against the consensus, sample by sample.
 
-use super::*;
+use super::finish_series_panel;
+use crate::plot::Figure;
+use crate::plot::LegendItem;
+use crate::plot::Panel;
+use crate::plot::Rgb;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
+use crate::plot::data::NodePoint;
+use crate::plot::data::RunData;
+use crate::plot::data::THETA_BAR;
+use crate::plot::figures::BLACK;
+use crate::plot::figures::PALETTE;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::segments;
+use crate::plot::figures::wants_log;
 
 /// Node colours for the consensus plot.
 pub(super) const NODE_COLORS: [Rgb; 8] = [

@@ -7,21 +7,20 @@ mod series;
 mod snapshot;
 mod sweep;
 mod tracks;
-pub use channel::*;
-pub use consensus::*;
-pub use network::*;
-pub use series::*;
+pub use channel::{SEQUENCE_FRAMES, channel_figure, messages_figure};
+pub use consensus::consensus_figure;
+pub use network::{MAX_LABELLED_NODES, network_figure};
+pub use series::{MAX_BANDS, ctte_figure, error_figure};
+use series::{burn_in_line, fault_spans, finish_series_panel};
 pub use snapshot::{
     cdf_points, error_cdf_figure, is_snapshot, scatter_figure, tightness_cdf_figure,
 };
-pub use sweep::*;
-pub use tracks::*;
+pub use sweep::{SweepCurve, sweep_figure};
+pub use tracks::tracks_figure;
 
-use super::data::{BandCurve, NodePoint, RunData, THETA_BAR, Track, TrackKind};
+use super::data::{RunData, THETA_BAR, Track, TrackKind};
 use super::render::plot_area;
-use super::{
-    Band, Disc, Figure, Label, LegendItem, Marker, Panel, Rgb, Series, Style, Swatch, VLine,
-};
+use super::{Figure, Label, LegendItem, Marker, Panel, Rgb, Series, Style, Swatch};
 
 /// Default figure width (px).
 pub const WIDTH: u32 = 1000;

@@ -1,6 +1,20 @@
 //! `network.svg`: the gossip graph, each node coloured by its share of the work.
 
-use super::*;
+use crate::plot::Figure;
+use crate::plot::Label;
+use crate::plot::LegendItem;
+use crate::plot::Marker;
+use crate::plot::Panel;
+use crate::plot::Rgb;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
+use crate::plot::data::RunData;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::draw_geometry;
+use crate::plot::figures::fit_map;
+use crate::plot::figures::geometry_points;
+use crate::plot::figures::linear_range;
 
 /// Sequential light-to-dark blue for `t` in `[0, 1]`.
 pub(super) fn heat(t: f64) -> Rgb {

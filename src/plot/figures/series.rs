@@ -1,7 +1,31 @@
 //! `error.svg` and `ctte.svg`: the error and CTTE of every track against the sample,
 //! with Monte Carlo bands.
 
-use super::*;
+use crate::plot::Band;
+use crate::plot::Figure;
+use crate::plot::LegendItem;
+use crate::plot::Panel;
+use crate::plot::Rgb;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
+use crate::plot::VLine;
+use crate::plot::data::BandCurve;
+use crate::plot::data::RunData;
+use crate::plot::figures::GREY;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::curve_label;
+use crate::plot::figures::curve_style;
+use crate::plot::figures::dedup_legend;
+use crate::plot::figures::linear_range;
+use crate::plot::figures::log_range;
+use crate::plot::figures::mc_names;
+use crate::plot::figures::names;
+use crate::plot::figures::sample_xs;
+use crate::plot::figures::segments;
+use crate::plot::figures::track_style;
+use crate::plot::figures::wants_log;
+use crate::plot::figures::zero_based_range;
 
 /// Percentile bands drawn per panel.
 pub const MAX_BANDS: usize = 3;

@@ -5,11 +5,25 @@
 //! CDF of each bound's relative tightness, and the estimates scattered around
 //! the truth.
 
-use super::{
-    BLACK, BOUND_COLORS, Figure, LegendItem, Marker, PALETTE, Panel, Series, Style, Swatch, WIDTH,
-    curve_label, curve_style, finish_series_panel, fit_map, linear_range, mc_names, track_color,
-};
+use super::finish_series_panel;
+use crate::plot::Figure;
+use crate::plot::LegendItem;
+use crate::plot::Marker;
+use crate::plot::Panel;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
 use crate::plot::data::{RunData, THETA_BAR};
+use crate::plot::figures::BLACK;
+use crate::plot::figures::BOUND_COLORS;
+use crate::plot::figures::PALETTE;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::curve_label;
+use crate::plot::figures::curve_style;
+use crate::plot::figures::fit_map;
+use crate::plot::figures::linear_range;
+use crate::plot::figures::mc_names;
+use crate::plot::figures::track_color;
 
 /// Whether `data` is a Monte Carlo run of one-snapshot trials.
 pub fn is_snapshot(data: &RunData) -> bool {

@@ -2,7 +2,17 @@
 //! combination of the other keys, with error bars of one standard deviation
 //! over the seeds.
 
-use super::*;
+use crate::plot::Figure;
+use crate::plot::LegendItem;
+use crate::plot::Marker;
+use crate::plot::Panel;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
+use crate::plot::figures::PALETTE;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::linear_range;
+use crate::plot::figures::wants_log;
 
 /// One line of the sweep plot.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,7 +1,29 @@
 //! `tracks.svg`: the true track, every estimated track and the geometry on one map,
 //! with the bound discs.
 
-use super::*;
+use crate::plot::Disc;
+use crate::plot::Figure;
+use crate::plot::LegendItem;
+use crate::plot::Marker;
+use crate::plot::Panel;
+use crate::plot::Series;
+use crate::plot::Style;
+use crate::plot::Swatch;
+use crate::plot::data::RunData;
+use crate::plot::data::THETA_BAR;
+use crate::plot::data::Track;
+use crate::plot::data::TrackKind;
+use crate::plot::figures::BLACK;
+use crate::plot::figures::BOUND_COLORS;
+use crate::plot::figures::WIDTH;
+use crate::plot::figures::dedup_legend;
+use crate::plot::figures::draw_geometry;
+use crate::plot::figures::fit_map;
+use crate::plot::figures::geometry_points;
+use crate::plot::figures::linear_range;
+use crate::plot::figures::names;
+use crate::plot::figures::point_segments;
+use crate::plot::figures::track_style;
 
 /// `tracks.svg`: the true track, every estimated track, the geometry to
 /// scale (cf. Mourya 2017 Fig. 2b) and the bound discs at every n-th sample.

@@ -2,7 +2,19 @@
 //! from its run id, so a crashed run's files can be found and removed
 //! (`cleanup_stale_resources`) while live runs are kept.
 
-use super::*;
+use super::CallbackProgression;
+use super::FileName;
+use super::LogLevel;
+use super::Node;
+use super::SemanticString;
+use super::set_log_level_from_env_or;
+use crate::transport::TransportError;
+use crate::transport::iox::Svc;
+use iceoryx2::config::Config;
+use iceoryx2::node::NodeState;
+use std::path::Path;
+use std::path::PathBuf;
+use std::sync::Once;
 
 /// Directory where POSIX shared memory objects appear (Linux).
 pub(super) const SHM_DIR: &str = "/dev/shm";

@@ -101,21 +101,26 @@
 
 mod cleanup;
 mod services;
-pub use cleanup::*;
-use services::*;
+pub use cleanup::{
+    CleanupReport, cleanup_run, cleanup_stale_resources, resource_prefix, run_resources,
+};
+#[cfg(test)]
+use cleanup::{PREFIX_LEN, parse_prefix};
+use cleanup::{config_for_prefix, init_logging, remove_global_mgmt_segment};
+use services::{
+    Access, broadcast_spec, broadcast_wake_spec, coordinator_inbox_spec, coordinator_wake_spec,
+    down_listener, down_listener_node, down_wake_spec, endpoint_index, event_service,
+    inbox_publisher, listener, make_node, node_inbox_spec, node_wake_spec, notifier, pool_size,
+    pubsub, subscriber, taken_by_receivers,
+};
 
-use std::path::{Path, PathBuf};
-use std::sync::Once;
 use std::time::{Duration, Instant};
 
-use iceoryx2::config::Config;
-use iceoryx2::node::NodeState;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::{ListenerKey, Notifier, NotifierNotifyError};
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::port::update_connections::UpdateConnections;
-use iceoryx2::port::{BackpressureAction, BackpressureInfo, LoanError, SendError};
+use iceoryx2::port::{BackpressureAction, BackpressureInfo, SendError};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
@@ -916,6 +921,7 @@ impl Transport for IoxTransport {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     fn frame(from: u32, seq: u64) -> Frame {
         Frame {

@@ -1,7 +1,31 @@
 //! The iceoryx2 services of a run (inboxes, wake-up events, the broadcast group), sized
 //! from the run topology, and their ports.
 
-use super::*;
+use super::BackpressureStrategy;
+use super::Node;
+use super::NodeBuilder;
+use super::NodeName;
+use super::PortName;
+use super::ServiceName;
+use super::SignalHandlingMode;
+use super::config_for_prefix;
+use super::init_logging;
+use super::remove_global_mgmt_segment;
+use super::resource_prefix;
+use crate::transport::Endpoint;
+use crate::transport::RunTopology;
+use crate::transport::TransportError;
+use crate::transport::iox::Backoff;
+use crate::transport::iox::EventSvc;
+use crate::transport::iox::PubSub;
+use crate::transport::iox::Svc;
+use crate::transport::wire::Frame;
+use iceoryx2::port::LoanError;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::update_connections::UpdateConnections;
 
 /// The index of endpoint `e` among the run's endpoints (nodes, then the coordinator).
 pub(super) fn endpoint_index(t: &RunTopology, e: Endpoint) -> usize {

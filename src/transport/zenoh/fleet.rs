@@ -14,7 +14,12 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::SampleKind;
 
-use super::{Role, declare_token, open_session, prefix, publisher, zerr};
+use crate::transport::zenoh::config::Role;
+use crate::transport::zenoh::declare_token;
+use crate::transport::zenoh::open_session;
+use crate::transport::zenoh::prefix;
+use crate::transport::zenoh::publisher;
+use crate::transport::zenoh::zerr;
 use crate::transport::{TransportError, ZenohSettings};
 
 /// A party of the run whose liveliness token appeared or vanished.
