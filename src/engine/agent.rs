@@ -16,63 +16,14 @@
 // Without zenoh the agent side is compiled but never used.
 #![cfg_attr(not(feature = "zenoh"), allow(dead_code, unused_imports))]
 
+use super::processes::fleet::{AgentCommand, AgentEvent};
 use super::processes::{NodeLaunch, NodeProgram, spawn_child};
 use crate::transport::{TransportChoice, ZenohSettings};
-use serde::{Deserialize, Serialize};
+
 use std::collections::BTreeMap;
 use std::process::Child;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-
-/// What the coordinator tells an agent.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
-pub enum AgentCommand {
-    /// Start a node process with this launch description (the agent puts in
-    /// its own endpoints and process id).
-    Spawn {
-        /// What the node is told.
-        launch: Box<NodeLaunch>,
-    },
-    /// Send a signal to a node's process (faults: SIGSTOP, SIGCONT, SIGKILL).
-    Signal {
-        /// The node.
-        node: u32,
-        /// The signal number.
-        signal: i32,
-    },
-    /// The run is over: reap the nodes (they were told to stop) and exit.
-    End,
-}
-
-/// What an agent tells the coordinator.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(tag = "ev", rename_all = "snake_case", deny_unknown_fields)]
-pub enum AgentEvent {
-    /// A node process started.
-    Spawned {
-        /// The node.
-        node: u32,
-        /// Its process id on the agent's host.
-        pid: u32,
-    },
-    /// A node process could not be started.
-    Failed {
-        /// The node.
-        node: u32,
-        /// Why.
-        reason: String,
-    },
-    /// A node process ended.
-    Exited {
-        /// The node.
-        node: u32,
-        /// How (exit code or signal).
-        how: String,
-    },
-    /// The agent is done.
-    Ended,
-}
 
 /// How long nodes get between SIGTERM and SIGKILL, and to end after
 /// [`AgentCommand::End`].

@@ -18,6 +18,7 @@ pub mod coordinator;
 pub mod des;
 pub mod inprocess;
 pub mod interrupt;
+pub mod layout;
 pub mod node;
 pub mod plan;
 pub mod preflight;

@@ -15,7 +15,7 @@
 //! [`NODE_RSS_BYTES`] besides the shared memory it maps.
 
 use super::RunPlan;
-use super::processes::{NetworkLayout, network_layout};
+use super::layout::{NetworkLayout, network_layout};
 
 /// Bytes of shared memory per frame slot of one publisher (116 measured).
 pub const SLOT_BYTES: u64 = 128;

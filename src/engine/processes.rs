@@ -23,14 +23,13 @@
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
-use super::Clock;
+use super::layout::{NetworkLayout, network_layout};
 use super::water::{ChannelClock, Water};
 use crate::engine::EngineError;
 use crate::engine::Network;
 use crate::engine::RunRecord;
 use crate::engine::coordinator::Event;
 use crate::engine::plan::RunPlan;
-use crate::estimators::gossip::Mode;
 use crate::model::synth::Realization;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
@@ -746,68 +745,10 @@ impl Network for Processes {
     }
 }
 
-/// The nodes and transport topology of a run, for every engine that frames
-/// the protocol over a [`Transport`] (processes, threads).
-pub(crate) struct NetworkLayout {
-    /// Node configurations, `configs[i].id == i`.
-    pub configs: Vec<NodeConfig>,
-    /// Who may send to whom: the gossip graph, plus every node to the sync root.
-    pub neighbours: Vec<Vec<u32>>,
-    /// Frames an inbox holds.
-    pub inbox: usize,
-    /// Sync runs answer rounds over the broadcast group.
-    pub broadcast: bool,
-}
-
-pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
-    let configs = plan.nodes.clone();
-    let mut neighbours: Vec<Vec<u32>> = configs.iter().map(|c| c.neighbours.clone()).collect();
-    let m = plan.transmitters;
-    if plan.clock == Clock::Realtime {
-        let max_deg = neighbours.iter().map(Vec::len).max().unwrap_or(1);
-        return NetworkLayout {
-            configs,
-            neighbours,
-            inbox: 4 * max_deg + m + 64,
-            broadcast: false,
-        };
-    }
-    let broadcast = plan.mode == Mode::Sync;
-    if broadcast {
-        // Sync rounds gather at the root (protocol::SYNC_ROOT), which answers over
-        // the broadcast group.
-        let root = crate::protocol::SYNC_ROOT;
-        for (i, nb) in neighbours.iter_mut().enumerate() {
-            if i as u32 != root && !nb.contains(&root) {
-                nb.push(root);
-            }
-        }
-    }
-    // Room for every frame of LOOKAHEAD samples in flight (a node in every iteration
-    // gets a sample's plan in one frame per six steps, `codec::PLAN_STEPS_PER_FRAME`;
-    // one frame per iteration for sync, the root's share of a round's points, and
-    // when iterations are traced, a node's reports of a sample to the coordinator;
-    // plus the measurements), so that the coordinator never waits for a full inbox.
-    let per_sample = match plan.mode {
-        Mode::Async if !plan.trace_iterations => plan
-            .iterations_per_sample
-            .div_ceil(codec::PLAN_STEPS_PER_FRAME),
-        _ => plan.iterations_per_sample,
-    };
-    let inbox = super::LOOKAHEAD * (per_sample + m + 4) + 16;
-    NetworkLayout {
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-    }
-}
-
 /// Ping-pongs per edge before the measurement moves to the next edge.
 pub const HOPS_PER_TURN: u32 = 20;
 
-/// The one-hop latency between two node processes on this machine (issue
-/// 20): spawn `plan`'s nodes, then have the nodes of each gossip edge in
+/// The one-hop latency between two node processes on this machine: spawn `plan`'s nodes, then have the nodes of each gossip edge in
 /// turn ping-pong [`HOPS_PER_TURN`] times ([`Control::ProbePeer`]), until
 /// `count` hops are measured. A probe is sent as soon as the last one's
 /// answer is in, so both nodes block between probes (or poll, with

@@ -5,8 +5,8 @@
 //! for bit, and it is how a second [`crate::transport::Transport`] runs the
 //! real node loop (`--engine threads`: logical clocks on the ideal channel).
 
+use super::layout::{NetworkLayout, network_layout};
 use super::node::{NodeError, NodeLoop, run_node};
-use super::processes::{NetworkLayout, network_layout};
 use crate::engine::EngineError;
 use crate::engine::Network;
 use crate::engine::Progress;

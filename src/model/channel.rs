@@ -40,6 +40,7 @@
 //! ([`fate_draw`]), so the same frame has the same fate wherever it is decided,
 //! whatever else happens meanwhile.
 
+use crate::model::error::in_range;
 use crate::model::geometry::Vec2;
 use crate::model::rng::{Stream, link_draw};
 use serde::{Deserialize, Serialize};
@@ -235,16 +236,6 @@ impl Default for AcousticCfg {
             exchange_timeout_s: None,
             round_timeout_s: None,
         }
-    }
-}
-
-/// `Err((key, reason))` unless `lo <= v <= hi` (and finite): the range check
-/// of every channel and fault key.
-pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
-    if v.is_finite() && v >= lo && v <= hi {
-        Ok(())
-    } else {
-        Err((key.into(), format!("{v} is outside [{lo}, {hi}]")))
     }
 }
 

@@ -46,3 +46,13 @@ impl fmt::Display for InputError {
 }
 
 impl std::error::Error for InputError {}
+
+/// `Err((key, reason))` unless `lo <= v <= hi` (and finite): the range check
+/// of the channel's and the faults' keys.
+pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err((key.into(), format!("{v} is outside [{lo}, {hi}]")))
+    }
+}

@@ -21,7 +21,7 @@
 //! `link_loss`, `delay`, `clock_drift`) ends after `for_s` seconds or
 //! `for_samples` samples, or never if neither is given.
 
-use crate::model::channel::in_range;
+use crate::model::error::in_range;
 use crate::model::rng::{Stream, link_draw};
 use serde::{Deserialize, Serialize};
 

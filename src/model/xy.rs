@@ -6,7 +6,6 @@
 //! than two, naming what was found; they write the same `[x, y]` as the
 //! plain field, so saved scenarios are unchanged.
 
-use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// Why a list of `n` numbers is not a point.
@@ -38,7 +37,8 @@ pub fn serialize<S: Serializer>(p: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
 
 /// A list of points (`#[serde(with = "crate::model::xy::list")]`).
 pub mod list {
-    use super::*;
+    use super::{Deserialize, Deserializer, Serialize, Serializer, point, wrong_length};
+    use serde::de::Error as _;
 
     /// Read a list of points; the error names the first bad one by index.
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<[f64; 2]>, D::Error> {

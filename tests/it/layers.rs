@@ -201,6 +201,102 @@ fn the_cycle_finder_finds_a_planted_cycle() {
 
 /// `.cargo/config.toml` pins the property tests' seed, so CI checks the same
 /// cases every run and a failure found there reproduces here.
+/// The graph of the sub-modules of one top-level folder (`engine/agent`,
+/// `engine/processes`, ...): `crate::TOP::SUB` references, and `super::SUB`
+/// references from a file directly in the folder.
+fn folder_graph(top: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let dir = root().join("src").join(top);
+    let mut files = vec![];
+    rust_files(&dir, &mut files);
+    let sub_of = |f: &Path| -> Option<String> {
+        let rel = f.strip_prefix(&dir).ok()?;
+        let first = rel.components().next()?.as_os_str().to_str()?.to_string();
+        let name = first.strip_suffix(".rs").unwrap_or(&first).to_string();
+        (name != "mod" && !name.ends_with("_tests")).then_some(name)
+    };
+    let subs: BTreeSet<String> = files.iter().filter_map(|f| sub_of(f)).collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for f in &files {
+        let Some(from) = sub_of(f) else { continue };
+        let direct = f.parent() == Some(dir.as_path());
+        let text = code(&std::fs::read_to_string(f).expect("read source"));
+        let deps = g.entry(from.clone()).or_default();
+        let prefixes = [format!("crate::{top}::"), "super::".to_string()];
+        for (k, prefix) in prefixes.iter().enumerate() {
+            if k == 1 && !direct {
+                continue;
+            }
+            for (i, _) in text.match_indices(prefix.as_str()) {
+                let name: String = text[i + prefix.len()..]
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                if name != from && subs.contains(&name) {
+                    deps.insert(name);
+                }
+            }
+        }
+    }
+    g
+}
+
+#[test]
+fn the_sub_modules_of_every_folder_import_each_other_without_cycles() {
+    let folders: Vec<String> = std::fs::read_dir(root().join("src"))
+        .expect("read src")
+        .flatten()
+        .filter(|e| e.path().is_dir())
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    assert!(folders.contains(&"engine".to_string()));
+    let engine = folder_graph("engine");
+    assert!(
+        engine["des"].contains("coordinator") || engine["des"].contains("plan"),
+        "the scan sees imports inside a folder: {engine:?}"
+    );
+    for top in &folders {
+        if let Some(c) = find_cycle(&folder_graph(top)) {
+            panic!("import cycle inside src/{top}: {}", c.join(" -> "));
+        }
+    }
+}
+
+#[test]
+fn no_module_imports_its_parent_wholesale_and_no_module_re_exports_a_glob() {
+    let mut files = vec![];
+    rust_files(&root().join("src"), &mut files);
+    let mut bad = vec![];
+    for f in &files {
+        let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if name.ends_with("_tests.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(f).expect("read source");
+        // Test modules (`#[cfg(test)]` then a `mod`) may take their parent whole.
+        let end = text
+            .match_indices("#[cfg(test)]\n")
+            .map(|(i, m)| i + m.len())
+            .find(|&i| {
+                let next = text[i..].trim_start();
+                next.starts_with("mod ") || next.starts_with("pub(crate) mod ")
+            })
+            .unwrap_or(text.len());
+        for line in text[..end].lines() {
+            let l = line.trim_start();
+            let glob = l.starts_with("use super::*;")
+                || (l.starts_with("pub") && l.contains(" use ") && l.ends_with("::*;"));
+            if glob {
+                bad.push(format!("{}: {l}", f.display()));
+            }
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "wildcard imports outside tests:\n{}",
+        bad.join("\n")
+    );
+}
+
 #[test]
 fn property_tests_draw_from_a_pinned_seed() {
     let seed = std::env::var("PROPTEST_RNG_SEED")
