@@ -180,8 +180,13 @@ pub fn eng(v: f64) -> String {
 
 pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
     let m = &o.metrics;
+    let driver = match o.record.driver {
+        Some(crate::engine::Driver::LockStep) => " (lock-step)",
+        Some(crate::engine::Driver::DiscreteEvent) => " (discrete-event, virtual time)",
+        _ => "",
+    };
     println!(
-        "sonarnet run: {} / {} / {} clock, seed {}",
+        "sonarnet run: {}{driver} / {} / {} clock, seed {}",
         m.engine, m.mode, m.clock, m.seed
     );
     println!("  samples            {}/{}", m.samples_completed, m.samples);

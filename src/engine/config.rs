@@ -21,6 +21,34 @@ crate::named_enum! {
     default Iceoryx2
 }
 
+crate::named_enum! {
+    /// What actually runs the nodes of a plan (`driver` in `run.json`):
+    /// `--engine inprocess` is the lock-step engine on logical clocks on the
+    /// ideal channel, and the discrete-event engine otherwise.
+    pub enum Driver {
+        /// In-process, lock-step: the coordinator sequences every exchange.
+        LockStep = "lock_step",
+        /// In-process, the discrete-event engine: virtual time.
+        DiscreteEvent = "discrete_event",
+        /// One thread per node over the in-memory transport.
+        Threads = "threads",
+        /// One OS process per node, in wall time.
+        Processes = "processes",
+    }
+}
+
+impl Driver {
+    /// The driver of `engine` on `clock`, on the acoustic channel or not.
+    pub fn of(engine: EngineKind, clock: Clock, acoustic: bool) -> Driver {
+        match engine {
+            EngineKind::Inprocess if clock == Clock::Logical && !acoustic => Driver::LockStep,
+            EngineKind::Inprocess => Driver::DiscreteEvent,
+            EngineKind::Threads => Driver::Threads,
+            EngineKind::Processes => Driver::Processes,
+        }
+    }
+}
+
 /// Wall time past which a realtime run goes to the discrete-event engine by
 /// default (and `--engine processes` is told how long it will take).
 pub const LONG_WALL_S: f64 = 60.0;

@@ -26,7 +26,7 @@ pub mod processes;
 pub mod threads;
 pub mod water;
 
-pub use config::{Key, LONG_WALL_S, Refused, RunConfig, TransportKind};
+pub use config::{Driver, Key, LONG_WALL_S, Refused, RunConfig, TransportKind};
 pub use coordinator::{Action, Coordinator, Event, Timer};
 pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
 
@@ -247,6 +247,8 @@ pub struct RunRecord {
     /// Faults: which nodes were paused at the end of each completed sample
     /// (empty without faults).
     pub paused: Vec<Vec<bool>>,
+    /// What ran the nodes ([`run`] sets it).
+    pub driver: Option<Driver>,
 }
 
 /// One frame between two nodes on the acoustic channel (a row of
@@ -453,21 +455,20 @@ pub fn run(
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
-    match (plan.engine, plan.clock) {
-        (EngineKind::Inprocess, Clock::Logical) if plan.channel.is_none() => {
-            run_inprocess(plan, real, progress)
-        }
-        (EngineKind::Inprocess, _) => des::run_des(plan, real, progress),
-        (EngineKind::Threads, Clock::Logical) if plan.channel.is_none() => {
-            threads::run_threads(plan, real, progress)
-        }
-        (EngineKind::Processes, _) => processes::run_processes(plan, real, popts, progress),
+    let driver = plan.driver();
+    let (mut rec, res) = match driver {
+        Driver::LockStep => run_inprocess(plan, real, progress),
+        Driver::DiscreteEvent => des::run_des(plan, real, progress),
         // `RunConfig::resolve` refuses these before a plan exists.
-        (EngineKind::Threads, _) => (
+        Driver::Threads if plan.clock != Clock::Logical || plan.channel.is_some() => (
             RunRecord::empty(plan.n()),
             Err(EngineError::Unsupported(
                 "the threads engine runs logical clocks on the ideal channel".into(),
             )),
         ),
-    }
+        Driver::Threads => threads::run_threads(plan, real, progress),
+        Driver::Processes => processes::run_processes(plan, real, popts, progress),
+    };
+    rec.driver = Some(driver);
+    (rec, res)
 }

@@ -92,6 +92,11 @@ pub struct ChannelPlan {
 }
 
 impl RunPlan {
+    /// What runs this plan's nodes: its engine on its clock and channel.
+    pub fn driver(&self) -> super::Driver {
+        super::Driver::of(self.engine, self.clock, self.channel.is_some())
+    }
+
     /// The plan of `sc` (with its own seed `sc.seed`) as `cfg` asks (a
     /// [`Clock`] alone: in-process on that clock). A combination that
     /// cannot run is [`EngineError::Refused`] ([`RunConfig::resolve`]).

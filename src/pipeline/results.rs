@@ -379,6 +379,10 @@ pub struct RunJson {
     /// `inprocess`, `processes` or `threads`.
     #[serde(default)]
     pub engine: Option<String>,
+    /// What ran the nodes: `lock_step` or `discrete_event` (both
+    /// `inprocess`), `threads` or `processes`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub driver: Option<crate::engine::Driver>,
     /// Why the run stopped early.
     #[serde(default)]
     pub error: Option<String>,

@@ -38,15 +38,7 @@ impl Outcome {
             path: dir.clone(),
             source: e,
         })?;
-        write_run_json(
-            dir,
-            sc,
-            opts,
-            status,
-            error.as_ref(),
-            record.run_id.as_deref(),
-            *started,
-        )?;
+        write_run_json(dir, sc, opts, status, error.as_ref(), record, *started)?;
         write_scenario_toml(dir, sc, opts)?;
         write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
         // With faults, a `paused` column (before `seed`); without, the file
@@ -419,7 +411,7 @@ fn write_run_json(
     opts: &RunOptions,
     status: RunStatus,
     error: Option<&EngineError>,
-    run_id: Option<&str>,
+    record: &crate::engine::RunRecord,
     started: std::time::SystemTime,
 ) -> Result<(), RunError> {
     let resolved = sc.resolved_file();
@@ -434,6 +426,7 @@ fn write_run_json(
         seed: Some(sc.seed),
         crate_version: Some(env!("CARGO_PKG_VERSION").into()),
         engine: Some(opts.engine.as_str().into()),
+        driver: record.driver,
         mode: Some(sc.algorithm.mode.as_str().into()),
         clock: Some(opts.clock.as_str().into()),
         local_solver: Some(sc.algorithm.local_solver.as_str().into()),
@@ -441,7 +434,7 @@ fn write_run_json(
         command_line: opts.command_line.clone(),
         status: Some(status),
         error: error.map(|e| e.to_string()),
-        run_id: run_id.map(str::to_owned),
+        run_id: record.run_id.clone(),
         stall_timeout_s: Some(opts.stall_timeout.as_secs_f64()),
         git_commit: super::provenance::GIT_COMMIT.map(str::to_owned),
         host: super::provenance::host_name(),

@@ -534,3 +534,44 @@ fn run_json_and_summary_json_are_exactly_their_typed_schemas() {
     assert_eq!(typed.ml_rmse, typed.ml.rmse);
     assert!(typed.ml.rmse_after_burn_in.is_some());
 }
+
+#[test]
+fn run_json_and_the_summary_say_whether_the_lock_step_or_the_discrete_event_engine_ran() {
+    let tmp = crate::util::TempDir::new("driver");
+    for (file, extra, driver, words) in [
+        (
+            "mourya2017-spiral.toml",
+            &[][..],
+            "lock_step",
+            "inprocess (lock-step)",
+        ),
+        (
+            "mourya2017-spiral-acoustic.toml",
+            &["--variant", "modem"][..],
+            "discrete_event",
+            "inprocess (discrete-event, virtual time)",
+        ),
+    ] {
+        let out = tmp.path().join(driver);
+        let path = scenario(file);
+        let mut args = vec![
+            "run",
+            path.to_str().unwrap(),
+            "--engine",
+            "inprocess",
+            "--samples",
+            "12",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = crate::util::sonarnet(&args, std::time::Duration::from_secs(120));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(stdout.contains(words), "{stdout}");
+        let run: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
+        assert_eq!(run["engine"], "inprocess");
+        assert_eq!(run["driver"], driver);
+    }
+}
