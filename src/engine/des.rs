@@ -186,9 +186,10 @@ pub fn run_des(
         des.queue.push(t, Ev::Fault);
     }
     // Nothing judged from now on can overlap what ended this long ago.
-    let horizon = plan.channel.as_ref().map_or(0.0, |c| {
-        2.0 * c.cfg.transmission_s(c.cfg.frame_bits(PeerMsg::MAX_VALUES)) + 1e-6
-    });
+    let horizon = plan
+        .channel
+        .as_ref()
+        .map_or(0.0, |c| c.overlap_horizon_s() + 1e-6);
     let mut handled = 0u64;
     des.coord.handle(des.now, [Event::Start], &mut des.actions);
     let result = loop {

@@ -131,13 +131,11 @@ fn key(s: f64) -> u64 {
 impl Water {
     /// The water of a run on `plan`'s channel with seed `seed`, on `clock`.
     pub fn new(plan: &ChannelPlan, seed: u64, clock: ChannelClock) -> Water {
-        let air = plan
-            .cfg
-            .transmission_s(plan.cfg.frame_bits(PeerMsg::MAX_VALUES));
         let medium = Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links);
         // Nothing judged from now on can overlap what ended this long ago
         // (plus the grace, at any scale).
-        let horizon_s = 2.0 * air + 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
+        let horizon_s =
+            plan.overlap_horizon_s() + 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
         Water::with(
             Carrier::Acoustic(Box::new(medium)),
             plan.positions.len(),
