@@ -152,26 +152,25 @@ impl Processes {
     /// Node `node` was found dead (its process reaped): a crash that
     /// killed it is detected now.
     pub(super) fn fault_died(&mut self, node: u32) {
-        if let Some(h) = self.held.get_mut(node as usize) {
-            h.clear();
-        }
-        if let Some(now) = self.fault_now()
-            && let Some((sched, _, _)) = self.faults.as_mut()
-        {
-            sched.died(node, now);
-        }
+        self.fault_noticed(node, FaultWorld::died);
     }
 
     /// The coordinator gave up on node `node`: a pause or crash that caused
     /// it is detected now.
     pub(super) fn fault_abandoned(&mut self, node: u32) {
+        self.fault_noticed(node, FaultWorld::abandoned);
+    }
+
+    /// Node `node` is gone: what was held for it is dropped, and the fault
+    /// world hears of it now (`tell`: how it went).
+    fn fault_noticed(&mut self, node: u32, tell: fn(&mut FaultWorld, u32, f64)) {
         if let Some(h) = self.held.get_mut(node as usize) {
             h.clear();
         }
         if let Some(now) = self.fault_now()
             && let Some((sched, _, _)) = self.faults.as_mut()
         {
-            sched.abandoned(node, now);
+            tell(sched, node, now);
         }
     }
 
