@@ -10,15 +10,16 @@
 //! wall clock, so a run is exact and deterministic from the seed, and as fast
 //! as the node cores.
 //!
-//! On the ideal channel a message is delivered at the virtual time it is
-//! sent, after every event already scheduled for that time. On the acoustic
-//! channel ([`crate::model::channel`], `[channel] model = "acoustic"`) every
-//! frame between two nodes goes through the run's [`Medium`] (the sync root's
-//! Average is one transmission heard by every node): it is judged when its
-//! arrival ends (delay, half-duplex, collisions, loss; a frame to a node the
-//! coordinator left out is lost as `node_down`) and delivered then or lost,
-//! and it is recorded ([`MessageRecord`]); a delivered frame the node
-//! discards because the wait it answers is over is recorded `late`. How each
+//! Every frame between two nodes goes through the run's [`Channel`] (the
+//! world's one channel model): the engine puts each copy on its queue at the
+//! time the channel says its fate is due, and hands it back then. On the
+//! ideal channel that is the virtual time it is sent (after every event
+//! already scheduled for that time) unless a link fault delays it; on the
+//! acoustic channel (`[channel] model = "acoustic"`) it is when its arrival
+//! ends, and the channel judges it then (delay, half-duplex, collisions,
+//! loss; a frame to a node the coordinator left out is lost as `node_down`)
+//! and records it; a delivered frame the node discards because the wait it
+//! answers is over is recorded `late`. How each
 //! protocol waits on a lossy channel is [`crate::protocol::Command::ExchangeTimeout`]
 //! (realtime) and [`crate::protocol::Command::RoundTimeout`] (logical clocks).
 //! The coordinator's commands and the nodes' reports are the emulator's own
@@ -34,20 +35,20 @@
 //! clock scales the node's Poisson waits and timers.
 
 use crate::engine::EngineError;
-use crate::engine::MessageRecord;
 use crate::engine::Progress;
 use crate::engine::RunRecord;
 use crate::engine::coordinator::Action;
 use crate::engine::coordinator::Coordinator;
 use crate::engine::coordinator::Event;
 use crate::engine::plan::RunPlan;
-use crate::model::channel::{Frame, Medium, Reason};
-use crate::model::fault::IdealLinks;
+use crate::model::channel::Medium;
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
-use crate::protocol::{Command, Input, NodeCore, Output, PeerMsg};
-use crate::world::faults::{FaultStep, FaultWorld, at};
+use crate::protocol::{Command, Input, NodeCore, Output};
+use crate::world::faults::{FaultStep, FaultWorld};
+use crate::world::medium::{Channel, InFlight};
+use crate::world::time::wait;
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
@@ -67,8 +68,8 @@ enum Ev {
     Timer(u32, u32, Command),
     /// An event reaches the coordinator.
     ToCoordinator(Event),
-    /// The arrival of a frame on the acoustic channel ends: judge it.
-    Arrive(Frame, PeerMsg),
+    /// A frame between two nodes is due ([`Channel::arrive`]).
+    Arrive(InFlight),
     /// The next event of the fault schedule is due.
     Fault,
 }
@@ -94,12 +95,6 @@ impl Queue {
     fn pop(&mut self) -> Option<(Duration, Ev)> {
         self.events.pop_first().map(|((t, _, _), ev)| (t, ev))
     }
-}
-
-/// A drawn wait in seconds as a virtual duration, clamped to `[0, 1 day]`.
-fn wait(secs: f64) -> Duration {
-    const DAY: Duration = Duration::from_secs(86_400);
-    Duration::try_from_secs_f64(secs).map_or(DAY, |d| d.min(DAY))
 }
 
 /// One node of the run as the engine sees it.
@@ -129,10 +124,9 @@ struct Des<'a> {
     actions: Vec<Action>,
     outputs: Vec<Output>,
     now: Duration,
-    medium: Option<Medium>,
-    /// Link faults on the ideal channel (the medium has its own).
-    links: IdealLinks,
-    messages: Vec<MessageRecord>,
+    channel: Channel,
+    /// Frames just sent, before they go on the queue.
+    sends: Vec<(Duration, InFlight)>,
     faults: FaultWorld,
 }
 
@@ -169,12 +163,14 @@ pub fn run_des(
         actions: Vec::new(),
         outputs: Vec::new(),
         now: Duration::ZERO,
-        medium: plan
-            .channel
-            .as_ref()
-            .map(|c| Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links)),
-        links: IdealLinks::default(),
-        messages: Vec::new(),
+        channel: match &plan.channel {
+            Some(c) => Channel::acoustic(
+                Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links),
+                plan.seed,
+            ),
+            None => Channel::ideal(plan.n(), plan.seed),
+        },
+        sends: Vec::new(),
         faults: FaultWorld::new(
             &plan.faults,
             plan.n(),
@@ -185,11 +181,6 @@ pub fn run_des(
     if let Some(t) = des.faults.next_at() {
         des.queue.push(t, Ev::Fault);
     }
-    // Nothing judged from now on can overlap what ended this long ago.
-    let horizon = plan
-        .channel
-        .as_ref()
-        .map_or(0.0, |c| c.overlap_horizon_s() + 1e-6);
     let mut handled = 0u64;
     des.coord.handle(des.now, [Event::Start], &mut des.actions);
     let result = loop {
@@ -201,9 +192,7 @@ pub fn run_des(
         }
         handled += 1;
         if handled.is_multiple_of(INTERRUPT_CHECK_EVERY) {
-            if let Some(m) = &mut des.medium {
-                m.forget_before(des.now.as_secs_f64() - horizon);
-            }
+            des.channel.forget(des.now.as_secs_f64(), 1e-6);
             if interrupt.load(Ordering::SeqCst) {
                 des.coord
                     .handle(des.now, [Event::Interrupted], &mut des.actions);
@@ -221,15 +210,14 @@ pub fn run_des(
     let emulated = des.now.as_secs_f64();
     let Des {
         coord,
-        medium,
-        messages,
+        channel,
         faults,
         ..
     } = des;
     let mut rec = coord.into_record(result.is_err());
     rec.wall_seconds = start.elapsed().as_secs_f64();
-    if medium.is_some() {
-        rec.messages = messages;
+    if channel.is_acoustic() {
+        rec.messages = channel.into_records();
         rec.emulated_seconds = Some(emulated);
         rec.events = Some(handled);
     }
@@ -331,15 +319,12 @@ impl Des<'_> {
                 (node, Input::Command(c))
             }
             Ev::ToNode(node, input) => (node, input),
-            Ev::Arrive(f, msg) => {
-                let Some(m) = &self.medium else { return };
-                let rec = MessageRecord::judge(m, &f, &msg, self.nodes[f.to as usize].dead);
-                let delivered = rec.lost.is_none();
-                self.messages.push(rec);
-                if !delivered {
+            Ev::Arrive(f) => {
+                let dead = self.nodes.get(f.to() as usize).is_none_or(|s| s.dead);
+                let Some((to, msg)) = self.channel.arrive(f, dead) else {
                     return;
-                }
-                (f.to, Input::Peer(msg))
+                };
+                (to, Input::Peer(msg))
             }
         };
         self.deliver(node, input);
@@ -359,15 +344,16 @@ impl Des<'_> {
             return;
         }
         let late = slot.core.counters().late;
-        let from_channel = matches!(input, Input::Peer(_)) && self.medium.is_some();
+        let peer = match &input {
+            Input::Peer(m) => Some((m.from(), m.kind())),
+            Input::Command(_) => None,
+        };
         slot.core.handle(input, &mut self.outputs);
-        if from_channel
+        if let Some((from, kind)) = peer
             && slot.core.counters().late > late
-            && let Some(last) = self.messages.last_mut()
         {
             // Delivered after its wait was over: discarded by the node.
-            last.t_recv = None;
-            last.lost = Some(Reason::Late);
+            self.channel.mark_late(node, from, kind);
         }
         self.route(node);
     }
@@ -382,37 +368,13 @@ impl Des<'_> {
         };
         for o in std::mem::take(&mut self.outputs) {
             match o {
-                Output::Peer { to, msg } => match (&mut self.medium, &self.plan.channel) {
-                    (Some(m), Some(c)) => {
-                        let bits = c.cfg.frame_bits(msg.values());
-                        let f = m.send(now.as_secs_f64(), node, to, bits);
-                        self.queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
-                    }
-                    _ => self.ideal_send(node, to, msg),
-                },
-                Output::Broadcast(msg) => match (&mut self.medium, &self.plan.channel) {
-                    (Some(m), Some(c)) => {
-                        // One transmission, heard by every other node; the
-                        // sender's loopback copy is not on the channel.
-                        let others: Vec<u32> = (0..self.nodes.len() as u32)
-                            .filter(|&j| j != node)
-                            .collect();
-                        let bits = c.cfg.frame_bits(msg.values());
-                        for f in m.broadcast(now.as_secs_f64(), node, &others, bits) {
-                            self.queue.push(at(f.arrive_end), Ev::Arrive(f, msg));
-                        }
-                        self.queue.push(now, Ev::ToNode(node, Input::Peer(msg)));
-                    }
-                    _ => {
-                        for j in 0..self.nodes.len() as u32 {
-                            if j == node {
-                                self.queue.push(now, Ev::ToNode(j, Input::Peer(msg)));
-                            } else {
-                                self.ideal_send(node, j, msg);
-                            }
-                        }
-                    }
-                },
+                Output::Peer { to, msg } => self.channel.send(now, node, to, msg, &mut self.sends),
+                Output::Broadcast(msg) => {
+                    // The sender hears its own broadcast at once (a
+                    // transport's loopback; it is not on the channel).
+                    self.queue.push(now, Ev::ToNode(node, Input::Peer(msg)));
+                    self.channel.broadcast(now, node, msg, &mut self.sends);
+                }
                 Output::Report(r) => reports.push(Event::Report(r)),
                 Output::Timer { after_s, then } => self
                     .queue
@@ -421,19 +383,12 @@ impl Des<'_> {
                     self.nodes[node as usize].checkpoint = Some((u, theta));
                 }
             }
+            for (t, f) in self.sends.drain(..) {
+                self.queue.push(t, Ev::Arrive(f));
+            }
         }
         if !reports.is_empty() {
             self.coord.handle(now, reports, &mut self.actions);
-        }
-    }
-
-    /// A message on the ideal channel: at once, unless a link fault blocks,
-    /// drops (seeded draw) or delays it.
-    fn ideal_send(&mut self, from: u32, to: u32, msg: PeerMsg) {
-        let now = self.now;
-        if let Some(d) = self.links.send(self.plan.seed, from, to) {
-            self.queue
-                .push(now + wait(d), Ev::ToNode(to, Input::Peer(msg)));
         }
     }
 
@@ -491,18 +446,8 @@ impl Des<'_> {
                 self.coord
                     .handle(self.now, [Event::NodeUp { node }], &mut self.actions);
             }
-            FaultStep::LinkStart(id, kind) => {
-                self.links.faults.start(id, &kind);
-                if let Some(m) = &mut self.medium {
-                    m.link_faults.start(id, &kind);
-                }
-            }
-            FaultStep::LinkEnd(id) => {
-                self.links.faults.end(id);
-                if let Some(m) = &mut self.medium {
-                    m.link_faults.end(id);
-                }
-            }
+            FaultStep::LinkStart(id, kind) => self.channel.link_fault_start(id, &kind),
+            FaultStep::LinkEnd(id) => self.channel.link_fault_end(id),
             FaultStep::Drift(node, factor) => self.nodes[node as usize].clock_factor = factor,
         }
     }

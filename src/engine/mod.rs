@@ -233,7 +233,7 @@ pub struct RunRecord {
     pub iteration_trace: Vec<(u64, u32, u32, Vec3)>,
     /// Acoustic channel: every frame between two nodes, in the order sent
     /// (`messages.csv`; empty on the ideal channel).
-    pub messages: Vec<MessageRecord>,
+    pub messages: Vec<crate::world::medium::MessageRecord>,
     /// Acoustic channel: the emulated time the run covered, seconds.
     pub emulated_seconds: Option<f64>,
     /// Discrete-event engine: events handled (node ticks, deliveries, frame
@@ -249,56 +249,6 @@ pub struct RunRecord {
     pub paused: Vec<Vec<bool>>,
     /// What ran the nodes ([`run`] sets it).
     pub driver: Option<Driver>,
-}
-
-/// One frame between two nodes on the acoustic channel (a row of
-/// `messages.csv`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct MessageRecord {
-    /// When its transmission started (emulated seconds; later than the
-    /// node's send when its modem was still busy with an earlier frame).
-    pub t_send: f64,
-    /// When its arrival ended (delivered frames only).
-    pub t_recv: Option<f64>,
-    /// Sender.
-    pub from: u32,
-    /// Addressee.
-    pub to: u32,
-    /// Message kind ([`crate::protocol::PeerMsg::kind`]).
-    pub kind: &'static str,
-    /// Bits on the channel.
-    pub bits: u64,
-    /// `None`: delivered; else why it was lost.
-    pub lost: Option<crate::model::channel::Reason>,
-}
-
-impl MessageRecord {
-    /// Judge frame `f` carrying `msg` on `medium` (a frame to a dead node is
-    /// lost as `node_down`): its record. One judgement for every engine.
-    pub fn judge(
-        medium: &crate::model::channel::Medium,
-        f: &crate::model::channel::Frame,
-        msg: &crate::protocol::PeerMsg,
-        to_dead: bool,
-    ) -> MessageRecord {
-        use crate::model::channel::{Fate, Reason};
-        let fate = match medium.judge(f) {
-            Fate::Delivered if to_dead => Fate::Lost(Reason::NodeDown),
-            fate => fate,
-        };
-        MessageRecord {
-            t_send: f.t_start,
-            t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
-            from: f.from,
-            to: f.to,
-            kind: msg.kind(),
-            bits: f.bits,
-            lost: match fate {
-                Fate::Delivered => None,
-                Fate::Lost(r) => Some(r),
-            },
-        }
-    }
 }
 
 impl RunRecord {

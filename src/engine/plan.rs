@@ -91,17 +91,6 @@ pub struct ChannelPlan {
     pub round_timeout_s: Option<f64>,
 }
 
-impl ChannelPlan {
-    /// How long after a transmission ended nothing judged later can overlap
-    /// it: two airtimes of the largest frame. Both engines forget what ended
-    /// longer ago than this (plus their own margin), to keep bounded memory.
-    pub fn overlap_horizon_s(&self) -> f64 {
-        2.0 * self
-            .cfg
-            .transmission_s(self.cfg.frame_bits(crate::protocol::PeerMsg::MAX_VALUES))
-    }
-}
-
 impl RunPlan {
     /// What runs this plan's nodes: its engine on its clock and channel.
     pub fn driver(&self) -> super::Driver {

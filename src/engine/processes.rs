@@ -513,7 +513,10 @@ impl Processes {
 
     /// The water's records and delivery errors, times moved `offset_s`
     /// earlier (`None` on the ideal channel).
-    fn take_water(&mut self, offset_s: f64) -> Option<(Vec<super::MessageRecord>, Vec<f64>)> {
+    fn take_water(
+        &mut self,
+        offset_s: f64,
+    ) -> Option<(Vec<crate::world::medium::MessageRecord>, Vec<f64>)> {
         self.water
             .take()
             .filter(Water::is_acoustic)

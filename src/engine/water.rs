@@ -4,10 +4,11 @@
 //! On the acoustic channel a node process does not send its gossip frames to
 //! its peers: it hands each one to the coordinator, stamped with the emulated
 //! time it was sent ([`crate::protocol::codec::encode_channel`]). The
-//! coordinator puts it on the run's [`Medium`] (the one channel model, as in
-//! the discrete-event engine), holds it until its arrival ends, judges it
-//! then (half-duplex and collisions in emulated time, the seeded loss draw,
-//! a dead addressee) and forwards it to its addressee or drops it. A node
+//! coordinator puts it on the run's [`Channel`] (the world's one channel
+//! model, as in the discrete-event engine), holds it until its arrival ends,
+//! has the channel judge it then (half-duplex and collisions in emulated
+//! time, the seeded loss draw, a dead addressee) and forwards it to its
+//! addressee or drops it. A node
 //! that discards a delivered frame as late says so
 //! ([`crate::protocol::codec::encode_late`]), and its record is marked.
 //!
@@ -20,20 +21,20 @@
 //! emulated ms) is kept ([`Water::into_records`]).
 //!
 //! On the ideal channel a run with link faults (partitions, link loss,
-//! extra delay) relays its gossip the same way ([`Water::ideal`]):
-//! the coordinator applies [`IdealLinks`], the ideal channel's one
-//! judgement, shared with the discrete-event engine, and forwards a frame at
-//! once or after its fault's delay. Only the acoustic water keeps records
-//! (`messages.csv`), as in the discrete-event engine.
+//! extra delay) relays its gossip the same way ([`Water::ideal`]): the
+//! channel forwards a frame at once or after its fault's delay. Only the
+//! acoustic channel keeps records (`messages.csv`), as in the discrete-event
+//! engine.
 //!
-//! [`Water`] is I/O-free: times are passed in, and what to forward is
-//! returned.
+//! [`Water`] adds to the channel only what wall time needs (the shared
+//! clock, the grace, the realised errors). It is I/O-free: times are passed
+//! in, and what to forward is returned.
 
-use crate::engine::MessageRecord;
 use crate::engine::plan::ChannelPlan;
-use crate::model::channel::{Frame, Medium, Reason};
-use crate::model::fault::IdealLinks;
+use crate::model::channel::Medium;
 use crate::protocol::PeerMsg;
+use crate::world::medium::{Channel, InFlight, MessageRecord};
+use crate::world::time::at;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -91,75 +92,52 @@ impl ChannelClock {
     }
 }
 
-/// What carries the frames.
-#[derive(Debug)]
-enum Carrier {
-    /// The acoustic channel.
-    Acoustic(Box<Medium>),
-    /// The ideal channel under link faults, on a run with this seed.
-    Ideal(IdealLinks, u64),
-}
-
-/// A frame on its way.
-#[derive(Debug)]
-enum Held {
-    /// On the acoustic medium: judged when its arrival ends.
-    Frame(Frame, PeerMsg),
-    /// On the ideal channel, already judged to arrive: for its addressee.
-    Ideal(u32, PeerMsg),
-}
-
 /// The water between the node processes of one run.
 #[derive(Debug)]
 pub struct Water {
-    carrier: Carrier,
+    channel: Channel,
     clock: ChannelClock,
-    /// Frames on their way, by (judgement time in emulated ns, order).
-    pending: BTreeMap<(u64, u64), Held>,
+    /// Frames on their way, by (due time, order).
+    pending: BTreeMap<(Duration, u64), InFlight>,
     next: u64,
+    /// Scratch: the copies of the frame being submitted.
+    sends: Vec<(Duration, InFlight)>,
     dead: Vec<bool>,
-    records: Vec<MessageRecord>,
     errors_ms: Vec<f64>,
-    horizon_s: f64,
-}
-
-/// Emulated seconds as an ordered key (nanoseconds, saturating).
-fn key(s: f64) -> u64 {
-    (s.max(0.0) * 1e9).min(u64::MAX as f64) as u64
+    /// How far back (emulated seconds) beyond the channel's overlap horizon
+    /// a judgement may still look: one second, plus the grace at any scale.
+    margin_s: f64,
 }
 
 impl Water {
     /// The water of a run on `plan`'s channel with seed `seed`, on `clock`.
     pub fn new(plan: &ChannelPlan, seed: u64, clock: ChannelClock) -> Water {
         let medium = Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links);
-        // Nothing judged from now on can overlap what ended this long ago
-        // (plus the grace, at any scale).
-        let horizon_s =
-            plan.overlap_horizon_s() + 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
+        let margin_s = 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
         Water::with(
-            Carrier::Acoustic(Box::new(medium)),
+            Channel::acoustic(medium, seed),
             plan.positions.len(),
             clock,
-            horizon_s,
+            margin_s,
         )
     }
 
     /// The relay of a run of `n` nodes with seed `seed` on the ideal channel
     /// under link faults, on `clock` (wall time: `time_scale` 1).
     pub fn ideal(n: usize, seed: u64, clock: ChannelClock) -> Water {
-        Water::with(Carrier::Ideal(IdealLinks::default(), seed), n, clock, 0.0)
+        Water::with(Channel::ideal(n, seed), n, clock, 0.0)
     }
 
-    fn with(carrier: Carrier, n: usize, clock: ChannelClock, horizon_s: f64) -> Water {
+    fn with(channel: Channel, n: usize, clock: ChannelClock, margin_s: f64) -> Water {
         Water {
-            carrier,
+            channel,
             clock,
             pending: BTreeMap::new(),
             next: 0,
+            sends: Vec::new(),
             dead: vec![false; n],
-            records: Vec::new(),
             errors_ms: Vec::new(),
-            horizon_s,
+            margin_s,
         }
     }
 
@@ -167,9 +145,10 @@ impl Water {
     /// acoustic channel; none on the ideal one, where a frame's fate is
     /// decided when it is sent.
     fn grace(&self) -> Duration {
-        match self.carrier {
-            Carrier::Acoustic(_) => JUDGE_GRACE,
-            Carrier::Ideal(..) => Duration::ZERO,
+        if self.channel.is_acoustic() {
+            JUDGE_GRACE
+        } else {
+            Duration::ZERO
         }
     }
 
@@ -179,120 +158,67 @@ impl Water {
     }
 
     /// Node `from`'s frame `msg` to `to` ([`crate::protocol::codec::TO_ALL`]:
-    /// every other node), sent at emulated time `t_send`: on the medium.
+    /// every other node), sent at emulated time `t_send`: on the channel.
     pub fn submit(&mut self, msg: PeerMsg, to: u32, t_send: f64) {
-        let n = self.dead.len() as u32;
-        let from = msg.from();
-        if from >= n || (to >= n && to != crate::protocol::codec::TO_ALL) || !t_send.is_finite() {
+        if !t_send.is_finite() {
             return;
         }
-        // A unicast frame, the common case, allocates nothing here.
-        let all: Vec<u32>;
-        let to: &[u32] = if to == crate::protocol::codec::TO_ALL {
-            all = (0..n).filter(|&j| j != from).collect();
-            &all
+        let now = at(t_send);
+        if to == crate::protocol::codec::TO_ALL {
+            self.channel
+                .broadcast(now, msg.from(), msg, &mut self.sends);
         } else {
-            std::slice::from_ref(&to)
-        };
-        match &mut self.carrier {
-            Carrier::Acoustic(medium) => {
-                let bits = medium.cfg().frame_bits(msg.values());
-                let mut hold = |f: Frame| {
-                    self.pending
-                        .insert((key(f.arrive_end), self.next), Held::Frame(f, msg));
-                    self.next += 1;
-                };
-                match to {
-                    [one] => hold(medium.send(t_send, from, *one, bits)),
-                    all => medium
-                        .broadcast(t_send, from, all, bits)
-                        .into_iter()
-                        .for_each(hold),
-                }
-            }
-            Carrier::Ideal(links, seed) => {
-                for &j in to {
-                    if let Some(d) = links.send(*seed, from, j) {
-                        self.pending
-                            .insert((key(t_send + d), self.next), Held::Ideal(j, msg));
-                        self.next += 1;
-                    }
-                }
-            }
+            self.channel.send(now, msg.from(), to, msg, &mut self.sends);
+        }
+        for (due, f) in self.sends.drain(..) {
+            self.pending.insert((due, self.next), f);
+            self.next += 1;
         }
     }
 
     /// The wall time from now until the next judgement is due, if any frame
     /// is on its way.
     pub fn next_due(&self) -> Option<Duration> {
-        let (&(ns, _), _) = self.pending.first_key_value()?;
-        let wait_s = ns as f64 * 1e-9 - self.clock.now_s();
+        let (&(due, _), _) = self.pending.first_key_value()?;
+        let wait_s = due.as_secs_f64() - self.clock.now_s();
         Some(self.clock.wall(wait_s.max(0.0)) + self.grace())
     }
 
-    /// Judges every frame whose arrival ended at least [`JUDGE_GRACE`] before
-    /// `now_s` (emulated), records it, and appends the delivered ones to
-    /// `out` as `(addressee, message)`.
+    /// Judges every frame due at least the grace before `now_s` (emulated),
+    /// and appends the delivered ones to `out` as `(addressee, message)`.
     pub fn judge_due(&mut self, now_s: f64, out: &mut Vec<(u32, PeerMsg)>) {
         let grace_s = self.clock.time_scale * self.grace().as_secs_f64();
         while let Some(entry) = self.pending.first_entry() {
-            if entry.key().0 as f64 * 1e-9 + grace_s > now_s {
+            if entry.key().0.as_secs_f64() + grace_s > now_s {
                 break;
             }
-            let (f, msg) = match entry.remove() {
-                Held::Frame(f, msg) => (f, msg),
-                Held::Ideal(to, msg) => {
-                    if !self.dead[to as usize] {
-                        out.push((to, msg));
-                    }
-                    continue;
+            let f = entry.remove();
+            let arrive_end = f.arrive_end_s();
+            let dead = self.dead.get(f.to() as usize).copied().unwrap_or(true);
+            if let Some(delivered) = self.channel.arrive(f, dead) {
+                if let Some(end) = arrive_end {
+                    self.errors_ms.push((now_s - end) * 1e3);
                 }
-            };
-            let Carrier::Acoustic(medium) = &mut self.carrier else {
-                continue;
-            };
-            let rec = MessageRecord::judge(medium, &f, &msg, self.dead[f.to as usize]);
-            let delivered = rec.lost.is_none();
-            self.records.push(rec);
-            if delivered {
-                self.errors_ms.push((now_s - f.arrive_end) * 1e3);
-                out.push((f.to, msg));
+                out.push(delivered);
             }
         }
-        if let Carrier::Acoustic(medium) = &mut self.carrier {
-            medium.forget_before(now_s - self.horizon_s);
-        }
+        self.channel.forget(now_s, self.margin_s);
     }
 
     /// Node `node` discarded a frame `kind` from `from` as late: its record
     /// (the latest such frame delivered) is marked.
     pub fn mark_late(&mut self, node: u32, from: u32, kind: &str) {
-        if let Some(r) = self
-            .records
-            .iter_mut()
-            .rev()
-            .take(1 << 16)
-            .find(|r| r.to == node && r.from == from && r.kind == kind && r.lost.is_none())
-        {
-            r.lost = Some(Reason::Late);
-            r.t_recv = None;
-        }
+        self.channel.mark_late(node, from, kind);
     }
 
     /// Fault `id` (a partition, link loss or delay) starts on the links.
     pub fn link_fault_start(&mut self, id: usize, kind: &crate::model::fault::FaultKind) {
-        match &mut self.carrier {
-            Carrier::Acoustic(m) => m.link_faults.start(id, kind),
-            Carrier::Ideal(l, _) => l.faults.start(id, kind),
-        }
+        self.channel.link_fault_start(id, kind);
     }
 
     /// Fault `id` ends.
     pub fn link_fault_end(&mut self, id: usize) {
-        match &mut self.carrier {
-            Carrier::Acoustic(m) => m.link_faults.end(id),
-            Carrier::Ideal(l, _) => l.faults.end(id),
-        }
+        self.channel.link_fault_end(id);
     }
 
     /// Node `node` is up again (restarted): frames to it are delivered.
@@ -304,7 +230,7 @@ impl Water {
 
     /// Whether this is the acoustic channel (which keeps records).
     pub fn is_acoustic(&self) -> bool {
-        matches!(self.carrier, Carrier::Acoustic(_))
+        self.channel.is_acoustic()
     }
 
     /// Node `node` is dead (or left out): frames to it are lost as `node_down`.
@@ -317,7 +243,7 @@ impl Water {
     /// Every frame judged so far, in the order judged, with its times moved
     /// `offset_s` earlier, and the realised delivery errors (emulated ms).
     pub fn into_records(self, offset_s: f64) -> (Vec<MessageRecord>, Vec<f64>) {
-        let mut recs = self.records;
+        let mut recs = self.channel.into_records();
         for r in &mut recs {
             r.t_send -= offset_s;
             if let Some(t) = &mut r.t_recv {
@@ -331,7 +257,7 @@ impl Water {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::channel::AcousticCfg;
+    use crate::model::channel::{AcousticCfg, Reason};
     use crate::model::geometry::{Vec2, Vec3};
 
     fn plan() -> ChannelPlan {

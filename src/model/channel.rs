@@ -545,6 +545,11 @@ impl Medium {
         self.frame(id, from, to, bits, t, start, end)
     }
 
+    /// How many nodes it joins.
+    pub fn nodes(&self) -> usize {
+        self.pos.len()
+    }
+
     /// The channel's configuration.
     pub fn cfg(&self) -> &AcousticCfg {
         &self.cfg

@@ -517,9 +517,8 @@ impl LinkFaults {
 
 /// The ideal channel under link faults: a frame arrives at once unless a
 /// partition blocks it, a `link_loss` draw ([`fault_draw`]) drops it, or a
-/// `delay` holds it. The one judgement of the ideal channel for every engine
-/// (the discrete-event engine, and the coordinator's relay on node
-/// processes, [`crate::engine::water`]).
+/// `delay` holds it. The ideal carrier of the world's channel
+/// ([`crate::world::medium::Channel`]), which every engine drives.
 #[derive(Debug, Clone, Default)]
 pub struct IdealLinks {
     /// The faults in force, set by the engine as they start and end.

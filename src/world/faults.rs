@@ -13,13 +13,8 @@
 //! to a node's clock are decided here, once.
 
 use crate::model::fault::{Fault, FaultKind};
+use crate::world::time::at;
 use std::time::Duration;
-
-/// An absolute emulated time in seconds as a virtual time (nanoseconds, as
-/// the discrete-event engine's queue orders events; saturating).
-pub fn at(secs: f64) -> Duration {
-    Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX)
-}
 
 /// A fault as it was applied (a row of `faults.csv` before scoring).
 #[derive(Debug, Clone, PartialEq)]
@@ -303,6 +298,7 @@ impl FaultWorld {
 mod tests {
     use super::{FaultStep, FaultWorld};
     use crate::model::fault::FaultSpec;
+    use crate::world::time::at;
     use std::time::Duration;
 
     fn world(specs: &[&str], n: usize, period: f64) -> FaultWorld {
@@ -320,7 +316,7 @@ mod tests {
 
     fn due(w: &mut FaultWorld, t: f64) -> Vec<FaultStep> {
         let mut out = Vec::new();
-        while let Some(steps) = w.next_due(super::at(t), 0) {
+        while let Some(steps) = w.next_due(at(t), 0) {
             out.extend(steps);
         }
         out
@@ -409,7 +405,7 @@ mod tests {
             .resolve(2, 0.0)
             .expect("resolves");
         let mut w = FaultWorld::new(&[f], 2, None);
-        assert!(w.next_due(super::at(5.0), 7).is_some());
+        assert!(w.next_due(at(5.0), 7).is_some());
         assert_eq!(w.into_records(0).0[0].sample, 7);
     }
 }

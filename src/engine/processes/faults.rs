@@ -36,7 +36,7 @@ impl Processes {
         };
         let mut steps = Vec::new();
         let sample = sched.samples_done() as u32;
-        while let Some(due) = sched.next_due(crate::world::faults::at(now), sample) {
+        while let Some(due) = sched.next_due(crate::world::time::at(now), sample) {
             steps.extend(due);
         }
         for step in steps {

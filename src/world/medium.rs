@@ -1,0 +1,437 @@
+//! The water between the nodes, I/O-free: what becomes of every frame one
+//! node sends another, on the ideal or the acoustic channel.
+//!
+//! Every engine drives one [`Channel`] the same way. When a node sends, the
+//! engine hands the frame to [`Channel::send`] or [`Channel::broadcast`], which
+//! say when each copy's fate is due (an [`InFlight`] and its time). The
+//! engine holds the copy in its own scheduler (the discrete-event engine's
+//! queue in virtual time, the coordinator's relay on wall time for node
+//! processes) and gives it back to [`Channel::arrive`] when that time has
+//! come; `arrive` judges it and says whether it is delivered. The channel
+//! decides every route, delay, loss and record, once:
+//!
+//! - **ideal**: a frame arrives at once unless a link fault blocks, drops
+//!   (seeded draw) or delays it ([`IdealLinks`]); no records are kept;
+//! - **acoustic** ([`Medium`]): a frame is judged when its arrival ends
+//!   (propagation delay, half-duplex, collisions, the seeded loss draw, link
+//!   faults) and recorded ([`MessageRecord`], a row of `messages.csv`); the
+//!   sync root's Average is one transmission heard by every other node.
+//!
+//! A frame to a node that is down is lost as `node_down`; the engine says
+//! which nodes are down when it gives a frame back.
+
+use crate::model::channel::{Fate, Frame, Medium, Reason};
+use crate::model::fault::{FaultKind, IdealLinks};
+use crate::protocol::PeerMsg;
+use crate::world::time::{at, wait};
+use std::time::Duration;
+
+/// One frame between two nodes on the acoustic channel (a row of
+/// `messages.csv`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MessageRecord {
+    /// When its transmission started (emulated seconds; later than the
+    /// node's send when its modem was still busy with an earlier frame).
+    pub t_send: f64,
+    /// When its arrival ended (delivered frames only).
+    pub t_recv: Option<f64>,
+    /// Sender.
+    pub from: u32,
+    /// Addressee.
+    pub to: u32,
+    /// Message kind ([`PeerMsg::kind`]).
+    pub kind: &'static str,
+    /// Bits on the channel.
+    pub bits: u64,
+    /// `None`: delivered; else why it was lost.
+    pub lost: Option<Reason>,
+}
+
+impl MessageRecord {
+    /// Judge frame `f` carrying `msg` on `medium` (a frame to a dead node is
+    /// lost as `node_down`): its record.
+    fn judge(medium: &Medium, f: &Frame, msg: &PeerMsg, to_dead: bool) -> MessageRecord {
+        let fate = match medium.judge(f) {
+            Fate::Delivered if to_dead => Fate::Lost(Reason::NodeDown),
+            fate => fate,
+        };
+        MessageRecord {
+            t_send: f.t_start,
+            t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
+            from: f.from,
+            to: f.to,
+            kind: msg.kind(),
+            bits: f.bits,
+            lost: match fate {
+                Fate::Delivered => None,
+                Fate::Lost(r) => Some(r),
+            },
+        }
+    }
+}
+
+/// What carries the frames.
+#[derive(Debug)]
+enum Carrier {
+    Acoustic(Box<Medium>),
+    Ideal(IdealLinks),
+}
+
+/// One copy of a frame on its way to one addressee: the engine holds it
+/// until the time [`Channel::send`] gave, then hands it to
+/// [`Channel::arrive`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InFlight {
+    msg: PeerMsg,
+    way: Way,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Way {
+    /// On the acoustic medium: judged when its arrival ends.
+    Acoustic(Frame),
+    /// On the ideal channel, already judged to arrive: for this addressee.
+    Ideal(u32),
+}
+
+impl InFlight {
+    /// The addressee.
+    pub fn to(&self) -> u32 {
+        match &self.way {
+            Way::Acoustic(f) => f.to,
+            Way::Ideal(to) => *to,
+        }
+    }
+
+    /// On the acoustic channel: when its arrival ends (emulated seconds).
+    pub fn arrive_end_s(&self) -> Option<f64> {
+        match &self.way {
+            Way::Acoustic(f) => Some(f.arrive_end),
+            Way::Ideal(_) => None,
+        }
+    }
+}
+
+/// The channel of one run between its `n` nodes.
+#[derive(Debug)]
+pub struct Channel {
+    carrier: Carrier,
+    seed: u64,
+    n: u32,
+    records: Vec<MessageRecord>,
+}
+
+impl Channel {
+    /// The ideal channel between `n` nodes of a run with seed `seed`.
+    pub fn ideal(n: usize, seed: u64) -> Channel {
+        Channel::with(Carrier::Ideal(IdealLinks::default()), n, seed)
+    }
+
+    /// The acoustic channel `medium` (built with the run's seed `seed`).
+    pub fn acoustic(medium: Medium, seed: u64) -> Channel {
+        let n = medium.nodes();
+        Channel::with(Carrier::Acoustic(Box::new(medium)), n, seed)
+    }
+
+    fn with(carrier: Carrier, n: usize, seed: u64) -> Channel {
+        Channel {
+            carrier,
+            seed,
+            n: u32::try_from(n).unwrap_or(u32::MAX),
+            records: Vec::new(),
+        }
+    }
+
+    /// Whether this is the acoustic channel (which keeps records).
+    pub fn is_acoustic(&self) -> bool {
+        matches!(self.carrier, Carrier::Acoustic(_))
+    }
+
+    /// How long after a transmission ended nothing judged later can overlap
+    /// it, seconds: two airtimes of the largest frame (zero on the ideal
+    /// channel, where nothing overlaps).
+    pub fn overlap_horizon_s(&self) -> f64 {
+        match &self.carrier {
+            Carrier::Acoustic(m) => {
+                2.0 * m
+                    .cfg()
+                    .transmission_s(m.cfg().frame_bits(PeerMsg::MAX_VALUES))
+            }
+            Carrier::Ideal(_) => 0.0,
+        }
+    }
+
+    /// Node `from` sends `msg` to node `to` at `now`: the copy on its way and
+    /// when its fate is due, pushed to `out` (nothing when the channel
+    /// already lost it, or for a node that is not in the run).
+    pub fn send(
+        &mut self,
+        now: Duration,
+        from: u32,
+        to: u32,
+        msg: PeerMsg,
+        out: &mut Vec<(Duration, InFlight)>,
+    ) {
+        if from >= self.n || to >= self.n {
+            return;
+        }
+        match &mut self.carrier {
+            Carrier::Acoustic(m) => {
+                let bits = m.cfg().frame_bits(msg.values());
+                let f = m.send(now.as_secs_f64(), from, to, bits);
+                out.push(acoustic(f, msg));
+            }
+            Carrier::Ideal(links) => {
+                if let Some(d) = links.send(self.seed, from, to) {
+                    out.push((now + wait(d), ideal(to, msg)));
+                }
+            }
+        }
+    }
+
+    /// Node `from` sends `msg` to every other node at `now` (one
+    /// transmission on the acoustic channel): the copies on their way, in
+    /// the order of the addressees, pushed to `out`. The sender's own copy is
+    /// not on the channel.
+    pub fn broadcast(
+        &mut self,
+        now: Duration,
+        from: u32,
+        msg: PeerMsg,
+        out: &mut Vec<(Duration, InFlight)>,
+    ) {
+        if from >= self.n {
+            return;
+        }
+        match &mut self.carrier {
+            Carrier::Acoustic(m) => {
+                let others: Vec<u32> = (0..self.n).filter(|&j| j != from).collect();
+                let bits = m.cfg().frame_bits(msg.values());
+                for f in m.broadcast(now.as_secs_f64(), from, &others, bits) {
+                    out.push(acoustic(f, msg));
+                }
+            }
+            Carrier::Ideal(_) => {
+                for j in (0..self.n).filter(|&j| j != from) {
+                    self.send(now, from, j, msg, out);
+                }
+            }
+        }
+    }
+
+    /// The copy `f` is due, and its addressee is down (`to_dead`) or not:
+    /// judged (and recorded on the acoustic channel). `Some((to, msg))` if
+    /// it is delivered.
+    pub fn arrive(&mut self, f: InFlight, to_dead: bool) -> Option<(u32, PeerMsg)> {
+        let InFlight { msg, way } = f;
+        match (way, &self.carrier) {
+            (Way::Acoustic(frame), Carrier::Acoustic(m)) => {
+                let rec = MessageRecord::judge(m, &frame, &msg, to_dead);
+                let delivered = rec.lost.is_none();
+                self.records.push(rec);
+                delivered.then_some((frame.to, msg))
+            }
+            (Way::Ideal(to), _) => (!to_dead).then_some((to, msg)),
+            (Way::Acoustic(_), Carrier::Ideal(_)) => None,
+        }
+    }
+
+    /// Node `node` discarded a delivered frame `kind` from `from` as late
+    /// (the wait it answered was over): the record of the latest such frame
+    /// is marked `late`.
+    pub fn mark_late(&mut self, node: u32, from: u32, kind: &str) {
+        if let Some(r) = self
+            .records
+            .iter_mut()
+            .rev()
+            .take(1 << 16)
+            .find(|r| r.to == node && r.from == from && r.kind == kind && r.lost.is_none())
+        {
+            r.lost = Some(Reason::Late);
+            r.t_recv = None;
+        }
+    }
+
+    /// Fault `id` (a partition, link loss or delay) starts on the links.
+    pub fn link_fault_start(&mut self, id: usize, kind: &FaultKind) {
+        match &mut self.carrier {
+            Carrier::Acoustic(m) => m.link_faults.start(id, kind),
+            Carrier::Ideal(l) => l.faults.start(id, kind),
+        }
+    }
+
+    /// Fault `id` ends.
+    pub fn link_fault_end(&mut self, id: usize) {
+        match &mut self.carrier {
+            Carrier::Acoustic(m) => m.link_faults.end(id),
+            Carrier::Ideal(l) => l.faults.end(id),
+        }
+    }
+
+    /// Forget the transmissions and arrivals that ended before
+    /// `now_s - overlap_horizon_s - margin_s` (emulated seconds): nothing
+    /// judged from `now_s` on can overlap them. Keeps memory bounded.
+    pub fn forget(&mut self, now_s: f64, margin_s: f64) {
+        let horizon = self.overlap_horizon_s();
+        if let Carrier::Acoustic(m) = &mut self.carrier {
+            m.forget_before(now_s - (horizon + margin_s));
+        }
+    }
+
+    /// Every frame judged so far, in the order judged (acoustic channel;
+    /// none on the ideal one).
+    pub fn into_records(self) -> Vec<MessageRecord> {
+        self.records
+    }
+}
+
+fn acoustic(f: Frame, msg: PeerMsg) -> (Duration, InFlight) {
+    (
+        at(f.arrive_end),
+        InFlight {
+            msg,
+            way: Way::Acoustic(f),
+        },
+    )
+}
+
+fn ideal(to: u32, msg: PeerMsg) -> InFlight {
+    InFlight {
+        msg,
+        way: Way::Ideal(to),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Channel, InFlight};
+    use crate::model::channel::{AcousticCfg, Medium, Reason};
+    use crate::model::fault::FaultKind;
+    use crate::model::geometry::{Vec2, Vec3};
+    use crate::protocol::PeerMsg;
+    use crate::world::time::at;
+    use approx::assert_relative_eq;
+    use std::time::Duration;
+
+    fn reflect(from: u32, seq: u64) -> PeerMsg {
+        PeerMsg::Reflect {
+            from,
+            seq,
+            r: Vec3::new(1.0, 2.0, 3.0),
+        }
+    }
+
+    /// Three nodes: 1500 m (1 s) from node 0 to node 1, 3000 m to node 2,
+    /// every node in reach of node 0.
+    fn acoustic() -> Channel {
+        let pos = vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1500.0, 0.0),
+            Vec2::new(0.0, 3000.0),
+        ];
+        let links = vec![vec![1, 2], vec![0], vec![0]];
+        Channel::acoustic(Medium::new(AcousticCfg::default(), 7, pos, &links), 7)
+    }
+
+    fn sent(
+        ch: &mut Channel,
+        now: f64,
+        from: u32,
+        to: u32,
+        msg: PeerMsg,
+    ) -> Vec<(Duration, InFlight)> {
+        let mut out = Vec::new();
+        ch.send(at(now), from, to, msg, &mut out);
+        out
+    }
+
+    #[test]
+    fn the_ideal_channel_delivers_at_once_unless_a_link_fault_blocks_or_delays_and_keeps_no_records()
+     {
+        let mut ch = Channel::ideal(3, 7);
+        assert!(!ch.is_acoustic());
+        assert_relative_eq!(ch.overlap_horizon_s(), 0.0);
+        let out = sent(&mut ch, 1.0, 0, 1, reflect(0, 1));
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].0, at(1.0), "at once");
+        assert_eq!(ch.arrive(out[0].1, false), Some((1, reflect(0, 1))));
+        ch.link_fault_start(
+            0,
+            &FaultKind::Partition {
+                groups: vec![vec![0], vec![1, 2]],
+            },
+        );
+        ch.link_fault_start(
+            1,
+            &FaultKind::Delay {
+                a: 1,
+                b: 2,
+                extra_s: 0.5,
+            },
+        );
+        assert!(
+            sent(&mut ch, 2.0, 0, 1, reflect(0, 2)).is_empty(),
+            "blocked"
+        );
+        let out = sent(&mut ch, 2.0, 1, 2, reflect(1, 3));
+        assert_eq!(out[0].0, at(2.5), "delayed");
+        ch.link_fault_end(0);
+        ch.link_fault_end(1);
+        let out = sent(&mut ch, 3.0, 0, 1, reflect(0, 4));
+        assert_eq!(ch.arrive(out[0].1, true), None, "the addressee is down");
+        assert!(
+            sent(&mut ch, 3.0, 0, 9, reflect(0, 5)).is_empty(),
+            "no such node"
+        );
+        assert!(ch.into_records().is_empty());
+    }
+
+    #[test]
+    fn an_acoustic_frame_is_due_when_its_arrival_ends_and_is_judged_and_recorded_then() {
+        let mut ch = acoustic();
+        // 1 s of propagation, 0.24 s on the air.
+        let out = sent(&mut ch, 10.0, 0, 1, reflect(0, 1));
+        assert_eq!(out.len(), 1);
+        let end = out[0].1.arrive_end_s().expect("an acoustic frame");
+        assert_relative_eq!(end, 10.0 + 1.0 + 0.24, epsilon = 1e-12);
+        assert_eq!(out[0].0, at(end));
+        assert_eq!(out[0].1.to(), 1);
+        assert_eq!(ch.arrive(out[0].1, false), Some((1, reflect(0, 1))));
+        let out = sent(&mut ch, 20.0, 0, 2, reflect(0, 2));
+        assert_eq!(ch.arrive(out[0].1, true), None);
+        ch.mark_late(1, 0, "reflect");
+        let recs = ch.into_records();
+        assert_eq!(recs.len(), 2);
+        assert_eq!((recs[0].from, recs[0].to, recs[0].kind), (0, 1, "reflect"));
+        assert_relative_eq!(recs[0].t_send, 10.0);
+        assert_eq!(recs[0].lost, Some(Reason::Late), "marked late");
+        assert_eq!(recs[0].t_recv, None);
+        assert_eq!(recs[1].lost, Some(Reason::NodeDown));
+    }
+
+    #[test]
+    fn a_broadcast_is_one_transmission_heard_by_every_other_node_in_order() {
+        let mut ch = acoustic();
+        let mut out = Vec::new();
+        ch.broadcast(at(1.0), 0, reflect(0, 1), &mut out);
+        let to: Vec<u32> = out.iter().map(|(_, f)| f.to()).collect();
+        assert_eq!(to, vec![1, 2]);
+        // Node 2 is twice as far: its copy arrives one second later.
+        let ends: Vec<f64> = out.iter().filter_map(|(_, f)| f.arrive_end_s()).collect();
+        assert_relative_eq!(ends[1] - ends[0], 1.0, epsilon = 1e-9);
+        let mut ideal = Channel::ideal(3, 7);
+        let mut out = Vec::new();
+        ideal.broadcast(at(1.0), 1, reflect(1, 1), &mut out);
+        let to: Vec<u32> = out.iter().map(|(_, f)| f.to()).collect();
+        assert_eq!(to, vec![0, 2]);
+        assert!(out.iter().all(|(t, _)| *t == at(1.0)));
+    }
+
+    #[test]
+    fn the_overlap_horizon_is_two_airtimes_of_the_largest_frame() {
+        let ch = acoustic();
+        let cfg = AcousticCfg::default();
+        let airtime = cfg.transmission_s(cfg.frame_bits(PeerMsg::MAX_VALUES));
+        assert_relative_eq!(ch.overlap_horizon_s(), 2.0 * airtime);
+    }
+}
