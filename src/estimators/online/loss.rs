@@ -154,6 +154,7 @@ pub fn loss(geometry: &Geometry, sample: &SampleMeasurements, x: &Vec2) -> Resul
 
 /// `f_t(x)` and `grad f_t(x) = sum 2 e_i u_i` (Pun-So 2022 eq. (3)); for a
 /// bistatic term `u_i = u_t + u_r`, the sum of the unit vectors from both foci.
+#[inline]
 pub fn loss_grad(
     geometry: &Geometry,
     sample: &SampleMeasurements,
