@@ -37,9 +37,11 @@
 use crate::engine::EngineError;
 use crate::engine::Progress;
 use crate::engine::RunRecord;
+use crate::engine::actions::{Actuator, carry_out};
 use crate::engine::coordinator::Action;
 use crate::engine::coordinator::Coordinator;
 use crate::engine::coordinator::Event;
+use crate::engine::coordinator::Timer;
 use crate::engine::plan::RunPlan;
 use crate::model::channel::Medium;
 use crate::model::geometry::Vec3;
@@ -184,7 +186,11 @@ pub fn run_des(
     let mut handled = 0u64;
     des.coord.handle(des.now, [Event::Start], &mut des.actions);
     let result = loop {
-        if let Some(r) = des.perform(progress) {
+        // The actions go out of `des` while it carries them out (it adds none).
+        let mut batch = std::mem::take(&mut des.actions);
+        let over = carry_out(&mut batch, &mut des, progress);
+        des.actions = batch;
+        if let Some(r) = over {
             break r;
         }
         if des.coord.is_done() {
@@ -227,50 +233,44 @@ pub fn run_des(
     (rec, result)
 }
 
-impl Des<'_> {
-    /// Carry out the coordinator's actions at `now`; `Some` when the run is over.
-    fn perform(&mut self, progress: Progress<'_>) -> Option<Result<(), EngineError>> {
-        let mut done = None;
+/// The coordinator's actions in virtual time: its messages and the nodes'
+/// answers to pings arrive at once, its timers are events.
+impl Actuator for Des<'_> {
+    fn send(&mut self, node: u32, msg: Control) -> Result<(), EngineError> {
         let now = self.now;
-        for a in std::mem::take(&mut self.actions) {
-            match a {
-                Action::Send { node, msg } => match msg {
-                    Control::Command(c) => {
-                        self.queue.push(now, Ev::ToNode(node, Input::Command(c)))
-                    }
-                    Control::StartClock(rate) => {
-                        let Some(slot) = self.nodes.get_mut(node as usize) else {
-                            continue;
-                        };
-                        slot.rate = Some(rate);
-                        let w = slot.core.draw_wait(rate) * slot.clock_factor;
-                        self.queue.push(now + wait(w), Ev::Tick(node, slot.epoch));
-                    }
-                    // Hop probes measure node processes only
-                    // (`processes::measure_hop`); the coordinator never sends one.
-                    Control::ClockFactor(_) | Control::ProbePeer { .. } => {}
-                    Control::Ping(seq) => self
-                        .queue
-                        .push(now, Ev::ToCoordinator(Event::Pong { node, seq })),
-                    Control::Stop => {}
-                },
-                Action::SetTimer { at, timer } => {
-                    self.queue.push(at, Ev::ToCoordinator(Event::Timer(timer)))
+        match msg {
+            Control::Command(c) => self.queue.push(now, Ev::ToNode(node, Input::Command(c))),
+            Control::StartClock(rate) => {
+                if let Some(slot) = self.nodes.get_mut(node as usize) {
+                    slot.rate = Some(rate);
+                    let w = slot.core.draw_wait(rate) * slot.clock_factor;
+                    self.queue.push(now + wait(w), Ev::Tick(node, slot.epoch));
                 }
-                Action::Progress {
-                    samples,
-                    iterations,
-                } => {
-                    self.faults.sample_done(samples);
-                    progress(samples, iterations)
-                }
-                Action::Abandon { node } => self.abandon(node),
-                Action::Flush | Action::Log(_) => {}
-                Action::Done(r) => done = Some(r),
             }
+            // Hop probes measure node processes only
+            // (`processes::measure_hop`); the coordinator never sends one.
+            Control::ClockFactor(_) | Control::ProbePeer { .. } => {}
+            Control::Ping(seq) => self
+                .queue
+                .push(now, Ev::ToCoordinator(Event::Pong { node, seq })),
+            Control::Stop => {}
         }
-        done
+        Ok(())
     }
+
+    fn flush(&mut self) -> Result<(), EngineError> {
+        Ok(())
+    }
+
+    fn set_timer(&mut self, at: Duration, timer: Timer) {
+        self.queue.push(at, Ev::ToCoordinator(Event::Timer(timer)));
+    }
+
+    fn sample_done(&mut self, samples: usize) {
+        self.faults.sample_done(samples);
+    }
+
+    fn log(&mut self, _line: &str) {}
 
     /// The coordinator gave up on `node`: it is dead; a pause that caused it
     /// is detected now.
@@ -281,7 +281,9 @@ impl Des<'_> {
         slot.dead = true;
         self.faults.abandoned(node, self.now.as_secs_f64());
     }
+}
 
+impl Des<'_> {
     fn event(&mut self, ev: Ev) {
         let now = self.now;
         let (node, input) = match ev {

@@ -11,6 +11,7 @@
 //! All of them run the same coordinator and the same node core; [`run`] is
 //! the one entry point.
 
+pub mod actions;
 pub mod agent;
 pub mod checkpoint;
 pub mod config;
@@ -26,6 +27,7 @@ pub mod processes;
 pub mod threads;
 pub mod water;
 
+pub use actions::Actuator;
 pub use config::{Driver, Key, LONG_WALL_S, Refused, RunConfig, TransportKind};
 pub use coordinator::{Action, Coordinator, Event, Timer};
 pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
@@ -300,52 +302,24 @@ pub fn drive(
     let mut coord = Coordinator::new(plan, real);
     let mut actions = Vec::new();
     let mut events = Vec::new();
-    let mut timers: Vec<(Duration, Timer)> = Vec::new();
+    let mut wired = Wired {
+        net,
+        timers: Vec::new(),
+    };
     coord.handle(Duration::ZERO, [Event::Start], &mut actions);
     let result = loop {
-        let mut done = None;
-        for a in actions.drain(..) {
-            let r = match a {
-                Action::Send { node, msg } => net.send(node, &msg),
-                Action::Flush => net.flush(),
-                Action::SetTimer { at, timer } => {
-                    timers.push((at, timer));
-                    Ok(())
-                }
-                Action::Progress {
-                    samples,
-                    iterations,
-                } => {
-                    net.sample_done(samples);
-                    progress(samples, iterations);
-                    Ok(())
-                }
-                Action::Log(line) => {
-                    net.log(&line);
-                    Ok(())
-                }
-                Action::Abandon { node } => {
-                    net.abandon(node);
-                    Ok(())
-                }
-                Action::Done(r) => r,
-            };
-            if let Err(e) = r {
-                done = Some(Err(e));
-                break;
-            }
-        }
-        if let Some(r) = done {
+        if let Some(r) = actions::carry_out(&mut actions, &mut wired, progress) {
             break r;
         }
         if coord.is_done() {
             break Ok(());
         }
+        let timers = &mut wired.timers;
         timers.sort_by_key(|t| t.0);
         let timeout = timers
             .first()
             .map(|(at, _)| to_wall(at.saturating_sub(to_coord(start.elapsed()))));
-        if let Err(e) = net.recv(timeout, &mut events) {
+        if let Err(e) = wired.net.recv(timeout, &mut events) {
             break Err(e);
         }
         let now = to_coord(start.elapsed());
@@ -356,6 +330,39 @@ pub fn drive(
     let mut rec = coord.into_record(result.is_err());
     rec.wall_seconds = start.elapsed().as_secs_f64();
     (rec, result)
+}
+
+/// The coordinator's actions on a [`Network`], with the coordinator's
+/// timers kept here until they are due.
+struct Wired<'n> {
+    net: &'n mut dyn Network,
+    timers: Vec<(Duration, Timer)>,
+}
+
+impl Actuator for Wired<'_> {
+    fn send(&mut self, node: u32, msg: Control) -> Result<(), EngineError> {
+        self.net.send(node, &msg)
+    }
+
+    fn flush(&mut self) -> Result<(), EngineError> {
+        self.net.flush()
+    }
+
+    fn set_timer(&mut self, at: Duration, timer: Timer) {
+        self.timers.push((at, timer));
+    }
+
+    fn sample_done(&mut self, samples: usize) {
+        self.net.sample_done(samples);
+    }
+
+    fn log(&mut self, line: &str) {
+        self.net.log(line);
+    }
+
+    fn abandon(&mut self, node: u32) {
+        self.net.abandon(node);
+    }
 }
 
 /// Run `plan` in-process; SIGINT/SIGTERM ([`interrupt`]) end it with
