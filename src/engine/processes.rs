@@ -34,7 +34,7 @@ use crate::model::synth::Realization;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
 use crate::transport::wire::Frame;
-use crate::transport::{Endpoint, IoxTransport, Transport, TransportChoice, TransportError};
+use crate::transport::{Endpoint, Transport, TransportChoice, TransportError};
 use crate::world::faults::FaultWorld;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -42,8 +42,11 @@ use std::time::{Duration, Instant};
 
 mod faults;
 pub mod fleet;
+mod hop;
 mod launch;
+mod start;
 pub use fleet::{NodeProc, Placement, RemoteFleet};
+pub use hop::{HOPS_PER_TURN, measure_hop};
 use launch::checkpoint_dir;
 pub(crate) use launch::spawn_child;
 pub use launch::{
@@ -192,163 +195,6 @@ impl Processes {
         ));
         p.wait_ready(start, opts.startup_timeout)?;
         Ok(p)
-    }
-
-    /// Over iceoryx2: spawn every node, then create the services.
-    fn start_iceoryx2(
-        &mut self,
-        topo: &crate::transport::RunTopology,
-        configs: &[NodeConfig],
-    ) -> Result<(), EngineError> {
-        let p = self;
-        let prog = p.program.clone();
-        let prog = &prog;
-        // The nodes start first, each waiting at a gate (its stdin, one pipe
-        // for all) until the services exist: spawned while the coordinator
-        // holds few file descriptors and mappings (the close-on-exec of
-        // every one of them is paid per spawn: O(N^2) per run otherwise),
-        // and starting up while the services are created.
-        let (gate, gate_writer) = std::io::pipe()
-            .map_err(|e| EngineError::StartGate(format!("creating its pipe: {e}")))?;
-        for cfg in configs {
-            let launch = NodeLaunch {
-                gate: true,
-                ..p.launch_of(cfg, false)
-            };
-            let stdin = gate.try_clone().map_err(|e| {
-                EngineError::StartGate(format!("passing it to node {}: {e}", cfg.id))
-            })?;
-            p.children.push(Some(NodeProc::Local(spawn_child(
-                prog,
-                &launch,
-                stdin.into(),
-            )?)));
-        }
-        drop(gate);
-        p.tx = Some(Box::new(
-            IoxTransport::coordinator(topo).map_err(EngineError::Transport)?,
-        ));
-        // Open the gate: every node reads end-of-file and opens its ports.
-        drop(gate_writer);
-        Ok(())
-    }
-
-    /// Over zenoh: open the coordinator's router, wait for the agents of a
-    /// placement, then start every node, here or through its agent.
-    #[cfg(feature = "zenoh")]
-    fn start_zenoh(
-        &mut self,
-        topo: &crate::transport::RunTopology,
-        z: &crate::transport::ZenohSettings,
-        configs: &[NodeConfig],
-        opts: &ProcessOptions,
-    ) -> Result<(), EngineError> {
-        let tx = crate::transport::zenoh::ZenohTransport::coordinator(topo, z)
-            .map_err(EngineError::Transport)?;
-        if let Some(pl) = &opts.placement {
-            let fleet = RemoteFleet::open(tx.session(), &self.run_id, pl, configs.len())?;
-            let agents = pl.agents();
-            Processes::log(
-                self,
-                format_args!(
-                    "waiting for the agents of {} on {}",
-                    agents.join(", "),
-                    z.listen.join(", ")
-                ),
-            );
-            let missing = fleet.wait_for(&agents, opts.agent_wait);
-            if !missing.is_empty() {
-                return Err(EngineError::AgentsMissing {
-                    missing,
-                    waited: opts.agent_wait,
-                    run_id: self.run_id.clone(),
-                    listen: z.listen.join(", "),
-                });
-            }
-            self.fleet = Some(fleet);
-        }
-        self.tx = Some(Box::new(tx));
-        for cfg in configs {
-            let launch = self.launch_of(cfg, false);
-            let proc = self.start_node(&launch)?;
-            self.children.push(Some(proc));
-        }
-        Ok(())
-    }
-
-    #[cfg(not(feature = "zenoh"))]
-    fn start_zenoh(
-        &mut self,
-        _topo: &crate::transport::RunTopology,
-        _z: &crate::transport::ZenohSettings,
-        _configs: &[NodeConfig],
-        _opts: &ProcessOptions,
-    ) -> Result<(), EngineError> {
-        Err(EngineError::Transport(TransportError::ZenohUnavailable))
-    }
-
-    /// Start node `launch.node.id`: through its host's agent, or here.
-    fn start_node(&self, launch: &NodeLaunch) -> Result<NodeProc, EngineError> {
-        let host = self
-            .placement
-            .as_ref()
-            .and_then(|pl| pl.host_of(launch.node.id));
-        match (&self.fleet, host) {
-            (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch),
-            _ => Ok(NodeProc::Local(spawn_child(
-                &self.program,
-                launch,
-                std::process::Stdio::null(),
-            )?)),
-        }
-    }
-
-    /// Wait for READY from every node.
-    fn wait_ready(&mut self, start: Instant, timeout: Duration) -> Result<(), EngineError> {
-        let p = self;
-        let n = p.children.len();
-        // Wait for READY from everyone.
-        let mut ready = vec![false; n];
-        let mut count = 0;
-        while count < n {
-            if start.elapsed() > timeout {
-                let missing = (0..n).filter(|&i| !ready[i]).map(|i| i as u32).collect();
-                return Err(EngineError::Startup {
-                    missing,
-                    waited: timeout,
-                });
-            }
-            for input in p.poll(Duration::from_millis(50))? {
-                if let CoordinatorInput::Ready { node } = input {
-                    let i = node as usize;
-                    if i < n && !ready[i] {
-                        ready[i] = true;
-                        count += 1;
-                    }
-                }
-            }
-        }
-        p.startup_seconds = start.elapsed().as_secs_f64();
-        Processes::log(
-            p,
-            format_args!("all {n} nodes ready after {:.3} s", p.startup_seconds),
-        );
-        Ok(())
-    }
-
-    /// What node `cfg.id` is told at start (`resume`: a restart from its
-    /// checkpoint).
-    fn launch_of(&self, cfg: &NodeConfig, resume: bool) -> NodeLaunch {
-        NodeLaunch {
-            node: cfg.clone(),
-            checkpoint: self
-                .checkpoints
-                .as_ref()
-                .filter(|_| cfg.checkpoint_every.is_some())
-                .map(|(dir, _)| super::checkpoint::path(dir, cfg.id)),
-            resume,
-            ..self.launch0.clone()
-        }
     }
 
     fn log(&self, args: std::fmt::Arguments<'_>) {
@@ -746,88 +592,6 @@ impl Network for Processes {
             w.set_dead(node);
         }
     }
-}
-
-/// Ping-pongs per edge before the measurement moves to the next edge.
-pub const HOPS_PER_TURN: u32 = 20;
-
-/// The one-hop latency between two node processes on this machine: spawn `plan`'s nodes, then have the nodes of each gossip edge in
-/// turn ping-pong [`HOPS_PER_TURN`] times ([`Control::ProbePeer`]), until
-/// `count` hops are measured. A probe is sent as soon as the last one's
-/// answer is in, so both nodes block between probes (or poll, with
-/// `opts.poll_us`) as they do between gossip steps, and the coordinator
-/// stays out of the path. Taking the edges in turn mixes the CPU placements
-/// the run's processes get (a wake-up on the same CPU costs a third of one
-/// across CPUs here). Each round trip is two hops, a frame and a wake-up
-/// each way, so half of it is one hop. Returns the hops in seconds, and the
-/// run id of the measurement; fails if the graph has no edge.
-pub fn measure_hop(
-    plan: &RunPlan,
-    opts: &ProcessOptions,
-    count: usize,
-) -> Result<(Vec<f64>, String), EngineError> {
-    let NetworkLayout {
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-    } = network_layout(plan);
-    let edges: Vec<(u32, u32)> = configs
-        .iter()
-        .flat_map(|c| c.neighbours.iter().map(move |&w| (c.id, w)))
-        .filter(|&(v, w)| v < w)
-        .collect();
-    if edges.is_empty() {
-        return Err(EngineError::Unsupported(
-            "a hop is measured between two neighbours, and this graph has no edge".into(),
-        ));
-    }
-    let run_id = crate::transport::unique_run_id();
-    let mut p = Processes::spawn(
-        run_id.clone(),
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-        None,
-        opts,
-    )?;
-    let mut hops = Vec::with_capacity(count);
-    for &(v, w) in edges.iter().cycle() {
-        if hops.len() >= count {
-            break;
-        }
-        let want = HOPS_PER_TURN.min((count - hops.len()) as u32);
-        let t0 = Instant::now();
-        p.control(
-            v,
-            &Control::ProbePeer {
-                peer: w,
-                count: want,
-            },
-        )?;
-        p.flush_all()?;
-        let mut got = 0;
-        while got < want {
-            if t0.elapsed() > Duration::from_secs(10) {
-                return Err(EngineError::NotResponding {
-                    nodes: vec![v, w],
-                    sample: 0,
-                    silent_for: t0.elapsed(),
-                });
-            }
-            for x in p.poll(Duration::from_millis(100))? {
-                if let CoordinatorInput::Hops { node, seconds, .. } = x
-                    && node == v
-                {
-                    got += seconds.len() as u32;
-                    hops.extend(seconds);
-                }
-            }
-        }
-    }
-    p.shutdown();
-    Ok((hops, run_id))
 }
 
 /// Run `plan` on node processes, with logical or realtime clocks

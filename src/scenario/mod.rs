@@ -29,6 +29,7 @@ mod overrides;
 mod readers;
 mod resolve;
 pub mod scaffold;
+mod sections;
 pub mod shipped;
 pub use describe::in_words;
 mod schema;

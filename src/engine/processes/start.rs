@@ -1,0 +1,177 @@
+//! How the nodes of a run start: spawned here behind a start gate (over
+//! iceoryx2), or here and through the agents of other hosts (over zenoh),
+//! then awaited until every one reports READY.
+
+use super::Processes;
+use super::fleet::{self, NodeProc};
+use super::launch::{NodeLaunch, ProcessOptions, spawn_child};
+use crate::engine::EngineError;
+use crate::protocol::NodeConfig;
+use crate::protocol::codec::CoordinatorInput;
+use crate::transport::IoxTransport;
+use std::time::{Duration, Instant};
+
+impl Processes {
+    /// Over iceoryx2: spawn every node, then create the services.
+    pub(super) fn start_iceoryx2(
+        &mut self,
+        topo: &crate::transport::RunTopology,
+        configs: &[NodeConfig],
+    ) -> Result<(), EngineError> {
+        let p = self;
+        let prog = p.program.clone();
+        let prog = &prog;
+        // The nodes start first, each waiting at a gate (its stdin, one pipe
+        // for all) until the services exist: spawned while the coordinator
+        // holds few file descriptors and mappings (the close-on-exec of
+        // every one of them is paid per spawn: O(N^2) per run otherwise),
+        // and starting up while the services are created.
+        let (gate, gate_writer) = std::io::pipe()
+            .map_err(|e| EngineError::StartGate(format!("creating its pipe: {e}")))?;
+        for cfg in configs {
+            let launch = NodeLaunch {
+                gate: true,
+                ..p.launch_of(cfg, false)
+            };
+            let stdin = gate.try_clone().map_err(|e| {
+                EngineError::StartGate(format!("passing it to node {}: {e}", cfg.id))
+            })?;
+            p.children.push(Some(NodeProc::Local(spawn_child(
+                prog,
+                &launch,
+                stdin.into(),
+            )?)));
+        }
+        drop(gate);
+        p.tx = Some(Box::new(
+            IoxTransport::coordinator(topo).map_err(EngineError::Transport)?,
+        ));
+        // Open the gate: every node reads end-of-file and opens its ports.
+        drop(gate_writer);
+        Ok(())
+    }
+
+    /// Over zenoh: open the coordinator's router, wait for the agents of a
+    /// placement, then start every node, here or through its agent.
+    #[cfg(feature = "zenoh")]
+    pub(super) fn start_zenoh(
+        &mut self,
+        topo: &crate::transport::RunTopology,
+        z: &crate::transport::ZenohSettings,
+        configs: &[NodeConfig],
+        opts: &ProcessOptions,
+    ) -> Result<(), EngineError> {
+        let tx = crate::transport::zenoh::ZenohTransport::coordinator(topo, z)
+            .map_err(EngineError::Transport)?;
+        if let Some(pl) = &opts.placement {
+            let fleet = fleet::RemoteFleet::open(tx.session(), &self.run_id, pl, configs.len())?;
+            let agents = pl.agents();
+            Processes::log(
+                self,
+                format_args!(
+                    "waiting for the agents of {} on {}",
+                    agents.join(", "),
+                    z.listen.join(", ")
+                ),
+            );
+            let missing = fleet.wait_for(&agents, opts.agent_wait);
+            if !missing.is_empty() {
+                return Err(EngineError::AgentsMissing {
+                    missing,
+                    waited: opts.agent_wait,
+                    run_id: self.run_id.clone(),
+                    listen: z.listen.join(", "),
+                });
+            }
+            self.fleet = Some(fleet);
+        }
+        self.tx = Some(Box::new(tx));
+        for cfg in configs {
+            let launch = self.launch_of(cfg, false);
+            let proc = self.start_node(&launch)?;
+            self.children.push(Some(proc));
+        }
+        Ok(())
+    }
+
+    #[cfg(not(feature = "zenoh"))]
+    pub(super) fn start_zenoh(
+        &mut self,
+        _topo: &crate::transport::RunTopology,
+        _z: &crate::transport::ZenohSettings,
+        _configs: &[NodeConfig],
+        _opts: &ProcessOptions,
+    ) -> Result<(), EngineError> {
+        Err(EngineError::Transport(
+            crate::transport::TransportError::ZenohUnavailable,
+        ))
+    }
+
+    /// Start node `launch.node.id`: through its host's agent, or here.
+    pub(super) fn start_node(&self, launch: &NodeLaunch) -> Result<NodeProc, EngineError> {
+        let host = self
+            .placement
+            .as_ref()
+            .and_then(|pl| pl.host_of(launch.node.id));
+        match (&self.fleet, host) {
+            (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch),
+            _ => Ok(NodeProc::Local(spawn_child(
+                &self.program,
+                launch,
+                std::process::Stdio::null(),
+            )?)),
+        }
+    }
+
+    /// Wait for READY from every node.
+    pub(super) fn wait_ready(
+        &mut self,
+        start: Instant,
+        timeout: Duration,
+    ) -> Result<(), EngineError> {
+        let p = self;
+        let n = p.children.len();
+        // Wait for READY from everyone.
+        let mut ready = vec![false; n];
+        let mut count = 0;
+        while count < n {
+            if start.elapsed() > timeout {
+                let missing = (0..n).filter(|&i| !ready[i]).map(|i| i as u32).collect();
+                return Err(EngineError::Startup {
+                    missing,
+                    waited: timeout,
+                });
+            }
+            for input in p.poll(Duration::from_millis(50))? {
+                if let CoordinatorInput::Ready { node } = input {
+                    let i = node as usize;
+                    if i < n && !ready[i] {
+                        ready[i] = true;
+                        count += 1;
+                    }
+                }
+            }
+        }
+        p.startup_seconds = start.elapsed().as_secs_f64();
+        Processes::log(
+            p,
+            format_args!("all {n} nodes ready after {:.3} s", p.startup_seconds),
+        );
+        Ok(())
+    }
+
+    /// What node `cfg.id` is told at start (`resume`: a restart from its
+    /// checkpoint).
+    pub(super) fn launch_of(&self, cfg: &NodeConfig, resume: bool) -> NodeLaunch {
+        NodeLaunch {
+            node: cfg.clone(),
+            checkpoint: self
+                .checkpoints
+                .as_ref()
+                .filter(|_| cfg.checkpoint_every.is_some())
+                .map(|(dir, _)| crate::engine::checkpoint::path(dir, cfg.id)),
+            resume,
+            ..self.launch0.clone()
+        }
+    }
+}
