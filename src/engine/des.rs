@@ -43,7 +43,6 @@ use crate::engine::coordinator::Coordinator;
 use crate::engine::coordinator::Event;
 use crate::engine::coordinator::Timer;
 use crate::engine::plan::RunPlan;
-use crate::model::channel::Medium;
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
 use crate::protocol::codec::Control;
@@ -166,10 +165,7 @@ pub fn run_des(
         outputs: Vec::new(),
         now: Duration::ZERO,
         channel: match &plan.channel {
-            Some(c) => Channel::acoustic(
-                Medium::new(c.cfg.clone(), plan.seed, c.positions.clone(), &c.links),
-                plan.seed,
-            ),
+            Some(c) => c.channel(plan.seed),
             None => Channel::ideal(plan.n(), plan.seed),
         },
         sends: Vec::new(),

@@ -407,9 +407,8 @@ fn start_core(node: NodeConfig, opts: &NodeLoop<'_>) -> NodeCore {
 /// `from` plus `secs` seconds of a drawn wait, clamped to `[0, 1 day]` so
 /// that no rate (or a NaN) can make the clock arithmetic panic.
 fn after(from: Instant, secs: f64) -> Instant {
-    const DAY: Duration = Duration::from_secs(86_400);
-    let wait = Duration::try_from_secs_f64(secs).map_or(DAY, |d| d.min(DAY));
-    from.checked_add(wait).unwrap_or(from)
+    from.checked_add(crate::world::time::wait(secs))
+        .unwrap_or(from)
 }
 
 fn log_command(id: u32, c: &Command) {

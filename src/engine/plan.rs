@@ -91,6 +91,20 @@ pub struct ChannelPlan {
     pub round_timeout_s: Option<f64>,
 }
 
+impl ChannelPlan {
+    /// The run's acoustic channel between its nodes, on a run with seed
+    /// `seed`: the one every engine judges frames on.
+    pub fn channel(&self, seed: u64) -> crate::world::medium::Channel {
+        let medium = crate::model::channel::Medium::new(
+            self.cfg.clone(),
+            seed,
+            self.positions.clone(),
+            &self.links,
+        );
+        crate::world::medium::Channel::acoustic(medium, seed)
+    }
+}
+
 impl RunPlan {
     /// What runs this plan's nodes: its engine on its clock and channel.
     pub fn driver(&self) -> super::Driver {

@@ -31,10 +31,9 @@
 //! in, and what to forward is returned.
 
 use crate::engine::plan::ChannelPlan;
-use crate::model::channel::Medium;
 use crate::protocol::PeerMsg;
 use crate::world::medium::{Channel, InFlight, MessageRecord};
-use crate::world::time::at;
+use crate::world::time::{at, wait};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -87,8 +86,7 @@ impl ChannelClock {
 
     /// The wall time of `emulated_s` emulated seconds, clamped to `[0, 1 day]`.
     pub fn wall(&self, emulated_s: f64) -> Duration {
-        const DAY: Duration = Duration::from_secs(86_400);
-        Duration::try_from_secs_f64(emulated_s / self.time_scale).map_or(DAY, |d| d.min(DAY))
+        wait(emulated_s / self.time_scale)
     }
 }
 
@@ -112,14 +110,8 @@ pub struct Water {
 impl Water {
     /// The water of a run on `plan`'s channel with seed `seed`, on `clock`.
     pub fn new(plan: &ChannelPlan, seed: u64, clock: ChannelClock) -> Water {
-        let medium = Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links);
         let margin_s = 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
-        Water::with(
-            Channel::acoustic(medium, seed),
-            plan.positions.len(),
-            clock,
-            margin_s,
-        )
+        Water::with(plan.channel(seed), plan.positions.len(), clock, margin_s)
     }
 
     /// The relay of a run of `n` nodes with seed `seed` on the ideal channel
