@@ -3,7 +3,8 @@
 //! whole 100-sample run in-process.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sonarnet::engine::{Clock, RunPlan, run_inprocess};
+use sonarnet::engine::run_inprocess;
+use sonarnet::protocol::{Clock, RunPlan};
 use sonarnet::scenario::{Mode, Scenario};
 use std::hint::black_box;
 use std::path::Path;

@@ -26,7 +26,7 @@ fn main() -> ExitCode {
     println!("seed  theta_bar rmse_after_burn_in  ml rmse  [expect]");
     for seed in 0..4 {
         let out = base.clone().with_seed(seed).run(&opts);
-        if let Some(e) = &out.error {
+        if let Some(e) = &out.run.error {
             eprintln!("seed {seed}: the run stopped: {e}");
             ok = false;
             continue;
@@ -44,7 +44,7 @@ fn main() -> ExitCode {
     // The same numbers from the node program's loop on threads.
     let threads = base.run(&opts.clone().with_engine(EngineKind::Threads));
     let inproc = base.run(&opts);
-    let same = threads.record.thetas == inproc.record.thetas;
+    let same = threads.run.record.thetas == inproc.run.record.thetas;
     println!("threads engine gives the in-process thetas: {same}");
     ok &= same;
     if ok {

@@ -10,12 +10,12 @@
 //! when its parent is gone.
 //!
 //! Usage: `sonarnet-node --launch '<NodeLaunch JSON>'` (the coordinator
-//! builds it; see `sonarnet::engine::processes::NodeLaunch`). Bad arguments
+//! builds it; see `sonarnet::runtime::processes::NodeLaunch`). Bad arguments
 //! exit with code 2.
 
 use clap::Parser;
 use sonarnet::engine::node::{NodeLoop, run_node};
-use sonarnet::engine::processes::{NodeLaunch, TEMP_CHECKPOINTS, guard_parent, wait_at_gate};
+use sonarnet::runtime::processes::{NodeLaunch, TEMP_CHECKPOINTS, guard_parent, wait_at_gate};
 use sonarnet::transport::{cleanup_run, open_node};
 use std::process::ExitCode;
 use std::sync::Arc;

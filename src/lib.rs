@@ -19,10 +19,10 @@
 //! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml");
 //! let sc = Scenario::from_file(path)?.with_samples(20)?;
 //! let out = sc.run(&RunOptions::inprocess());
-//! assert!(out.error.is_none());
-//! assert_eq!(out.record.thetas.len(), 20);
+//! assert!(out.run.error.is_none());
+//! assert_eq!(out.run.record.thetas.len(), 20);
 //! // theta_bar of the last sample is within 50 m of the truth.
-//! let est = sonarnet::model::metrics::theta_bar(&out.record.thetas[19]);
+//! let est = sonarnet::model::metrics::theta_bar(&out.run.record.thetas[19]);
 //! let truth = sc.realize().truth.unwrap()[19];
 //! assert!((est - truth).norm() < 50.0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -41,6 +41,7 @@ pub mod pipeline;
 pub mod plot;
 pub mod protocol;
 pub mod report;
+pub mod runtime;
 pub mod scenario;
 pub mod transport;
 pub mod world;

@@ -1,10 +1,10 @@
 //! The command line's clap types: subcommands, flags and their help text.
 
-use crate::engine::TransportKind;
 use crate::estimators::gossip::ProxScaling;
 use crate::estimators::prox::LocalSolver;
 use crate::pipeline::Clock;
 use crate::pipeline::EngineKind;
+use crate::protocol::TransportKind;
 use crate::scenario::Mode;
 use clap::Parser;
 use clap::Subcommand;
@@ -447,9 +447,9 @@ fn parse_solver(s: &str) -> Result<LocalSolver, String> {
     .map_err(|_| format!("unknown local solver `{s}` (expected gtrs, relaxed or gtrs_l0)"))
 }
 
-/// `--stall-timeout`: seconds in [`STALL_TIMEOUT_RANGE_S`](crate::engine::plan::STALL_TIMEOUT_RANGE_S).
+/// `--stall-timeout`: seconds in [`STALL_TIMEOUT_RANGE_S`](crate::protocol::plan::STALL_TIMEOUT_RANGE_S).
 fn stall_timeout(v: &str) -> Result<f64, String> {
-    let r = crate::engine::plan::STALL_TIMEOUT_RANGE_S;
+    let r = crate::protocol::plan::STALL_TIMEOUT_RANGE_S;
     let t: f64 = v
         .parse()
         .map_err(|e| format!("not a number of seconds: {e}"))?;

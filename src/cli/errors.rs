@@ -14,7 +14,7 @@ pub enum CliError {
     #[error("{error}\npartial results were written to {}", dir.display())]
     RunFailed {
         /// The reason.
-        error: crate::engine::EngineError,
+        error: crate::protocol::EngineError,
         /// Where the partial results are.
         dir: PathBuf,
     },
@@ -72,7 +72,7 @@ pub enum CliError {
     },
     /// `sonarnet agent` failed (exit 1).
     #[error(transparent)]
-    Agent(crate::engine::agent::AgentError),
+    Agent(crate::runtime::agent::AgentError),
     /// `sonarnet agent` was stopped by SIGINT or SIGTERM (exit 1); its nodes
     /// were stopped and reaped.
     #[error("interrupted; this host's nodes were stopped")]

@@ -333,7 +333,7 @@ pub fn override_suffix(args: &RunArgs) -> String {
             ProxScaling::InverseProbability => "invprob".into(),
         });
     }
-    if args.transport == crate::engine::TransportKind::Zenoh {
+    if args.transport == crate::protocol::TransportKind::Zenoh {
         parts.push("zenoh".into());
     }
     if args.poll_us > 0 {
@@ -449,10 +449,10 @@ fn run_monte_carlo_command(
 }
 
 /// The engine and clock of a run of `sc` with `trials` trials as `args`
-/// ask ([`crate::engine::RunConfig::resolve`]): a refusal names the flag
+/// ask ([`crate::protocol::RunConfig::resolve`]): a refusal names the flag
 /// (on the command line) or the scenario key (in its file).
 fn resolve(args: &RunArgs, sc: &Scenario, trials: usize) -> Result<(EngineKind, Clock), CliError> {
-    let cfg = crate::engine::RunConfig {
+    let cfg = crate::protocol::RunConfig {
         engine: args.engine(),
         clock: args.clock,
         transport: args.transport,
@@ -462,10 +462,10 @@ fn resolve(args: &RunArgs, sc: &Scenario, trials: usize) -> Result<(EngineKind, 
     cfg.resolve(sc).map_err(|r| {
         let cli = std::path::Path::new("<command line>");
         let e = match r.key {
-            crate::engine::Key::Flag(flag) => {
+            crate::protocol::Key::Flag(flag) => {
                 crate::model::error::InputError::at(cli, flag, r.reason)
             }
-            crate::engine::Key::Scenario(key) => {
+            crate::protocol::Key::Scenario(key) => {
                 crate::model::error::InputError::at(&sc.path, key, r.reason)
             }
         };
@@ -479,8 +479,8 @@ fn run_single(
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let (engine, clock) = resolve(args, sc, 1)?;
-    let wall_s = crate::engine::config::realtime_wall_s(sc, clock);
-    if engine == EngineKind::Processes && wall_s > crate::engine::LONG_WALL_S && !args.quiet {
+    let wall_s = crate::protocol::config::realtime_wall_s(sc, clock);
+    if engine == EngineKind::Processes && wall_s > crate::protocol::LONG_WALL_S && !args.quiet {
         eprintln!(
             "note: {} samples {} ms apart on the realtime clock take about {} of wall time \
              with node processes; --engine inprocess runs the same in virtual time, in seconds",
@@ -540,7 +540,7 @@ fn run_single(
     if let Ok(Some(p)) = &plots {
         println!("  report             {}", p.display());
     }
-    match outcome.error {
+    match outcome.run.error {
         Some(error) => {
             if let Err(e) = plots {
                 eprintln!("warning: plots were not written: {e}");

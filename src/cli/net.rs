@@ -83,7 +83,7 @@ pub(super) fn net_options(
     sc: &Scenario,
     engine: EngineKind,
 ) -> Result<NetOptions, CliError> {
-    if args.transport == crate::engine::TransportKind::Iceoryx2 {
+    if args.transport == crate::protocol::TransportKind::Iceoryx2 {
         for (flag, given) in [
             ("--listen", !args.listen.is_empty()),
             ("--place", !args.place.is_empty()),
@@ -193,7 +193,7 @@ pub(super) fn net_options(
 /// `sonarnet agent`.
 #[cfg(feature = "zenoh")]
 pub(super) fn agent_command(args: &AgentArgs) -> Result<(), CliError> {
-    use crate::engine::agent::{AgentEnd, AgentOptions, run_agent};
+    use crate::runtime::agent::{AgentEnd, AgentOptions, run_agent};
     crate::transport::validate_run_id(&args.run_id)
         .map_err(|e| cli_error("--run-id", e.to_string()))?;
     Placement {
@@ -219,7 +219,7 @@ pub(super) fn agent_command(args: &AgentArgs) -> Result<(), CliError> {
         },
         run_id: args.run_id.clone(),
         host: args.host.clone(),
-        node_program: crate::engine::processes::default_node_program(),
+        node_program: crate::runtime::processes::default_node_program(),
         wait: Duration::from_secs_f64(args.wait),
         verbose: args.verbose,
     };

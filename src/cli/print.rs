@@ -180,9 +180,9 @@ pub fn eng(v: f64) -> String {
 
 pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
     let m = &o.metrics;
-    let driver = match o.record.driver {
-        Some(crate::engine::Driver::LockStep) => " (lock-step)",
-        Some(crate::engine::Driver::DiscreteEvent) => " (discrete-event, virtual time)",
+    let driver = match o.run.driver {
+        Some(crate::protocol::Driver::LockStep) => " (lock-step)",
+        Some(crate::protocol::Driver::DiscreteEvent) => " (discrete-event, virtual time)",
         _ => "",
     };
     println!(

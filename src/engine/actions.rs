@@ -1,6 +1,6 @@
 //! The coordinator's actions, carried out once for every engine.
 //!
-//! The [`Coordinator`](crate::engine::coordinator::Coordinator) is I/O-free:
+//! The [`Coordinator`](crate::protocol::coordinator::Coordinator) is I/O-free:
 //! it returns [`Action`]s. What each action means is the same on every
 //! engine and is decided here ([`carry_out`]): in order; a message that
 //! cannot be sent ends the run with that error; [`Action::Done`] (always the
@@ -10,10 +10,10 @@
 //! schedules events in virtual time, [`crate::engine::drive`] talks to a
 //! [`crate::engine::Network`] on the wall clock.
 
-use crate::engine::EngineError;
 use crate::engine::Progress;
-use crate::engine::coordinator::{Action, Timer};
+use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
+use crate::protocol::coordinator::{Action, Timer};
 use std::time::Duration;
 
 /// An engine's side of the coordinator: what its actions do there.
@@ -77,9 +77,9 @@ pub fn carry_out(
 #[cfg(test)]
 mod tests {
     use super::{Actuator, carry_out};
-    use crate::engine::EngineError;
-    use crate::engine::coordinator::{Action, Timer};
+    use crate::protocol::EngineError;
     use crate::protocol::codec::Control;
+    use crate::protocol::coordinator::{Action, Timer};
     use std::time::Duration;
 
     /// Writes down what it is asked; sends to node 9 fail.

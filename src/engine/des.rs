@@ -34,21 +34,22 @@
 //! delay act on every frame between two nodes, on either channel; a drifting
 //! clock scales the node's Poisson waits and timers.
 
-use crate::engine::EngineError;
 use crate::engine::Progress;
-use crate::engine::RunRecord;
 use crate::engine::actions::{Actuator, carry_out};
-use crate::engine::coordinator::Action;
-use crate::engine::coordinator::Coordinator;
-use crate::engine::coordinator::Event;
-use crate::engine::coordinator::Timer;
-use crate::engine::plan::RunPlan;
+use crate::engine::outcome::RunOutcome;
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
+use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
+use crate::protocol::config::Driver;
+use crate::protocol::coordinator::Action;
+use crate::protocol::coordinator::Coordinator;
+use crate::protocol::coordinator::Event;
+use crate::protocol::coordinator::Timer;
+use crate::protocol::plan::RunPlan;
 use crate::protocol::{Command, Input, NodeCore, Output};
 use crate::world::faults::{FaultStep, FaultWorld};
-use crate::world::medium::{Channel, InFlight};
+use crate::world::medium::{Channel, ChannelLog, InFlight};
 use crate::world::time::wait;
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
@@ -135,11 +136,7 @@ struct Des<'a> {
 /// acoustic channel). Returns the record of every completed sample and, if
 /// the run stopped early, why. SIGINT/SIGTERM ([`super::interrupt`]) end it as
 /// [`EngineError::Interrupted`].
-pub fn run_des(
-    plan: &RunPlan,
-    real: &Realization,
-    progress: Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>) {
+pub fn run_des(plan: &RunPlan, real: &Realization, progress: Progress<'_>) -> RunOutcome {
     let start = std::time::Instant::now();
     let interrupt = super::interrupt::flag();
     let mut des = Des {
@@ -165,7 +162,7 @@ pub fn run_des(
         outputs: Vec::new(),
         now: Duration::ZERO,
         channel: match &plan.channel {
-            Some(c) => c.channel(plan.seed),
+            Some(c) => Channel::planned(c, plan.seed),
             None => Channel::ideal(plan.n(), plan.seed),
         },
         sends: Vec::new(),
@@ -218,15 +215,20 @@ pub fn run_des(
     } = des;
     let mut rec = coord.into_record(result.is_err());
     rec.wall_seconds = start.elapsed().as_secs_f64();
+    let samples = rec.thetas.len();
+    let mut out = RunOutcome::new(Driver::DiscreteEvent, rec, result);
     if channel.is_acoustic() {
-        rec.messages = channel.into_records();
-        rec.emulated_seconds = Some(emulated);
-        rec.events = Some(handled);
+        out.channel = Some(ChannelLog {
+            messages: channel.into_records(),
+            emulated_seconds: emulated,
+            events: Some(handled),
+            delivery_errors_ms: Vec::new(),
+        });
     }
     if !faults.is_empty() {
-        (rec.faults, rec.paused) = faults.into_records(rec.thetas.len());
+        out.faults = Some(faults.into_log(samples));
     }
-    (rec, result)
+    out
 }
 
 /// The coordinator's actions in virtual time: its messages and the nodes'

@@ -2,10 +2,10 @@
 //! routed through a FIFO queue. Exact and deterministic; the multi-process
 //! engine is held to bit-for-bit agreement with it.
 
-use crate::engine::EngineError;
 use crate::engine::Network;
-use crate::engine::coordinator::Event;
+use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
+use crate::protocol::coordinator::Event;
 use crate::protocol::{Input, NodeConfig, NodeCore, Output};
 use std::collections::VecDeque;
 use std::sync::Arc;

@@ -1,12 +1,12 @@
 //! How a run's nodes sit on a transport: who may send to whom and how many
 //! frames an inbox holds, for every engine that frames the protocol over a
 //! [`crate::transport::Transport`] (processes, threads), and for the
-//! resource check before a run ([`super::preflight`]).
+//! resource check before a run ([`crate::runtime::preflight`]).
 
-use crate::engine::{Clock, RunPlan};
 use crate::estimators::gossip::Mode;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec;
+use crate::protocol::{Clock, RunPlan};
 
 /// The nodes and transport topology of a run, for every engine that frames
 /// the protocol over a [`Transport`] (processes, threads).
@@ -57,7 +57,7 @@ pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
             .div_ceil(codec::PLAN_STEPS_PER_FRAME),
         _ => plan.iterations_per_sample,
     };
-    let inbox = crate::engine::LOOKAHEAD * (per_sample + m + 4) + 16;
+    let inbox = crate::protocol::LOOKAHEAD * (per_sample + m + 4) + 16;
     NetworkLayout {
         configs,
         neighbours,

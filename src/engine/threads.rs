@@ -7,14 +7,15 @@
 
 use super::layout::{NetworkLayout, network_layout};
 use super::node::{NodeError, NodeLoop, run_node};
-use crate::engine::EngineError;
 use crate::engine::Network;
 use crate::engine::Progress;
-use crate::engine::RunRecord;
-use crate::engine::coordinator::Event;
-use crate::engine::plan::RunPlan;
+use crate::engine::outcome::RunOutcome;
 use crate::model::synth::Realization;
+use crate::protocol::EngineError;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder};
+use crate::protocol::config::Driver;
+use crate::protocol::coordinator::Event;
+use crate::protocol::plan::RunPlan;
 use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, MemNetwork, MemTransport, RunTopology, Transport};
 use std::sync::Arc;
@@ -159,16 +160,12 @@ impl Network for Threads {
 }
 
 /// Run `plan` with logical clocks, every node a thread over [`MemTransport`].
-pub fn run_threads(
-    plan: &RunPlan,
-    real: &Realization,
-    progress: Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>) {
+pub fn run_threads(plan: &RunPlan, real: &Realization, progress: Progress<'_>) -> RunOutcome {
     let mut net = match Threads::start(network_layout(plan)) {
         Ok(t) => t,
-        Err(e) => return (RunRecord::empty(plan.n()), Err(e)),
+        Err(e) => return RunOutcome::failed(Driver::Threads, plan.n(), e),
     };
-    let out = super::drive(plan, real, &mut net, progress);
+    let (rec, res) = super::drive(plan, real, &mut net, progress);
     net.shutdown();
-    out
+    RunOutcome::new(Driver::Threads, rec, res)
 }

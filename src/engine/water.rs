@@ -30,8 +30,8 @@
 //! clock, the grace, the realised errors). It is I/O-free: times are passed
 //! in, and what to forward is returned.
 
-use crate::engine::plan::ChannelPlan;
 use crate::protocol::PeerMsg;
+use crate::protocol::plan::ChannelPlan;
 use crate::world::medium::{Channel, InFlight, MessageRecord};
 use crate::world::time::{at, wait};
 use serde::{Deserialize, Serialize};
@@ -111,7 +111,12 @@ impl Water {
     /// The water of a run on `plan`'s channel with seed `seed`, on `clock`.
     pub fn new(plan: &ChannelPlan, seed: u64, clock: ChannelClock) -> Water {
         let margin_s = 1.0 + clock.time_scale * JUDGE_GRACE.as_secs_f64();
-        Water::with(plan.channel(seed), plan.positions.len(), clock, margin_s)
+        Water::with(
+            Channel::planned(plan, seed),
+            plan.positions.len(),
+            clock,
+            margin_s,
+        )
     }
 
     /// The relay of a run of `n` nodes with seed `seed` on the ideal channel

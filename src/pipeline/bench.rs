@@ -8,7 +8,7 @@
 //!   `--poll-us` [`POLL_US`].
 //! * **Against the wake-up floor**: one hop between two node
 //!   processes (half a ping-pong between neighbours, the edges in turn;
-//!   [`crate::engine::processes::measure_hop`]), and the wall time over
+//!   [`crate::runtime::processes::measure_hop`]), and the wall time over
 //!   the floor: async, the critical path of the schedule
 //!   ([`critical_path`]) times the median hop; sync, two hops per round.
 //!   Also against the strict floor (the fastest hop, p10) and, for sync,
@@ -46,7 +46,7 @@ pub struct Overhead {
     /// One hop (frame plus wake-up) between two node processes, median
     /// (s): half a ping-pong between the two nodes of a gossip edge, the
     /// edges in turn, with this row's polling
-    /// ([`crate::engine::processes::measure_hop`]).
+    /// ([`crate::runtime::processes::measure_hop`]).
     pub hop_median_s: f64,
     /// The same, 90th percentile (s).
     pub hop_p90_s: f64,
@@ -187,7 +187,7 @@ pub struct ZenohFigures {
     /// Start-up over zenoh (s).
     pub startup_seconds: f64,
     /// One hop over zenoh: half a ping-pong between two neighbouring node
-    /// processes, median (s) ([`crate::engine::processes::measure_hop`]).
+    /// processes, median (s) ([`crate::runtime::processes::measure_hop`]).
     /// A frame from node to node takes two TCP hops, through the
     /// coordinator's router.
     pub hop_median_s: f64,
@@ -238,18 +238,18 @@ fn zenoh_figures(
                 },
                 ..RunOptions::inprocess().with_engine(EngineKind::Processes)
             };
-            let rec = timed(&sc, &opts, out)?;
-            if rec.wall_seconds < best.0 {
-                best = (rec.wall_seconds, rec.startup_seconds.unwrap_or(0.0));
+            let run = timed(&sc, &opts, out)?;
+            if run.record.wall_seconds < best.0 {
+                best = (run.record.wall_seconds, startup_seconds(&run));
             }
         }
         let plan =
-            crate::engine::RunPlan::new(&sc, Clock::Logical).map_err(|e| run_failed(e, out))?;
-        let popts = crate::engine::processes::ProcessOptions {
+            crate::protocol::RunPlan::new(&sc, Clock::Logical).map_err(|e| run_failed(e, out))?;
+        let popts = crate::runtime::processes::ProcessOptions {
             transport: zenoh_here()?,
             ..Default::default()
         };
-        let (hops, _) = crate::engine::processes::measure_hop(&plan, &popts, HOPS)
+        let (hops, _) = crate::runtime::processes::measure_hop(&plan, &popts, HOPS)
             .map_err(|e| run_failed(e, out))?;
         let iox = overhead
             .iter()
@@ -329,7 +329,7 @@ pub enum BenchError {
     #[error("{error}\npartial results were written to {}", dir.display())]
     RunFailed {
         /// The reason.
-        error: crate::engine::EngineError,
+        error: crate::protocol::EngineError,
         /// Where the partial results are.
         dir: std::path::PathBuf,
     },
@@ -367,21 +367,21 @@ pub fn run_bench(
     for &n in nodes {
         let sc = ring(n)?;
         let reset = reset_peak_rss();
-        let run = pipeline::execute(&sc, &processes, &mut |_, _| {});
+        let run = pipeline::execute(&sc, &processes, &mut |_, _| {}).run;
         let coordinator_rss_mib = own_peak_rss_mib().filter(|_| reset);
-        let (rec, res) = (run.record, run.error);
-        let rss: Vec<f64> = rec
-            .peak_rss_kib
+        let (rec, res) = (&run.record, &run.error);
+        let rss: Vec<f64> = run
+            .processes
             .iter()
-            .flatten()
+            .flat_map(|p| p.peak_rss_kib.iter().flatten())
             .map(|k| *k as f64 / 1024.0)
             .collect();
-        if let Some(e) = &res {
+        if let Some(e) = res {
             eprintln!("scale run of {n} nodes failed: {e}");
         }
         scale.push(Scale {
             nodes: n,
-            startup_seconds: rec.startup_seconds,
+            startup_seconds: run.processes.as_ref().and_then(|p| p.startup_seconds),
             iterations_per_second: rec.iterations as f64 / rec.wall_seconds.max(1e-9),
             max_rss_mib: rss.iter().copied().fold(0.0, f64::max),
             mean_rss_mib: if rss.is_empty() {
@@ -396,7 +396,7 @@ pub fn run_bench(
     }
     let sc = spiral(scenarios)?;
     let realtime = processes.clone().with_clock(Clock::Realtime);
-    let run = pipeline::execute(&sc, &realtime, &mut |_, _| {});
+    let run = pipeline::execute(&sc, &realtime, &mut |_, _| {}).run;
     let rec = run.record;
     let (rt_ips, rt_med) = match run.error {
         None => {
@@ -449,8 +449,8 @@ fn measure_overhead(
         poll_us,
         ..RunOptions::inprocess().with_engine(EngineKind::Processes)
     };
-    let plan = crate::engine::RunPlan::new(sc, Clock::Logical).map_err(|e| run_failed(e, out))?;
-    let popts = crate::engine::processes::ProcessOptions {
+    let plan = crate::protocol::RunPlan::new(sc, Clock::Logical).map_err(|e| run_failed(e, out))?;
+    let popts = crate::runtime::processes::ProcessOptions {
         poll_us,
         ..Default::default()
     };
@@ -464,19 +464,19 @@ fn measure_overhead(
     let mut hops = Vec::new();
     let (mut ratios, mut strict_ratios) = (Vec::new(), Vec::new());
     for _ in 0..repeats.max(1) {
-        let rec = timed(sc, &RunOptions::inprocess(), out)?;
+        let rec = timed(sc, &RunOptions::inprocess(), out)?.record;
         best_in = best_in.min(rec.wall_seconds);
         chain = match mode {
             Mode::Async => critical_path(&rec.schedule, sc.graph.len()),
             Mode::Sync => rec.iterations,
         };
-        let rec = timed(sc, &procs, out)?;
-        if rec.wall_seconds < best_proc.0 {
-            best_proc = (rec.wall_seconds, rec.startup_seconds.unwrap_or(0.0));
+        let run = timed(sc, &procs, out)?;
+        if run.record.wall_seconds < best_proc.0 {
+            best_proc = (run.record.wall_seconds, startup_seconds(&run));
         }
         // The hop right after the run, so that a run and its floor
         // share the host's load of the moment.
-        let (h, _) = crate::engine::processes::measure_hop(&plan, &popts, HOPS_PER_REPEAT)
+        let (h, _) = crate::runtime::processes::measure_hop(&plan, &popts, HOPS_PER_REPEAT)
             .map_err(|e| run_failed(e, out))?;
         let q = |p: f64| crate::model::metrics::quantile(&h, p).unwrap_or(f64::NAN);
         let links = chain as f64 * hops_per_link;
@@ -523,15 +523,23 @@ fn timed(
     sc: &Scenario,
     opts: &RunOptions,
     out: &Path,
-) -> Result<crate::engine::RunRecord, BenchError> {
-    let run = pipeline::execute(sc, opts, &mut |_, _| {});
-    match run.error {
-        None => Ok(run.record),
+) -> Result<crate::engine::RunOutcome, BenchError> {
+    let mut run = pipeline::execute(sc, opts, &mut |_, _| {}).run;
+    match run.error.take() {
+        None => Ok(run),
         Some(e) => Err(run_failed(e, out)),
     }
 }
 
-fn run_failed(e: crate::engine::EngineError, out: &Path) -> BenchError {
+/// The node processes' start-up time of `run` (0 without node processes).
+fn startup_seconds(run: &crate::engine::RunOutcome) -> f64 {
+    run.processes
+        .as_ref()
+        .and_then(|p| p.startup_seconds)
+        .unwrap_or(0.0)
+}
+
+fn run_failed(e: crate::protocol::EngineError, out: &Path) -> BenchError {
     BenchError::RunFailed {
         error: e,
         dir: out.to_path_buf(),

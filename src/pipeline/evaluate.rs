@@ -10,17 +10,20 @@ use super::NodeCounters;
 use super::RealtimeStats;
 use super::RunMetrics;
 use super::RunStatus;
-use crate::engine::Clock;
-use crate::engine::EngineError;
-use crate::engine::RunRecord;
+use crate::engine::RunOutcome;
 use crate::estimators::gossip::Mode;
 use crate::model::geometry::Vec2;
 use crate::model::metrics;
 use crate::pipeline::RunOptions;
 use crate::pipeline::score;
 use crate::pipeline::score::Scored;
+use crate::protocol::Clock;
+use crate::protocol::EngineError;
+use crate::protocol::RunRecord;
 use crate::scenario::Realization;
 use crate::scenario::Scenario;
+use crate::world::faults::FaultLog;
+use crate::world::medium::ChannelLog;
 use std::collections::BTreeMap;
 
 /// The `distributed` baseline: the DR engine again, in-process, on the same
@@ -49,24 +52,26 @@ fn distributed_run(
         alt.algorithm.iterations_per_sample = n;
     }
     alt.samples = samples;
-    let (rec, res) = match crate::engine::RunPlan::new(&alt, Clock::Logical) {
+    let run = match crate::protocol::RunPlan::new(&alt, Clock::Logical) {
         Ok(plan) => crate::engine::run_inprocess(&plan, real, &mut |_, _| {}),
-        Err(e) => (RunRecord::empty(alt.graph.len()), Err(e)),
+        Err(e) => RunOutcome::refused(alt.graph.len(), e),
     };
     let est = (0..samples)
-        .map(|k| rec.thetas.get(k).map(|t| metrics::theta_bar(t)))
+        .map(|k| run.record.thetas.get(k).map(|t| metrics::theta_bar(t)))
         .collect();
-    (est, res.err().map(|e| e.to_string()))
+    (est, run.error.map(|e| e.to_string()))
 }
 
 /// Run the baselines and score every track of a record (no I/O).
 pub fn evaluate(
     sc: &Scenario,
     real: &Realization,
-    record: &RunRecord,
-    error: Option<&EngineError>,
+    run: &RunOutcome,
     opts: &RunOptions,
 ) -> (RunMetrics, Scored) {
+    let record = &run.record;
+    let error = run.error.as_ref();
+    let procs = run.processes.as_ref();
     let done = record.thetas.len();
     // theta_bar is the mean of the nodes alive at each sample: a dead node's
     // frozen estimate is left out from the sample its death was noticed.
@@ -142,11 +147,14 @@ pub fn evaluate(
         status,
         error: error.map(|e| e.to_string()),
         note,
-        startup_seconds: record.startup_seconds,
+        startup_seconds: procs.and_then(|p| p.startup_seconds),
         realtime: realtime_stats(record, opts),
-        channel: channel_stats(record, opts.clock, sc.algorithm.mode),
+        channel: run
+            .channel
+            .as_ref()
+            .map(|c| channel_stats(record, c, opts.clock, sc.algorithm.mode)),
         faults: fault_outcomes(
-            record,
+            run.faults.as_ref(),
             scored.tracks[0].error.as_deref(),
             sc.realtime
                 .as_ref()
@@ -168,9 +176,15 @@ pub fn evaluate(
             .map(|(node, c)| NodeCounters {
                 node,
                 counters: *c,
-                busy_seconds: record.timing.get(node).map(|t| t.busy_seconds),
-                wait_seconds: record.timing.get(node).map(|t| t.wait_seconds),
-                peak_rss_kib: record.peak_rss_kib.get(node).copied().flatten(),
+                busy_seconds: procs
+                    .and_then(|p| p.timing.get(node))
+                    .map(|t| t.busy_seconds),
+                wait_seconds: procs
+                    .and_then(|p| p.timing.get(node))
+                    .map(|t| t.wait_seconds),
+                peak_rss_kib: procs
+                    .and_then(|p| p.peak_rss_kib.get(node).copied())
+                    .flatten(),
             })
             .collect(),
         bounds: tb.bounds.clone(),
@@ -249,12 +263,12 @@ pub const RECOVERY_FACTOR: f64 = 1.5;
 /// samples from its end until the error is back within [`RECOVERY_FACTOR`]
 /// of that mean.
 pub fn fault_outcomes(
-    rec: &RunRecord,
+    log: Option<&FaultLog>,
     errors: Option<&[Option<f64>]>,
     period_s: f64,
 ) -> Vec<FaultOutcome> {
     let errs = errors.unwrap_or(&[]);
-    rec.faults
+    log.map_or(&[][..], |l| &l.applied[..])
         .iter()
         .map(|f| {
             let s0 = f.sample as usize;
@@ -295,10 +309,10 @@ pub fn fault_outcomes(
 }
 
 /// The acoustic channel's statistics from the run's messages.
-pub fn channel_stats(rec: &RunRecord, clock: Clock, mode: Mode) -> Option<ChannelStats> {
-    let emulated = rec.emulated_seconds?;
+pub fn channel_stats(rec: &RunRecord, log: &ChannelLog, clock: Clock, mode: Mode) -> ChannelStats {
+    let emulated = log.emulated_seconds;
     let timeouts = rec.counters.iter().map(|c| c.timeouts).sum();
-    let msgs = &rec.messages;
+    let msgs = &log.messages;
     let frames = msgs.len() as u64;
     let delivered = msgs.iter().filter(|m| m.lost.is_none()).count() as u64;
     let ratio = |d: u64, n: u64| if n == 0 { 0.0 } else { d as f64 / n as f64 };
@@ -321,7 +335,7 @@ pub fn channel_stats(rec: &RunRecord, clock: Clock, mode: Mode) -> Option<Channe
             .filter(|m| m.kind == k && (!delivered_only || m.lost.is_none()))
             .count() as u64
     };
-    Some(ChannelStats {
+    ChannelStats {
         frames,
         delivered,
         delivery_ratio: ratio(delivered, frames),
@@ -356,14 +370,14 @@ pub fn channel_stats(rec: &RunRecord, clock: Clock, mode: Mode) -> Option<Channe
         } else {
             0
         },
-        delivery_error_p50_ms: metrics::quantile(&rec.delivery_errors_ms, 0.5),
-        delivery_error_p99_ms: metrics::quantile(&rec.delivery_errors_ms, 0.99),
+        delivery_error_p50_ms: metrics::quantile(&log.delivery_errors_ms, 0.5),
+        delivery_error_p99_ms: metrics::quantile(&log.delivery_errors_ms, 0.99),
         bits_sent: msgs.iter().map(|m| m.bits).sum(),
         emulated_seconds: emulated,
         realtime_factor: emulated / rec.wall_seconds.max(1e-9),
-        events: rec.events.unwrap_or(0),
-        events_per_second: rec.events.unwrap_or(0) as f64 / rec.wall_seconds.max(1e-9),
-    })
+        events: log.events.unwrap_or(0),
+        events_per_second: log.events.unwrap_or(0) as f64 / rec.wall_seconds.max(1e-9),
+    }
 }
 
 fn realtime_stats(rec: &RunRecord, opts: &RunOptions) -> Option<RealtimeStats> {

@@ -31,14 +31,15 @@ pub use results::{
 };
 pub use write::{check_out_dir, write_csv, write_json, write_trace, write_track_csv};
 
-use crate::engine::{EngineError, RunRecord};
+use crate::engine::RunOutcome;
 use crate::model::error::InputError;
 use crate::pipeline::score::Scored;
+use crate::protocol::EngineError;
 use crate::scenario::{Realization, Scenario};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-pub use crate::engine::{Clock, EngineKind};
+pub use crate::protocol::{Clock, EngineKind};
 
 /// Options of one run that are not part of the scenario.
 #[derive(Debug, Clone)]
@@ -63,7 +64,7 @@ pub struct RunOptions {
     /// Multi-process engine: log protocol events of the coordinator and the
     /// nodes to stderr.
     pub verbose: bool,
-    /// The liveness watchdog ([`RunPlan::stall_timeout`](crate::engine::RunPlan::stall_timeout),
+    /// The liveness watchdog ([`RunPlan::stall_timeout`](crate::protocol::RunPlan::stall_timeout),
     /// `--stall-timeout`). Recorded in `run.json`.
     pub stall_timeout: std::time::Duration,
     /// Node processes that checkpoint (a `restart` fault with `state =
@@ -91,18 +92,20 @@ pub struct NetOptions {
     pub run_id: Option<String>,
 }
 
-pub use crate::engine::config::default_clock;
+pub use crate::protocol::config::default_clock;
 
 impl RunOptions {
-    /// The engine and clock of these options, as [`crate::engine::RunPlan::new`]
+    /// The engine and clock of these options, as [`crate::protocol::RunPlan::new`]
     /// takes them.
-    pub fn run_config(&self) -> crate::engine::RunConfig {
-        crate::engine::RunConfig {
+    pub fn run_config(&self) -> crate::protocol::RunConfig {
+        crate::protocol::RunConfig {
             engine: Some(self.engine),
             clock: Some(self.clock),
             transport: match self.net.transport {
-                crate::transport::TransportChoice::Zenoh(_) => crate::engine::TransportKind::Zenoh,
-                _ => crate::engine::TransportKind::Iceoryx2,
+                crate::transport::TransportChoice::Zenoh(_) => {
+                    crate::protocol::TransportKind::Zenoh
+                }
+                _ => crate::protocol::TransportKind::Iceoryx2,
             },
             poll_us: self.poll_us,
             trials: 1,
@@ -122,7 +125,7 @@ impl RunOptions {
             check_expect: true,
             poll_us: 0,
             verbose: false,
-            stall_timeout: crate::engine::plan::DEFAULT_STALL_TIMEOUT,
+            stall_timeout: crate::protocol::plan::DEFAULT_STALL_TIMEOUT,
             write_checkpoints: false,
             net: NetOptions::default(),
         }
@@ -152,15 +155,15 @@ impl RunOptions {
 pub struct Outcome {
     /// The run's metrics (those of `metrics.json`), `[expect]` included.
     pub metrics: RunMetrics,
-    /// What the engine recorded: every node's `theta` per sample, the schedule.
-    pub record: RunRecord,
+    /// What the engine returned: every node's `theta` per sample, the
+    /// schedule, the engine that ran, why the run stopped early if it did
+    /// (the results above are then those of the completed samples), and the
+    /// processes', channel's and faults' logs where they apply.
+    pub run: RunOutcome,
     /// Every track (the distributed `theta_bar`, `ml`, the baselines), scored.
     pub scored: Scored,
     /// The truth and measurements the run was given.
     pub real: Realization,
-    /// Why the run stopped early, if it did (the results above are then
-    /// those of the completed samples).
-    pub error: Option<EngineError>,
     /// When the run started (wall clock; recorded in `run.json`).
     pub started: std::time::SystemTime,
 }
@@ -183,7 +186,7 @@ impl Scenario {
     /// Run this scenario with its seed and score it, writing nothing: the
     /// library's entry point for scenario-driven tests. The engine comes
     /// from `opts` (`[monte_carlo]` trials are not run here). An engine
-    /// failure is not an `Err`: it is [`Outcome::error`], with the results
+    /// failure is not an `Err`: it is `Outcome::run.error` ([`RunOutcome::error`]), with the results
     /// of the samples completed before it.
     ///
     /// ```
@@ -192,7 +195,7 @@ impl Scenario {
     ///
     /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/mourya2017-spiral.toml");
     /// let out = Scenario::from_file(path)?.with_seed(3).with_samples(30)?.run(&RunOptions::inprocess());
-    /// assert!(out.error.is_none());
+    /// assert!(out.run.error.is_none());
     /// assert!(out.metrics.rmse_after_burn_in.is_some_and(|r| r < 50.0));
     /// assert!(out.metrics.expect.iter().all(|c| c.holds));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
@@ -225,38 +228,33 @@ impl Scenario {
 /// and the run completed. Writes nothing ([`Outcome::write`] does).
 pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'_>) -> Outcome {
     let started = std::time::SystemTime::now();
-    let Executed {
-        real,
-        record,
-        mut error,
-    } = execute(sc, opts, progress);
-    let (mut metrics, scored) = evaluate(sc, &real, &record, error.as_ref(), opts);
+    let Executed { real, mut run } = execute(sc, opts, progress);
+    let (mut metrics, scored) = evaluate(sc, &real, &run, opts);
     // Ctrl-C/SIGTERM while scoring a complete run: scoring is pure
     // computation and finishes (a second signal ends the process at once),
     // then the run is written as interrupted.
-    if error.is_none() && crate::engine::interrupt::requested() {
+    if run.error.is_none() && crate::engine::interrupt::requested() {
         let e = EngineError::Interrupted {
-            sample: record.thetas.len() as u32,
+            sample: run.record.thetas.len() as u32,
         };
         metrics.status = RunStatus::Interrupted;
         metrics.error = Some(format!("{e} (while scoring: every sample had been run)"));
-        error = Some(e);
+        run.error = Some(e);
     }
-    if error.is_none() && opts.check_expect {
+    if run.error.is_none() && opts.check_expect {
         metrics.expect = check_expect(sc, &metrics.flat());
     }
     Outcome {
         metrics,
-        record,
+        run,
         scored,
         real,
-        error,
         started,
     }
 }
 
 /// Check, before any work, that this machine can hold the run on `opts`'s
-/// engine ([`crate::engine::preflight`]: node processes need shared memory,
+/// engine ([`crate::runtime::preflight`]: node processes need shared memory,
 /// open files, process slots and memory in proportion to the receivers and
 /// the inbox size). An error names the scenario key most to blame.
 pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
@@ -264,11 +262,11 @@ pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
         return Ok(());
     }
     // A plan that cannot be built is reported by the run itself.
-    let Ok(plan) = crate::engine::RunPlan::new(sc, opts.run_config()) else {
+    let Ok(plan) = crate::protocol::RunPlan::new(sc, opts.run_config()) else {
         return Ok(());
     };
-    let needs = crate::engine::preflight::needs(&plan);
-    crate::engine::preflight::check(&needs, &crate::engine::preflight::machine())
+    let needs = crate::runtime::preflight::needs(&plan);
+    crate::runtime::preflight::check(&needs, &crate::runtime::preflight::machine())
         .map_err(|(key, reason)| InputError::at(&sc.path, key, reason))
 }
 
@@ -277,15 +275,13 @@ pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
 pub struct Executed {
     /// The truth and measurements of the run's seed.
     pub real: Realization,
-    /// What the engine recorded.
-    pub record: RunRecord,
-    /// Why the run stopped early, if it did.
-    pub error: Option<EngineError>,
+    /// What the engine returned.
+    pub run: RunOutcome,
 }
 
 /// The engine side of every run (single runs, Monte Carlo trials, the
 /// distributed baseline's engine run excepted, `sonarnet bench`): realize `sc`
-/// with its seed, build its [`RunPlan`](crate::engine::RunPlan) once and run it
+/// with its seed, build its [`RunPlan`](crate::protocol::RunPlan) once and run it
 /// on the engine and clock of `opts`. `progress` hears of every completed
 /// sample.
 pub fn execute(
@@ -298,7 +294,7 @@ pub fn execute(
         opts.net.transport,
         crate::transport::TransportChoice::Zenoh(_)
     );
-    let popts = crate::engine::processes::ProcessOptions {
+    let popts = crate::runtime::processes::ProcessOptions {
         transport: opts.net.transport.clone(),
         // A placement applies over zenoh only: the scenario's [deploy] is
         // ignored on iceoryx2 (every node is then on this host).
@@ -320,17 +316,13 @@ pub fn execute(
             .then(|| opts.out_dir.join("checkpoints")),
         ..Default::default()
     };
-    let plan = crate::engine::RunPlan::new(sc, opts.run_config())
+    let plan = crate::protocol::RunPlan::new(sc, opts.run_config())
         .and_then(|p| p.with_stall_timeout(opts.stall_timeout));
-    let (record, res) = match plan {
-        Ok(plan) => crate::engine::run(&plan, &real, &popts, progress),
-        Err(e) => (RunRecord::empty(sc.graph.len()), Err(e)),
+    let run = match plan {
+        Ok(plan) => crate::runtime::run(&plan, &real, &popts, progress),
+        Err(e) => RunOutcome::refused(sc.graph.len(), e),
     };
-    Executed {
-        real,
-        record,
-        error: res.err(),
-    }
+    Executed { real, run }
 }
 
 /// Errors of a run that prevent writing results at all.

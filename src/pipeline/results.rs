@@ -382,7 +382,7 @@ pub struct RunJson {
     /// What ran the nodes: `lock_step` or `discrete_event` (both
     /// `inprocess`), `threads` or `processes`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub driver: Option<crate::engine::Driver>,
+    pub driver: Option<crate::protocol::Driver>,
     /// Why the run stopped early.
     #[serde(default)]
     pub error: Option<String>,

@@ -3,9 +3,9 @@
 //! per run), `sweep.csv` (one row per run), `sweep-summary.csv` (mean, std
 //! and n per grid point), `sweep.svg` and `report.html`.
 
-use crate::engine::EngineKind;
 use crate::model::error::InputError;
 use crate::pipeline::{self, RunError, RunOptions, RunStatus};
+use crate::protocol::EngineKind;
 use crate::scenario::{Override, Scenario};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -4,15 +4,14 @@
 
 use super::RunJson;
 use super::RunStatus;
-use crate::engine::Clock;
-use crate::engine::EngineError;
-use crate::engine::EngineKind;
 use crate::model::geometry::Vec2;
 use crate::pipeline::Outcome;
 use crate::pipeline::RunError;
 use crate::pipeline::RunOptions;
 use crate::pipeline::score;
 use crate::pipeline::score::Scored;
+use crate::protocol::Clock;
+use crate::protocol::EngineKind;
 use crate::scenario::Realization;
 use crate::scenario::Scenario;
 use serde::Serialize;
@@ -25,12 +24,12 @@ impl Outcome {
     pub fn write(&self, sc: &Scenario, opts: &RunOptions) -> Result<(), RunError> {
         let Outcome {
             metrics: m,
-            record,
+            run,
             scored,
             real,
-            error,
             started,
         } = self;
+        let record = &run.record;
         let done = record.thetas.len();
         let status = m.status;
         let dir = &opts.out_dir;
@@ -38,7 +37,7 @@ impl Outcome {
             path: dir.clone(),
             source: e,
         })?;
-        write_run_json(dir, sc, opts, status, error.as_ref(), record, *started)?;
+        write_run_json(dir, sc, opts, status, run, *started)?;
         write_scenario_toml(dir, sc, opts)?;
         write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
         // With faults, a `paused` column (before `seed`); without, the file
@@ -54,7 +53,7 @@ impl Outcome {
             &header,
             record.thetas.iter().enumerate().flat_map(|(k, ts)| {
                 let alive = record.alive.get(k);
-                let paused = record.paused.get(k);
+                let paused = run.paused(k);
                 ts.iter().enumerate().map(move |(i, t)| {
                     let up = alive.and_then(|m| m.get(i)).copied().unwrap_or(true);
                     let mut row = vec![
@@ -120,13 +119,14 @@ impl Outcome {
                 }),
             )?;
         }
-        if !record.messages.is_empty() {
+        let messages = run.channel.as_ref().map_or(&[][..], |c| &c.messages[..]);
+        if !messages.is_empty() {
             write_csv(
                 &dir.join("messages.csv"),
                 &[
                     "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "seed",
                 ],
-                record.messages.iter().map(|r| {
+                messages.iter().map(|r| {
                     vec![
                         num(r.t_send),
                         r.t_recv.map(num).unwrap_or_default(),
@@ -410,8 +410,7 @@ fn write_run_json(
     sc: &Scenario,
     opts: &RunOptions,
     status: RunStatus,
-    error: Option<&EngineError>,
-    record: &crate::engine::RunRecord,
+    run: &crate::engine::RunOutcome,
     started: std::time::SystemTime,
 ) -> Result<(), RunError> {
     let resolved = sc.resolved_file();
@@ -426,15 +425,15 @@ fn write_run_json(
         seed: Some(sc.seed),
         crate_version: Some(env!("CARGO_PKG_VERSION").into()),
         engine: Some(opts.engine.as_str().into()),
-        driver: record.driver,
+        driver: run.driver,
         mode: Some(sc.algorithm.mode.as_str().into()),
         clock: Some(opts.clock.as_str().into()),
         local_solver: Some(sc.algorithm.local_solver.as_str().into()),
         poll_us: Some(opts.poll_us),
         command_line: opts.command_line.clone(),
         status: Some(status),
-        error: error.map(|e| e.to_string()),
-        run_id: record.run_id.clone(),
+        error: run.error.as_ref().map(|e| e.to_string()),
+        run_id: run.processes.as_ref().map(|p| p.run_id.clone()),
         stall_timeout_s: Some(opts.stall_timeout.as_secs_f64()),
         git_commit: super::provenance::GIT_COMMIT.map(str::to_owned),
         host: super::provenance::host_name(),

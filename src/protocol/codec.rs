@@ -335,25 +335,6 @@ fn counters_frames(node: u32, c: &Counters, out: &mut Vec<Frame>) {
     }
 }
 
-/// Failure reasons that travel as codes.
-pub fn failure_code(reason: &str) -> u32 {
-    if reason.contains("gamma") {
-        1
-    } else if reason.contains("non-finite") {
-        2
-    } else {
-        3
-    }
-}
-
-fn failure_text(code: u32) -> &'static str {
-    match code {
-        1 => "prox failed: bad gamma",
-        2 => "prox failed: non-finite input",
-        _ => "prox failed: degenerate local problem",
-    }
-}
-
 /// Encode a report into frames.
 pub fn encode_report(r: &Report, out: &mut Vec<Frame>) {
     match r {
@@ -404,15 +385,9 @@ pub fn encode_report(r: &Report, out: &mut Vec<Frame>) {
         Report::Failed {
             node,
             sample,
-            reason,
-        } => out.push(frame(
-            kind::FAILED,
-            *node,
-            *sample,
-            failure_code(reason),
-            0,
-            &[],
-        )),
+            failure,
+            ..
+        } => out.push(frame(kind::FAILED, *node, *sample, failure.code(), 0, &[])),
     }
 }
 
@@ -841,6 +816,42 @@ mod tests {
                 seq: u64::MAX
             })
         );
+    }
+
+    #[test]
+    fn a_failure_crosses_the_wire_as_its_kind_whatever_its_words() {
+        use crate::estimators::prox::gtrs::{ProxError, ProxFailure};
+        // Words that name another kind (a text guess would call the first
+        // one a bad gamma) do not change the kind that arrives.
+        let errors = [
+            ProxError::Degenerate("gamma too large for the cone".into()),
+            ProxError::BadGamma(f64::NAN),
+            ProxError::NonFinite("prox input u"),
+        ];
+        for e in errors {
+            let sent = Report::Failed {
+                node: 3,
+                sample: 7,
+                failure: e.kind(),
+                reason: e.to_string(),
+            };
+            let mut frames = Vec::new();
+            encode_report(&sent, &mut frames);
+            let got = ReportDecoder::default().feed(&frames[0]).unwrap();
+            assert_eq!(
+                got,
+                Some(CoordinatorInput::Report(Report::Failed {
+                    node: 3,
+                    sample: 7,
+                    failure: e.kind(),
+                    reason: e.kind().text().into(),
+                })),
+                "{e}"
+            );
+        }
+        for k in ProxFailure::ALL {
+            assert_eq!(ProxFailure::from_code(k.code()), k);
+        }
     }
 
     #[test]

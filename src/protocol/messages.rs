@@ -3,6 +3,7 @@
 //! the [`Input`]/[`Output`] of [`super::NodeCore`].
 
 use crate::estimators::prox::LocalSolver;
+use crate::estimators::prox::gtrs::ProxFailure;
 use crate::model::geometry::{Vec2, Vec3};
 use crate::model::measure::{NodeMeasurements, Sigmas};
 
@@ -331,7 +332,9 @@ pub enum Report {
         node: u32,
         /// Sample index.
         sample: u32,
-        /// Why.
+        /// What kind of failure (what crosses the wire).
+        failure: ProxFailure,
+        /// Why, in words (over the wire, the kind's [`ProxFailure::text`]).
         reason: String,
     },
 }

@@ -1,4 +1,7 @@
-//! The I/O-free Douglas-Rachford protocol core of one receiver node.
+//! The I/O-free protocol of a run: the Douglas-Rachford core of one receiver
+//! node ([`NodeCore`]), the coordinator that drives a run ([`Coordinator`],
+//! built from a [`RunPlan`] that [`RunConfig::resolve`] admitted, recording a
+//! [`RunRecord`]), and their messages as frames ([`codec`]).
 //!
 //! In the manner of stateright's `Actor` and quinn-proto, a [`NodeCore`] takes
 //! one input (a coordinator command, a peer message or a clock tick) and
@@ -21,10 +24,20 @@
 //! the coordinator never computes node states.
 
 pub mod codec;
+pub mod config;
+pub mod coordinator;
+pub mod error;
 mod messages;
+pub mod plan;
+pub mod record;
 pub mod words;
 
+pub use config::{Clock, Driver, EngineKind, Key, LONG_WALL_S, Refused, RunConfig, TransportKind};
+pub use coordinator::{Action, Coordinator, Event, LOOKAHEAD, Timer};
+pub use error::EngineError;
 pub use messages::{Command, Counters, Input, NodeConfig, NodeMode, Output, PeerMsg, Report};
+pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
+pub use record::RunRecord;
 
 use crate::estimators::gossip::{dr_update, mean_position, pair_average};
 use crate::estimators::local::LocalProblem;
@@ -144,7 +157,7 @@ impl NodeCore {
     }
 
     /// Samples received and not started yet (the coordinator sends up to
-    /// [`LOOKAHEAD`](crate::engine::LOOKAHEAD) ahead): while there is one,
+    /// [`LOOKAHEAD`] ahead): while there is one,
     /// the node has work after the sample it is on.
     pub fn samples_queued(&self) -> usize {
         self.queued
@@ -202,6 +215,7 @@ impl NodeCore {
         Output::Report(Report::Failed {
             node: self.cfg.id,
             sample: self.sample,
+            failure: e.kind(),
             reason: e.to_string(),
         })
     }

@@ -120,6 +120,7 @@ mod tests {
             Report::Failed {
                 node: 1,
                 sample: 2,
+                failure: crate::estimators::prox::gtrs::ProxFailure::Degenerate,
                 reason: "prox".into(),
             },
         ];

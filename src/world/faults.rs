@@ -30,6 +30,16 @@ pub struct FaultRecord {
     pub detected_s: Option<f64>,
 }
 
+/// The faults of a run: every fault applied and the paused nodes per sample
+/// (`faults.csv`, the `paused` column of `nodes.csv`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FaultLog {
+    /// Every fault applied, in the order applied.
+    pub applied: Vec<FaultRecord>,
+    /// `paused[k][i]`: node `i` was paused at the end of sample `k`.
+    pub paused: Vec<Vec<bool>>,
+}
+
 /// What an engine must do for one fault event.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FaultStep {
@@ -287,16 +297,19 @@ impl FaultWorld {
 
     /// The records of every fault applied, in order, and the paused masks of
     /// the first `samples` completed samples.
-    pub fn into_records(self, samples: usize) -> (Vec<FaultRecord>, Vec<Vec<bool>>) {
-        let mut masks = self.masks;
-        masks.truncate(samples);
-        (self.records, masks)
+    pub fn into_log(self, samples: usize) -> FaultLog {
+        let mut paused = self.masks;
+        paused.truncate(samples);
+        FaultLog {
+            applied: self.records,
+            paused,
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{FaultStep, FaultWorld};
+    use super::{FaultLog, FaultStep, FaultWorld};
     use crate::model::fault::FaultSpec;
     use crate::world::time::at;
     use std::time::Duration;
@@ -348,7 +361,10 @@ mod tests {
         // The coordinator restarts the node itself: detected at once.
         assert_eq!(due(&mut w, 9.0), vec![FaultStep::Restart(0, false)]);
         assert_eq!(w.next_at(), None);
-        let (records, masks) = w.into_records(3);
+        let FaultLog {
+            applied: records,
+            paused: masks,
+        } = w.into_log(3);
         assert_eq!(records.len(), 3);
         assert_eq!(records[1].sample, 4);
         assert_eq!(records[1].detected_s, Some(2.1));
@@ -385,7 +401,7 @@ mod tests {
             Vec::<FaultStep>::new(),
             "no end for a pause never begun"
         );
-        let (records, _) = w.into_records(0);
+        let records = w.into_log(0).applied;
         assert_eq!(records[0].detected_s, Some(1.0));
         assert_eq!(records[1].detected_s, None);
         assert_eq!(records[2].detected_s, Some(4.5));
@@ -406,6 +422,6 @@ mod tests {
             .expect("resolves");
         let mut w = FaultWorld::new(&[f], 2, None);
         assert!(w.next_due(at(5.0), 7).is_some());
-        assert_eq!(w.into_records(0).0[0].sample, 7);
+        assert_eq!(w.into_log(0).applied[0].sample, 7);
     }
 }

@@ -22,9 +22,25 @@
 
 use crate::model::channel::{Fate, Frame, Medium, Reason};
 use crate::model::fault::{FaultKind, IdealLinks};
-use crate::protocol::PeerMsg;
+use crate::protocol::{ChannelPlan, PeerMsg};
 use crate::world::time::{at, wait};
 use std::time::Duration;
+
+/// The acoustic channel's log of a run (`messages.csv` and the channel's
+/// statistics in `metrics.json`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChannelLog {
+    /// Every frame between two nodes, in the order judged.
+    pub messages: Vec<MessageRecord>,
+    /// The emulated time the run covered, seconds.
+    pub emulated_seconds: f64,
+    /// Discrete-event engine: events handled (node ticks, deliveries, frame
+    /// judgements, coordinator timers and reports).
+    pub events: Option<u64>,
+    /// Processes engine: every delivered frame's realised error, forwarded
+    /// minus planned end of arrival (emulated ms).
+    pub delivery_errors_ms: Vec<f64>,
+}
 
 /// One frame between two nodes on the acoustic channel (a row of
 /// `messages.csv`).
@@ -122,6 +138,13 @@ pub struct Channel {
 }
 
 impl Channel {
+    /// The acoustic channel `plan` describes, on a run with seed `seed`:
+    /// the one every engine judges frames on.
+    pub fn planned(plan: &ChannelPlan, seed: u64) -> Channel {
+        let medium = Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links);
+        Channel::acoustic(medium, seed)
+    }
+
     /// The ideal channel between `n` nodes of a run with seed `seed`.
     pub fn ideal(n: usize, seed: u64) -> Channel {
         Channel::with(Carrier::Ideal(IdealLinks::default()), n, seed)

@@ -23,7 +23,7 @@ fn run(sc: &Scenario, dir: &std::path::Path) -> pipeline::Outcome {
             .with_clock(pipeline::default_clock(sc))
     };
     let out = sc.run_and_write(&opts).expect("writes");
-    assert!(out.error.is_none(), "{:?}", out.error);
+    assert!(out.run.error.is_none(), "{:?}", out.run.error);
     out
 }
 

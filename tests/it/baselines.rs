@@ -272,7 +272,7 @@ fn a_toa_only_network_is_tracked_by_the_distributed_engine_in_sync_and_async_mod
             })
             .unwrap();
         let out = crate::util::run_inprocess(&sc, &tmp.path().join(mode));
-        assert!(out.error.is_none());
+        assert!(out.run.error.is_none());
         let r = out.metrics.rmse_after_burn_in.unwrap();
         // sigma = 1e-3: after the burn-in the consensus tracks within centimetres.
         assert!(r < bound, "{mode}: rmse_after_burn_in {r}");

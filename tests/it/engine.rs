@@ -2,12 +2,12 @@
 //! Mourya 2017 eq. (11) (async) and of the sync consensus update, bit for bit.
 
 use crate::util::scenario;
-use sonarnet::engine::{Clock, RunPlan};
 use sonarnet::estimators::gossip::ProxScaling;
 use sonarnet::estimators::local::LocalProblem;
 use sonarnet::estimators::prox::{LocalSolver, prox};
 use sonarnet::model::geometry::{Vec2, Vec3};
 use sonarnet::pipeline;
+use sonarnet::protocol::{Clock, RunPlan};
 use sonarnet::scenario::{InitMode, Mode, RowWeights, Scenario};
 
 /// Mourya 2017 eq. (5)'s `p_v` for the drawn schedule, written out again from
@@ -322,7 +322,7 @@ fn spiral15(
     mode: Mode,
 ) -> (
     sonarnet::model::synth::Realization,
-    sonarnet::engine::RunRecord,
+    sonarnet::protocol::RunRecord,
     RunPlan,
 ) {
     let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
@@ -343,12 +343,15 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
     for mode in [Mode::Async, Mode::Sync] {
         let (real, want, plan) = spiral15(mode);
         let real2 = real.clone();
-        let (got, res) = with_watchdog(
+        let out = with_watchdog(
             "threads run",
             std::time::Duration::from_secs(120),
             move || sonarnet::engine::threads::run_threads(&plan, &real2, &mut |_, _| {}),
         );
-        res.unwrap_or_else(|e| panic!("{mode:?}: {e}"));
+        if let Some(e) = out.error {
+            panic!("{mode:?}: {e}");
+        }
+        let got = out.record;
         assert_eq!(got.thetas.len(), 15, "{mode:?}");
         for (k, (a, b)) in got.thetas.iter().zip(&want.thetas).enumerate() {
             for (i, (x, y)) in a.iter().zip(b).enumerate() {
@@ -372,8 +375,11 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
 fn the_discrete_event_engine_on_a_logical_clock_gives_the_in_process_numbers() {
     for mode in [Mode::Async, Mode::Sync] {
         let (real, want, plan) = spiral15(mode);
-        let (got, res) = sonarnet::engine::des::run_des(&plan, &real, &mut |_, _| {});
-        res.unwrap_or_else(|e| panic!("{mode:?}: {e}"));
+        let out = sonarnet::engine::des::run_des(&plan, &real, &mut |_, _| {});
+        if let Some(e) = out.error {
+            panic!("{mode:?}: {e}");
+        }
+        let got = out.record;
         assert_eq!(got.thetas.len(), 15, "{mode:?}");
         assert!(
             got.thetas
@@ -395,8 +401,8 @@ fn the_discrete_event_engine_on_a_logical_clock_gives_the_in_process_numbers() {
 fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
     let out = sc.run(&pipeline::RunOptions::inprocess());
-    assert!(out.error.is_none());
-    assert_eq!(out.record.thetas.len(), sc.samples);
+    assert!(out.run.error.is_none());
+    assert_eq!(out.run.record.thetas.len(), sc.samples);
     assert!(!out.metrics.expect.is_empty() && out.metrics.expect.iter().all(|c| c.holds));
     // Written, the results are the golden ones of `sonarnet run --engine inprocess`.
     let dir = crate::util::TempDir::new("library-pipeline");
@@ -413,14 +419,14 @@ fn the_library_pipeline_gives_the_command_lines_numbers_and_files() {
     // The threads engine through the same entry point.
     let threads =
         sc.run(&pipeline::RunOptions::inprocess().with_engine(pipeline::EngineKind::Threads));
-    assert_eq!(threads.record.thetas, out.record.thetas);
+    assert_eq!(threads.run.record.thetas, out.run.record.thetas);
     assert_eq!(threads.metrics.rmse, out.metrics.rmse);
 }
 
 #[test]
 fn realtime_clocks_on_the_threads_engine_are_refused_before_anything_runs() {
     let sc = Scenario::from_file(scenario("mourya2017-spiral.toml")).unwrap();
-    let cfg = sonarnet::engine::RunConfig {
+    let cfg = sonarnet::protocol::RunConfig {
         engine: Some(pipeline::EngineKind::Threads),
         clock: Some(Clock::Realtime),
         ..Default::default()
@@ -429,7 +435,7 @@ fn realtime_clocks_on_the_threads_engine_are_refused_before_anything_runs() {
     assert!(
         matches!(
             &e,
-            sonarnet::engine::EngineError::Refused(r) if r.key == sonarnet::engine::Key::Flag("--engine")
+            sonarnet::protocol::EngineError::Refused(r) if r.key == sonarnet::protocol::Key::Flag("--engine")
         ),
         "{e:?}"
     );
@@ -467,10 +473,11 @@ fn the_discrete_event_engine_runs_the_realtime_protocol_deterministically_in_vir
     let opts = pipeline::RunOptions::inprocess().with_clock(Clock::Realtime);
     let a = sc.run(&opts);
     let b = sc.run(&opts);
-    assert!(a.error.is_none(), "{:?}", a.error);
-    assert_eq!(a.record.thetas.len(), 100);
+    assert!(a.run.error.is_none(), "{:?}", a.run.error);
+    assert_eq!(a.run.record.thetas.len(), 100);
     let bits = |o: &pipeline::Outcome| -> Vec<u64> {
-        o.record
+        o.run
+            .record
             .thetas
             .iter()
             .flatten()
@@ -479,12 +486,12 @@ fn the_discrete_event_engine_runs_the_realtime_protocol_deterministically_in_vir
     };
     assert_eq!(bits(&a), bits(&b));
     assert_eq!(
-        a.record.iterations_per_sample,
-        b.record.iterations_per_sample
+        a.run.record.iterations_per_sample,
+        b.run.record.iterations_per_sample
     );
     // Exchanges per sample: Poisson with mean 240; the mean over 100 samples
     // has a standard deviation of 1.55.
-    let ips = &a.record.iterations_per_sample;
+    let ips = &a.run.record.iterations_per_sample;
     let mean = ips.iter().sum::<u64>() as f64 / ips.len() as f64;
     assert!(
         (mean - 240.0).abs() < 5.0 * 1.55,

@@ -116,7 +116,7 @@ fn assert_two_consensuses_during_the_partition(dir: &std::path::Path) -> Halves 
 fn a_partitioned_network_keeps_two_consensuses_and_agrees_again_after_the_heal() {
     let tmp = TempDir::new("faults-partition");
     let out = run(&variant("partition"), tmp.path(), None);
-    assert!(out.error.is_none(), "{:?}", out.error);
+    assert!(out.run.error.is_none(), "{:?}", out.run.error);
     let h = assert_two_consensuses_during_the_partition(tmp.path());
     assert!(
         h.after < 1.5 * h.before,
@@ -138,7 +138,7 @@ fn a_short_pause_only_delays_and_a_long_one_gets_the_node_reported() {
     let tmp = TempDir::new("faults-pause");
     let short = tmp.path().join("short");
     let out = run(&variant("pause"), &short, None);
-    assert!(out.error.is_none() && out.metrics.deaths.is_empty());
+    assert!(out.run.error.is_none() && out.metrics.deaths.is_empty());
     assert_eq!(out.metrics.samples_completed, 100);
     let rows = read_rows(&short.join("nodes.csv"));
     let paused: Vec<usize> = rows
@@ -156,7 +156,7 @@ fn a_short_pause_only_delays_and_a_long_one_gets_the_node_reported() {
     let mut sc = variant("pause");
     sc.faults[0].until_s = Some(1.0);
     let out = run(&sc, &long, Some(Duration::from_millis(100)));
-    assert!(out.error.is_none(), "{:?}", out.error);
+    assert!(out.run.error.is_none(), "{:?}", out.run.error);
     assert_eq!(out.metrics.deaths.len(), 1, "{:?}", out.metrics.deaths);
     assert_eq!(out.metrics.deaths[0].node, 2);
     let detected = out.metrics.faults[0].detected_s.expect("detected");
@@ -417,14 +417,19 @@ fn node_processes_restart_a_node_from_its_checkpoint_file_and_leave_nothing_behi
     // directory of its own, removed when the run ends.
     let sc = variant("restart");
     let opts = RunOptions::inprocess()
-        .with_engine(sonarnet::engine::EngineKind::Processes)
+        .with_engine(sonarnet::protocol::EngineKind::Processes)
         .with_clock(pipeline::default_clock(&sc));
     let out = sc.run(&opts);
-    assert!(out.error.is_none(), "{:?}", out.error);
-    let run_id = out.record.run_id.clone().expect("a run id");
+    assert!(out.run.error.is_none(), "{:?}", out.run.error);
+    let run_id = out
+        .run
+        .processes
+        .as_ref()
+        .map(|p| p.run_id.clone())
+        .expect("a run id");
     let temp = std::env::temp_dir().join(format!(
         "{}{run_id}",
-        sonarnet::engine::processes::TEMP_CHECKPOINTS
+        sonarnet::runtime::processes::TEMP_CHECKPOINTS
     ));
     assert!(!temp.exists(), "{} left behind", temp.display());
     crate::util::assert_nothing_left(&run_id);

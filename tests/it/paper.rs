@@ -23,7 +23,7 @@ fn mean_metrics(mode: Mode, solver: LocalSolver, scaling: ProxScaling) -> (f64, 
             .with_prox_scaling(scaling);
         let tmp = TempDir::new("paper");
         let out = run_inprocess(&sc, tmp.path());
-        assert!(out.error.is_none());
+        assert!(out.run.error.is_none());
         s += out.metrics.rmse_after_burn_in.unwrap();
         crlb += out.metrics.crlb_rms.unwrap();
     }
@@ -121,7 +121,7 @@ fn convergence_study() {
                 .unwrap();
             sc.algorithm.gamma = gamma;
             let out = sc.run(&sonarnet::pipeline::RunOptions::inprocess());
-            assert!(out.error.is_none(), "{:?}", out.error);
+            assert!(out.run.error.is_none(), "{:?}", out.run.error);
             s += out.metrics.rmse_after_burn_in.unwrap();
         }
         s / 5.0

@@ -936,13 +936,13 @@ fn a_node_program_that_cannot_start_records_the_run_id_and_leaves_nothing_behind
 #[test]
 fn the_one_hop_measurement_between_neighbouring_node_processes_answers_every_probe() {
     let sc = sonarnet::scenario::Scenario::load(&scenario("mourya2017-spiral.toml")).unwrap();
-    let plan = sonarnet::engine::RunPlan::new(&sc, sonarnet::engine::Clock::Logical).unwrap();
+    let plan = sonarnet::protocol::RunPlan::new(&sc, sonarnet::protocol::Clock::Logical).unwrap();
     for poll_us in [0, 100] {
-        let opts = sonarnet::engine::processes::ProcessOptions {
+        let opts = sonarnet::runtime::processes::ProcessOptions {
             poll_us,
             ..Default::default()
         };
-        let (hops, run_id) = sonarnet::engine::processes::measure_hop(&plan, &opts, 50)
+        let (hops, run_id) = sonarnet::runtime::processes::measure_hop(&plan, &opts, 50)
             .expect("every probe answered");
         assert_eq!(hops.len(), 50);
         assert!(hops.iter().all(|h| h.is_finite() && *h > 0.0), "{hops:?}");

@@ -12,7 +12,7 @@ fn a_trace_and_schedule_replay_reproduces_the_synthesized_run_exactly() {
         .with_seed(3);
     let first = TempDir::new("replay-a");
     let a = run_inprocess(&sc, first.path());
-    assert!(a.error.is_none());
+    assert!(a.run.error.is_none());
 
     // A scenario that replays the first run's measurements, truth and schedule.
     let text = std::fs::read_to_string(scenario("mourya2017-spiral.toml")).unwrap();
@@ -45,7 +45,7 @@ fn a_trace_and_schedule_replay_reproduces_the_synthesized_run_exactly() {
     // A different seed proves nothing random is drawn.
     let sc2 = Scenario::load(&p).unwrap().with_seed(99);
     let b = run_inprocess(&sc2, second.path());
-    assert!(b.error.is_none());
+    assert!(b.run.error.is_none());
     let na = read_rows(&first.path().join("nodes.csv"));
     let nb = read_rows(&second.path().join("nodes.csv"));
     assert_eq!(na.len(), nb.len());
@@ -85,7 +85,7 @@ gamma = 2e-8
     let second = TempDir::new("notruth-b");
     let p = second.write("s.toml", &text);
     let out = run_inprocess(&Scenario::load(&p).unwrap(), second.path());
-    assert!(out.error.is_none());
+    assert!(out.run.error.is_none());
     assert_eq!(out.metrics.samples_completed, 12);
     assert!(out.metrics.rmse.is_none() && out.metrics.ml_rmse.is_none());
     assert!(

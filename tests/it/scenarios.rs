@@ -74,7 +74,7 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
                 }
                 _ => {
                     let out = run_inprocess(&sc, tmp.path());
-                    if let Some(e) = &out.error {
+                    if let Some(e) = &out.run.error {
                         failures.push(format!("{name}: run failed: {e}"));
                         continue;
                     }

@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests.
 
-use sonarnet::engine::{Clock, EngineError, RunPlan, RunRecord};
 use sonarnet::pipeline::{Outcome, RunOptions};
+use sonarnet::protocol::{Clock, EngineError, RunPlan, RunRecord};
 use sonarnet::scenario::{Realization, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -63,7 +63,8 @@ pub fn run_inprocess(sc: &Scenario, out: &Path) -> Outcome {
 /// The engine record of `sc` run in-process with logical clocks on `real`.
 pub fn record(sc: &Scenario, real: &Realization) -> (RunRecord, Result<(), EngineError>) {
     let plan = RunPlan::new(sc, Clock::Logical).expect("plan");
-    sonarnet::engine::run_inprocess(&plan, real, &mut |_, _| {})
+    let out = sonarnet::engine::run_inprocess(&plan, real, &mut |_, _| {});
+    (out.record, out.error.map_or(Ok(()), Err))
 }
 
 /// Run the `sonarnet` binary with a watchdog; kills it and panics with a

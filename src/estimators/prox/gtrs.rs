@@ -71,6 +71,65 @@ pub enum ProxError {
     Degenerate(String),
 }
 
+impl ProxError {
+    /// The kind of this failure: what crosses the wire from a node process.
+    pub fn kind(&self) -> ProxFailure {
+        match self {
+            ProxError::BadGamma(_) => ProxFailure::BadGamma,
+            ProxError::NonFinite(_) => ProxFailure::NonFinite,
+            ProxError::Degenerate(_) => ProxFailure::Degenerate,
+        }
+    }
+}
+
+/// The kind of a [`ProxError`], without its details: a node process reports
+/// this code in its `FAILED` frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProxFailure {
+    /// [`ProxError::BadGamma`].
+    BadGamma,
+    /// [`ProxError::NonFinite`].
+    NonFinite,
+    /// [`ProxError::Degenerate`].
+    Degenerate,
+}
+
+impl ProxFailure {
+    /// Every kind, in code order.
+    pub const ALL: [ProxFailure; 3] = [
+        ProxFailure::BadGamma,
+        ProxFailure::NonFinite,
+        ProxFailure::Degenerate,
+    ];
+
+    /// Its code in a frame (1, 2, 3).
+    pub fn code(self) -> u32 {
+        match self {
+            ProxFailure::BadGamma => 1,
+            ProxFailure::NonFinite => 2,
+            ProxFailure::Degenerate => 3,
+        }
+    }
+
+    /// The kind of code `code`; an unknown code is a degenerate problem.
+    pub fn from_code(code: u32) -> ProxFailure {
+        match code {
+            1 => ProxFailure::BadGamma,
+            2 => ProxFailure::NonFinite,
+            _ => ProxFailure::Degenerate,
+        }
+    }
+
+    /// What the coordinator says of it when only the kind arrived.
+    pub fn text(self) -> &'static str {
+        match self {
+            ProxFailure::BadGamma => "prox failed: bad gamma",
+            ProxFailure::NonFinite => "prox failed: non-finite input",
+            ProxFailure::Degenerate => "prox failed: degenerate local problem",
+        }
+    }
+}
+
 /// Check `gamma`, `u` and the local problem data (`H`, `c`, anchor) for the prox of
 /// Mourya 2017 eq. (11)/(13). Non-finite rows or `g` show up as non-finite `H` or `c`.
 /// The one input check of every prox; [`crate::estimators::prox::l0`] adds its per-row check.

@@ -1,7 +1,8 @@
 //! The coordinator's side of the codec: the frames of every node decoded
 //! into [`CoordinatorInput`]s.
 
-use super::{DecodeError, Timing, decode_peer, failure_text, kind, v3};
+use super::{DecodeError, Timing, decode_peer, kind, v3};
+use crate::estimators::prox::gtrs::ProxFailure;
 use crate::protocol::{Counters, PeerMsg, Report};
 use crate::transport::wire::Frame;
 
@@ -142,7 +143,8 @@ impl ReportDecoder {
             FAILED => Ok(Some(CoordinatorInput::Report(Report::Failed {
                 node: f.from,
                 sample: f.sample,
-                reason: failure_text(f.aux).into(),
+                failure: ProxFailure::from_code(f.aux),
+                reason: ProxFailure::from_code(f.aux).text().into(),
             }))),
             TIMING => Ok(Some(CoordinatorInput::Timing {
                 node: f.from,

@@ -2,7 +2,7 @@
 //! (`sonarnet agent`): opaque messages on `<prefix>/agent/<name>/cmd` and
 //! `<prefix>/agent/<name>/ev`, and who is alive (liveliness tokens under
 //! `<prefix>/alive/`). What the messages mean is the engine's
-//! ([`crate::engine::agent`]); this module only moves bytes.
+//! ([`crate::runtime::agent`]); this module only moves bytes.
 
 use std::sync::Arc;
 use std::time::Duration;

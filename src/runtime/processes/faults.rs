@@ -1,10 +1,10 @@
 //! Faults on node processes: the coordinator carries out the steps of the
 //! run's [`FaultWorld`] with real signals and new processes.
 
-use crate::engine::coordinator::Event;
-use crate::engine::plan::RunPlan;
-use crate::engine::processes::Processes;
 use crate::protocol::codec::Control;
+use crate::protocol::coordinator::Event;
+use crate::protocol::plan::RunPlan;
+use crate::runtime::processes::Processes;
 use crate::world::faults::FaultStep;
 use crate::world::faults::FaultWorld;
 use std::time::Instant;
@@ -176,13 +176,10 @@ impl Processes {
 
     /// The applied faults and the paused masks of the first `samples`
     /// samples.
-    pub fn take_faults(
-        &mut self,
-        samples: usize,
-    ) -> (Vec<crate::world::faults::FaultRecord>, Vec<Vec<bool>>) {
+    pub fn take_faults(&mut self, samples: usize) -> crate::world::faults::FaultLog {
         self.faults
             .take()
-            .map(|(s, _, _)| s.into_records(samples))
+            .map(|(s, _, _)| s.into_log(samples))
             .unwrap_or_default()
     }
 }

@@ -6,9 +6,9 @@
 //! nodes, flushes, timers to set, progress, and finally the run's result. It
 //! never touches a transport, a process or a clock: the time of every event is
 //! passed in, so the same coordinator runs under a wall clock (node
-//! processes; [`drive`](super::drive) is its driver over any
-//! [`Network`](super::Network)) and under a virtual one (the discrete-event
-//! engine, [`des`](super::des)).
+//! processes; [`drive`](crate::engine::drive) is its driver over any
+//! [`Network`](crate::engine::Network)) and under a virtual one (the discrete-event
+//! engine, [`des`](crate::engine::des)).
 //!
 //! It covers every clock:
 //! * **logical, sync**: per sample, the node's measurements and its rounds
@@ -32,16 +32,23 @@
 //! Either way the engine is told to make sure it is gone ([`Action::Abandon`]).
 
 use super::plan::{RunPlan, Scheduler};
-use crate::engine::EngineError;
-use crate::engine::LOOKAHEAD;
-use crate::engine::RunRecord;
 use crate::estimators::gossip::Mode;
 use crate::model::geometry::Vec3;
 use crate::model::synth::Realization;
+use crate::protocol::EngineError;
+use crate::protocol::RunRecord;
 use crate::protocol::codec::Control;
 use crate::protocol::{Command, Counters, Report};
 use std::collections::VecDeque;
 use std::time::Duration;
+
+/// How many samples the coordinator keeps in flight: it sends the commands of
+/// sample `k + LOOKAHEAD - 1` as soon as sample `k` is complete, so nodes that finish
+/// a sample early go straight on with the next one instead of waiting for the
+/// slowest node and a round trip to the coordinator. Nodes run queued samples in
+/// order ([`NodeCore::handle`](crate::protocol::NodeCore::handle)), so the results
+/// do not depend on it.
+pub const LOOKAHEAD: usize = 3;
 
 mod liveness;
 mod membership;
@@ -442,6 +449,7 @@ impl<'a> Coordinator<'a> {
                     node,
                     sample,
                     reason,
+                    ..
                 }) => {
                     return Err(EngineError::NodeFailed {
                         node,
@@ -594,6 +602,7 @@ impl<'a> Coordinator<'a> {
                     node,
                     sample,
                     reason,
+                    ..
                 }) => {
                     return Err(EngineError::NodeFailed {
                         node,
@@ -671,20 +680,10 @@ fn boundary(k: usize, period: Duration) -> Action {
     }
 }
 
-impl RunRecord {
-    /// The record of a run that has not started: `n` nodes, nothing done.
-    pub fn empty(n: usize) -> RunRecord {
-        RunRecord {
-            counters: vec![Counters::default(); n],
-            ..Default::default()
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::Clock;
+    use crate::protocol::Clock;
     use crate::scenario::Scenario;
 
     fn spiral(samples: usize) -> Scenario {

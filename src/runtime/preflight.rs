@@ -14,8 +14,8 @@
 //! the run; a node process takes up to
 //! [`NODE_RSS_BYTES`] besides the shared memory it maps.
 
-use super::RunPlan;
-use super::layout::{NetworkLayout, network_layout};
+use crate::engine::layout::{NetworkLayout, network_layout};
+use crate::protocol::RunPlan;
 
 /// Bytes of shared memory per frame slot of one publisher (116 measured).
 pub const SLOT_BYTES: u64 = 128;
@@ -133,7 +133,7 @@ pub fn check(needs: &Needs, m: &Machine) -> Result<(), (&'static str, String)> {
                  use --engine inprocess, or fewer iterations per sample or nodes",
                 gib(needs.shm_bytes),
                 needs.inbox_frames,
-                super::LOOKAHEAD,
+                crate::protocol::LOOKAHEAD,
                 gib(free)
             ),
         ));
@@ -258,7 +258,7 @@ fn processes_left() -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::Clock;
+    use crate::protocol::Clock;
 
     fn spiral() -> crate::scenario::Scenario {
         let p = concat!(

@@ -12,30 +12,32 @@
 //!    JSON, runs in its own process group (a terminal Ctrl-C reaches only the
 //!    coordinator) and asks for SIGTERM if the coordinator dies
 //!    (`PR_SET_PDEATHSIG`, [`guard_parent`]).
-//! 3. Every node reports READY; [`drive`](super::drive) then runs the
-//!    [`Coordinator`](super::Coordinator) over [`Processes`], with logical or
+//! 3. Every node reports READY; [`drive`](crate::engine::drive) then runs the
+//!    [`Coordinator`](crate::protocol::Coordinator) over [`Processes`], with logical or
 //!    realtime clocks. A child that exits is an [`Event::NodeDied`]. Faults
 //!    (the steps of [`crate::world::faults`], `faults.rs`) are real signals and real
 //!    respawns: a restarted node gets a new process (fresh, or from its
-//!    checkpoint file, [`super::checkpoint`]) and is an [`Event::NodeUp`]
+//!    checkpoint file, [`crate::engine::checkpoint`]) and is an [`Event::NodeUp`]
 //!    once it reports READY.
 //! 4. On drop the coordinator sends STOP, waits for every child, kills the
 //!    stragglers, reaps every one of them, and cleans up what a killed child
 //!    left in `/dev/shm` and `/tmp/iceoryx2`.
 
-use super::layout::{NetworkLayout, network_layout};
-use super::water::{ChannelClock, Water};
-use crate::engine::EngineError;
 use crate::engine::Network;
-use crate::engine::RunRecord;
-use crate::engine::coordinator::Event;
-use crate::engine::plan::RunPlan;
+use crate::engine::layout::{NetworkLayout, network_layout};
+use crate::engine::outcome::{ProcessStats, RunOutcome};
+use crate::engine::water::{ChannelClock, Water};
 use crate::model::synth::Realization;
+use crate::protocol::EngineError;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
+use crate::protocol::config::Driver;
+use crate::protocol::coordinator::Event;
+use crate::protocol::plan::RunPlan;
 use crate::transport::wire::Frame;
 use crate::transport::{Endpoint, Transport, TransportChoice, TransportError};
 use crate::world::faults::FaultWorld;
+use crate::world::medium::ChannelLog;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -131,7 +133,7 @@ impl Processes {
                 "nodes placed on other hosts ([deploy], --place) need --transport zenoh".into(),
             ));
         }
-        let interrupt = super::interrupt::flag();
+        let interrupt = crate::engine::interrupt::flag();
         let _ = crate::transport::cleanup_stale_resources();
         let n = configs.len();
         // Sync nodes run in lock-step rounds: at most two rounds in flight.
@@ -595,7 +597,7 @@ impl Network for Processes {
 }
 
 /// Run `plan` on node processes, with logical or realtime clocks
-/// ([`super::Coordinator`] over [`Processes`]).
+/// ([`crate::protocol::Coordinator`] over [`Processes`]).
 ///
 /// Realtime (`--clock realtime`, async): every node gossips on its own Poisson
 /// clock; measurements arrive every sample period; at each sample boundary the
@@ -606,15 +608,13 @@ pub fn run_processes(
     plan: &RunPlan,
     real: &Realization,
     opts: &ProcessOptions,
-    progress: super::Progress<'_>,
-) -> (RunRecord, Result<(), EngineError>) {
+    progress: crate::engine::Progress<'_>,
+) -> RunOutcome {
+    let failed = |e| RunOutcome::failed(Driver::Processes, plan.n(), e);
     let layout = network_layout(plan);
     let needs = super::preflight::needs_of(&layout);
     if let Err((key, reason)) = super::preflight::check(&needs, &super::preflight::machine()) {
-        return (
-            RunRecord::empty(plan.n()),
-            Err(EngineError::Resources { key, reason }),
-        );
+        return failed(EngineError::Resources { key, reason });
     }
     super::preflight::raise_fd_limit(needs.coordinator_fds.max(needs.node_fds));
     let NetworkLayout {
@@ -661,31 +661,42 @@ pub fn run_processes(
     let mut procs = match spawned {
         Ok(p) => p,
         Err(e) => {
-            let mut rec = RunRecord::empty(plan.n());
-            rec.run_id = Some(run_id);
-            return (rec, Err(e));
+            let mut out = failed(e);
+            out.processes = Some(ProcessStats {
+                run_id,
+                ..Default::default()
+            });
+            return out;
         }
     };
     // The run's emulated time 0 is the start of the drive, as in the
     // discrete-event engine.
     let offset_s = procs.water.as_ref().map_or(0.0, |w| w.clock().now_s());
     procs.arm_faults(plan);
-    let (mut rec, res) = super::drive(plan, real, &mut procs, progress);
+    let (rec, res) = crate::engine::drive(plan, real, &mut procs, progress);
+    let samples = rec.thetas.len();
+    let wall_seconds = rec.wall_seconds;
+    let mut out = RunOutcome::new(Driver::Processes, rec, res);
     if !plan.faults.is_empty() {
-        (rec.faults, rec.paused) = procs.take_faults(rec.thetas.len());
+        out.faults = Some(procs.take_faults(samples));
     }
     if let Some((messages, errors)) = procs.take_water(offset_s) {
-        rec.emulated_seconds =
-            Some(rec.wall_seconds * plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale));
-        rec.messages = messages;
-        rec.delivery_errors_ms = errors;
+        out.channel = Some(ChannelLog {
+            messages,
+            emulated_seconds: wall_seconds
+                * plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale),
+            events: None,
+            delivery_errors_ms: errors,
+        });
     }
-    rec.startup_seconds = Some(procs.startup_seconds);
-    rec.run_id = Some(procs.run_id.clone());
-    rec.timing = procs.timing.clone();
-    rec.peak_rss_kib = procs.peak_rss_kib();
+    out.processes = Some(ProcessStats {
+        run_id: procs.run_id.clone(),
+        startup_seconds: Some(procs.startup_seconds),
+        timing: procs.timing.clone(),
+        peak_rss_kib: procs.peak_rss_kib(),
+    });
     procs.shutdown();
-    (rec, res)
+    out
 }
 
 #[cfg(test)]

@@ -1,6 +1,6 @@
 //! Where the node processes run: children of the coordinator, or
 //! children of a per-host agent (`sonarnet agent`) that the coordinator
-//! drives over zenoh ([`crate::engine::agent`]). [`NodeProc`] gives both
+//! drives over zenoh ([`crate::runtime::agent`]). [`NodeProc`] gives both
 //! the few operations the engine needs of a process: has it exited (and how),
 //! signal it, kill it, wait for it.
 
@@ -8,7 +8,7 @@
 #![cfg_attr(not(feature = "zenoh"), allow(dead_code, unused_imports))]
 
 use super::NodeLaunch;
-use crate::engine::EngineError;
+use crate::protocol::EngineError;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::{Child, ExitStatus};

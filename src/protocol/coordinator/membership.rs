@@ -1,12 +1,12 @@
 //! Realtime membership: a node that dies is left out while the rest of the
 //! graph is connected; a node that is up again (a restart) rejoins.
 
-use crate::engine::EngineError;
-use crate::engine::coordinator::Action;
-use crate::engine::coordinator::Coordinator;
-use crate::engine::coordinator::send;
 use crate::protocol::Command;
+use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
+use crate::protocol::coordinator::Action;
+use crate::protocol::coordinator::Coordinator;
+use crate::protocol::coordinator::send;
 
 impl Coordinator<'_> {
     /// A node is up again during a realtime run: its neighbours may call it

@@ -1,9 +1,9 @@
 //! Liveness on logical clocks: a run whose reports stop pings every live
 //! node, and ends naming the nodes that do not answer.
 
-use crate::engine::EngineError;
-use crate::engine::coordinator::{Action, Coordinator, Timer};
+use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
+use crate::protocol::coordinator::{Action, Coordinator, Timer};
 use std::time::Duration;
 
 /// A liveness check in progress (logical clocks).

@@ -5,7 +5,7 @@
 use super::Processes;
 use super::fleet::{self, NodeProc};
 use super::launch::{NodeLaunch, ProcessOptions, spawn_child};
-use crate::engine::EngineError;
+use crate::protocol::EngineError;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::CoordinatorInput;
 use crate::transport::IoxTransport;

@@ -8,11 +8,11 @@
 
 use super::Clock;
 use super::EngineKind;
-use crate::engine::EngineError;
-use crate::engine::config::RunConfig;
 use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
+use crate::protocol::EngineError;
+use crate::protocol::config::RunConfig;
 use crate::protocol::{NodeConfig, NodeMode, SYNC_ROOT};
 use crate::scenario::{RowWeights, Scenario};
 use rand::RngExt;
@@ -89,20 +89,6 @@ pub struct ChannelPlan {
     /// Logical clocks: the round timeout in force, emulated seconds
     /// ([`crate::protocol::NodeConfig::round_timeout_s`]).
     pub round_timeout_s: Option<f64>,
-}
-
-impl ChannelPlan {
-    /// The run's acoustic channel between its nodes, on a run with seed
-    /// `seed`: the one every engine judges frames on.
-    pub fn channel(&self, seed: u64) -> crate::world::medium::Channel {
-        let medium = crate::model::channel::Medium::new(
-            self.cfg.clone(),
-            seed,
-            self.positions.clone(),
-            &self.links,
-        );
-        crate::world::medium::Channel::acoustic(medium, seed)
-    }
 }
 
 impl RunPlan {

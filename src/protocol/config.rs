@@ -5,10 +5,34 @@
 //! and, before any work starts, by the command line and the pipeline; a
 //! refusal is one [`Refused`] naming the flag or scenario key to change.
 
-use super::Clock;
-use super::EngineKind;
 use crate::estimators::gossip::Mode;
 use crate::scenario::{ClockCfg, Scenario};
+
+crate::named_enum! {
+    /// Which engine runs the nodes ([`crate::engine::inprocess`],
+    /// [`crate::engine::des`], [`crate::runtime::processes`],
+    /// [`crate::engine::threads`]).
+    pub enum EngineKind {
+        /// All nodes in one thread of this process (in virtual time for
+        /// realtime clocks and the acoustic channel).
+        Inprocess = "inprocess",
+        /// One `sonarnet-node` OS process per receiver, over iceoryx2.
+        Processes = "processes",
+        /// One thread per node in this process, over the in-memory transport.
+        Threads = "threads",
+    }
+}
+
+crate::named_enum! {
+    /// How a run is clocked.
+    pub enum Clock {
+        /// The coordinator sequences rounds/iterations; results are exact.
+        Logical = "logical",
+        /// Free-running nodes on Poisson clocks (async only): in wall time on
+        /// node processes, in virtual time in-process.
+        Realtime = "realtime",
+    }
+}
 
 crate::named_enum! {
     /// What carries the frames between node processes.
@@ -228,8 +252,8 @@ const MC_IN_PROCESS: &str = "Monte Carlo trials run in-process (logical clocks, 
 #[cfg(test)]
 mod tests {
     use super::{Key, LONG_WALL_S, RunConfig, TransportKind, realtime_wall_s};
-    use crate::engine::{Clock, EngineKind};
     use crate::estimators::gossip::Mode;
+    use crate::protocol::{Clock, EngineKind};
     use crate::scenario::Scenario;
 
     /// A variant of a shipped scenario (the first when `variant` is empty).

@@ -207,8 +207,8 @@ pub(crate) fn spawn_child(
     prog: &NodeProgram,
     launch: &NodeLaunch,
     stdin: std::process::Stdio,
-) -> Result<std::process::Child, crate::engine::EngineError> {
-    use crate::engine::EngineError;
+) -> Result<std::process::Child, crate::protocol::EngineError> {
+    use crate::protocol::EngineError;
     use std::os::unix::process::CommandExt;
     use std::process::{Command, Stdio};
     let id = launch.node.id;
@@ -249,7 +249,7 @@ pub(super) fn checkpoint_dir(
     configs: &[NodeConfig],
     run_id: &str,
     opts: &ProcessOptions,
-) -> Result<Option<(PathBuf, bool)>, crate::engine::EngineError> {
+) -> Result<Option<(PathBuf, bool)>, crate::protocol::EngineError> {
     if configs.iter().all(|c| c.checkpoint_every.is_none()) {
         return Ok(None);
     }
@@ -260,7 +260,7 @@ pub(super) fn checkpoint_dir(
             true,
         ),
     };
-    std::fs::create_dir_all(&dir).map_err(|e| crate::engine::EngineError::Checkpoints {
+    std::fs::create_dir_all(&dir).map_err(|e| crate::protocol::EngineError::Checkpoints {
         dir: dir.clone(),
         reason: e.to_string(),
     })?;

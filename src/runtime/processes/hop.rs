@@ -2,10 +2,10 @@
 
 use super::Processes;
 use super::launch::ProcessOptions;
-use crate::engine::EngineError;
 use crate::engine::layout::{NetworkLayout, network_layout};
-use crate::engine::plan::RunPlan;
+use crate::protocol::EngineError;
 use crate::protocol::codec::{Control, CoordinatorInput};
+use crate::protocol::plan::RunPlan;
 use std::time::{Duration, Instant};
 
 /// Ping-pongs per edge before the measurement moves to the next edge.

@@ -1,0 +1,152 @@
+//! Why a run stopped early ([`EngineError`]): the coordinator's own reasons
+//! (a node failed, died or went silent, an interrupt, a stall) and those of
+//! the engine that ran it (the transport, starting the node processes, the
+//! machine's resources).
+
+use crate::protocol::config::Refused;
+use std::time::Duration;
+
+/// Why a run stopped early.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EngineError {
+    /// A node could not compute its prox.
+    #[error("node {node} failed at sample {sample}: {reason}")]
+    NodeFailed {
+        /// Node id.
+        node: u32,
+        /// Sample.
+        sample: u32,
+        /// Reason.
+        reason: String,
+    },
+    /// A node process died.
+    #[error("node {node} died ({how}) at sample {sample}")]
+    NodeDied {
+        /// Node id.
+        node: u32,
+        /// Sample.
+        sample: u32,
+        /// Exit status or signal.
+        how: String,
+    },
+    /// Nodes did not answer a liveness check (logical clocks): stopped
+    /// (`kill -STOP`), or wedged.
+    #[error(
+        "{} not responding (stopped?) at sample {sample}: no report for {:.1} s and no answer to a liveness check",
+        names(nodes),
+        silent_for.as_secs_f64()
+    )]
+    NotResponding {
+        /// The silent nodes.
+        nodes: Vec<u32>,
+        /// The oldest sample not complete.
+        sample: u32,
+        /// How long nothing had come from any node.
+        silent_for: Duration,
+    },
+    /// The run was interrupted (SIGINT/SIGTERM).
+    #[error("interrupted at sample {sample}")]
+    Interrupted {
+        /// Sample.
+        sample: u32,
+    },
+    /// The transport failed (its error is part of this message, not a
+    /// separate cause, so that it is printed once).
+    #[error("transport: {0}")]
+    Transport(crate::transport::TransportError),
+    /// A frame from a node could not be decoded.
+    #[error("bad frame: {0}")]
+    BadFrame(crate::protocol::codec::DecodeError),
+    /// The coordinator's transport was already closed.
+    #[error("the coordinator's transport is closed")]
+    TransportClosed,
+    /// The node program does not exist.
+    #[error(
+        "node program {} not found (build it with `cargo build --release`, or set SONARNET_NODE_BIN)",
+        path.display()
+    )]
+    NodeProgramMissing {
+        /// Where it was looked for.
+        path: std::path::PathBuf,
+    },
+    /// A node process could not be started.
+    #[error("cannot start {} for node {node}: {reason}", program.display())]
+    Spawn {
+        /// The node.
+        node: u32,
+        /// The program.
+        program: std::path::PathBuf,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// A node's launch configuration could not be encoded.
+    #[error("cannot encode the launch configuration of node {node}: {reason}")]
+    Launch {
+        /// The node.
+        node: u32,
+        /// The encoder's reason.
+        reason: String,
+    },
+    /// The start gate of the node processes could not be set up
+    /// ([`crate::runtime::processes::wait_at_gate`]).
+    #[error("cannot set up the start gate of the node processes: {0}")]
+    StartGate(String),
+    /// The directory of the nodes' checkpoint files could not be created.
+    #[error("cannot create the checkpoint directory {}: {reason}", dir.display())]
+    Checkpoints {
+        /// The directory.
+        dir: std::path::PathBuf,
+        /// The I/O error.
+        reason: String,
+    },
+    /// The agents of some hosts of a placement did not connect in time.
+    #[error(
+        "no agent connected for host(s) {} within {waited:?}: start `sonarnet agent --connect tcp/<this host>:<port> --run-id {run_id} --host <name>` there (the coordinator listens on {listen})",
+        missing.join(", ")
+    )]
+    AgentsMissing {
+        /// The hosts without an agent.
+        missing: Vec<String>,
+        /// How long the coordinator waited.
+        waited: Duration,
+        /// The run id the agents must give.
+        run_id: String,
+        /// The coordinator's endpoints.
+        listen: String,
+    },
+    /// Nodes did not report READY in time.
+    #[error("nodes {missing:?} did not come up within {waited:?}")]
+    Startup {
+        /// The nodes that never reported.
+        missing: Vec<u32>,
+        /// How long the coordinator waited.
+        waited: Duration,
+    },
+    /// This machine cannot hold the run ([`crate::runtime::preflight`]): the key most to
+    /// blame and the reason with the numbers. Found before anything starts.
+    #[error("{key}: {reason}")]
+    Resources {
+        /// The scenario key.
+        key: &'static str,
+        /// What is needed and what there is.
+        reason: String,
+    },
+    /// The engine cannot run this combination (e.g. realtime clocks in-process).
+    #[error("unsupported: {0}")]
+    Unsupported(String),
+    /// The run cannot be what it was asked to be ([`RunConfig::resolve`](crate::protocol::RunConfig::resolve)).
+    #[error("{0}")]
+    Refused(#[from] Refused),
+    /// Internal inconsistency (a bug): the protocol stalled.
+    #[error("protocol stalled: {0}")]
+    Stalled(String),
+}
+
+/// `node 3 is` / `nodes 3, 4 are`.
+fn names(nodes: &[u32]) -> String {
+    let list: Vec<String> = nodes.iter().map(u32::to_string).collect();
+    match nodes.len() {
+        1 => format!("node {} is", list[0]),
+        _ => format!("nodes {} are", list.join(", ")),
+    }
+}
