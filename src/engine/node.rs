@@ -92,34 +92,11 @@ pub fn run_node<T: Transport>(
         let nb: Vec<String> = node.neighbours.iter().map(u32::to_string).collect();
         vlog(id, &format!("up, neighbours {}", nb.join(", ")));
     }
-
-    let mut core = start_core(node, opts);
-    // Emulated seconds as wall seconds, times the clock's drift (a
-    // `clock_drift` fault, [`Control::ClockFactor`]).
-    let drift = std::cell::Cell::new(1.0f64);
-    let wall = |emulated: f64| {
-        let w = match opts.channel {
-            Some(c) => emulated / c.time_scale,
-            None => emulated,
-        };
-        w * drift.get()
-    };
-    let mut decoder = NodeDecoder::default();
+    let mut l = Loop::new(start_core(node, opts), opts);
     let mut frames: Vec<Frame> = Vec::new();
-    let mut outputs: Vec<Output> = Vec::new();
-    let mut encoded: Vec<Frame> = Vec::new();
-    let mut iteration_reports: Vec<Frame> = Vec::new();
-    let mut timing = Timing::default();
-    // Realtime clock: rate and next wake-up.
-    let mut clock: Option<(f64, Instant)> = None;
-    // Over a lossy channel: the core's timers (when, the command to hand it).
-    let mut timers: Vec<(Instant, Command)> = Vec::new();
-    // A hop measurement in progress ([`Control::ProbePeer`]).
-    let mut probe: Option<Probe> = None;
     // The end of the last busy stretch: the wait that follows runs from it
     // (one clock read per stretch, not two).
     let mut idle_since = Instant::now();
-
     loop {
         if opts.term.load(Ordering::Relaxed) {
             if opts.verbose {
@@ -127,136 +104,244 @@ pub fn run_node<T: Transport>(
             }
             return Ok(());
         }
-        let timeout = clock
-            .map(|(_, next)| next)
-            .into_iter()
-            .chain(timers.iter().map(|t| t.0))
-            .map(|at| at.saturating_duration_since(Instant::now()))
-            .fold(IDLE_CHECK, Duration::min);
         frames.clear();
-        let mut stop = false;
-        tx.recv(&mut frames, Some(timeout))?;
+        tx.recv(&mut frames, Some(l.timeout()))?;
         // Only an idle node (nothing arrived) checks its parent: a system call per
         // message would cost more than the message.
         if frames.is_empty() && !(opts.coordinator_alive)() {
             return Err(NodeError::CoordinatorGone);
         }
         let busy = Instant::now();
-        timing.wait_seconds += (busy - idle_since).as_secs_f64();
-
+        l.timing.wait_seconds += (busy - idle_since).as_secs_f64();
+        let mut stop = false;
         for f in &frames {
-            let input = decoder.feed(f).map_err(|error| NodeError::BadFrame {
-                from: f.from,
-                error,
-            })?;
-            match input {
-                None => {}
-                Some(NodeInput::Peer(m)) => {
-                    let late = core.counters().late;
-                    core.handle(Input::Peer(m), &mut outputs);
-                    if opts.channel.is_some() && core.counters().late > late {
-                        tx.send(Endpoint::Coordinator, &codec::encode_late(id, &m))?;
-                    }
-                }
-                Some(NodeInput::Control(Control::Command(c))) => {
-                    if opts.verbose {
-                        log_command(id, &c);
-                    }
-                    core.handle(Input::Command(c), &mut outputs)
-                }
-                Some(NodeInput::Control(Control::StartClock(rate))) => {
-                    let wait = core.draw_wait(rate);
-                    clock = Some((rate, after(Instant::now(), wall(wait))));
-                }
-                Some(NodeInput::Control(Control::ClockFactor(f))) if f.is_finite() && f > 0.0 => {
-                    drift.set(f)
-                }
-                Some(NodeInput::Control(Control::ClockFactor(_))) => {}
-                Some(NodeInput::Control(Control::Ping(seq))) => {
-                    // Answered by the loop, not the protocol core: a node that
-                    // waits for a neighbour is alive, and says so at once
-                    // (pings are rare: only after half a stall timeout).
-                    tx.send(Endpoint::Coordinator, &codec::encode_pong(id, seq))?;
-                    tx.flush()?;
-                }
-                Some(NodeInput::Control(Control::ProbePeer { peer, count })) => {
-                    let mut p = Probe::start(peer, count);
-                    probe = p.send(id, tx)?.then_some(p);
-                }
-                Some(NodeInput::Probe {
-                    from,
-                    seq,
-                    back: false,
-                }) => {
-                    tx.send(Endpoint::Node(from), &codec::encode_probe(id, seq, true))?;
-                    tx.flush()?;
-                }
-                Some(NodeInput::Probe {
-                    from,
-                    seq,
-                    back: true,
-                }) => {
-                    if let Some(p) = &mut probe
-                        && p.peer == from
-                        && p.hops.len() as u64 == seq
-                    {
-                        p.hops.push(p.sent.elapsed().as_secs_f64() / 2.0);
-                        if !p.send(id, tx)? {
-                            encoded.clear();
-                            codec::encode_hops(id, 0, &p.hops, &mut encoded);
-                            for f in &encoded {
-                                tx.send(Endpoint::Coordinator, f)?;
-                            }
-                            tx.flush()?;
-                            probe = None;
-                        }
-                    }
-                }
-                Some(NodeInput::Control(Control::Stop)) => {
-                    // What the frames before STOP produced is still sent
-                    // (below); frames after it are not looked at.
-                    stop = true;
-                    break;
-                }
+            if l.take(tx, f)? {
+                // What the frames before STOP produced is still sent
+                // (below); frames after it are not looked at.
+                stop = true;
+                break;
             }
         }
         // After STOP, no timer fires and the clock starts no exchange.
-        if !timers.is_empty() {
+        if !stop {
+            l.fire_due();
+        }
+        if l.outputs.is_empty() && !stop {
+            idle_since = Instant::now();
+            l.timing.busy_seconds += (idle_since - busy).as_secs_f64();
+            continue;
+        }
+        let urgent = l.send_outputs(tx, busy)?;
+        if urgent || stop {
+            tx.flush()?;
+        } else {
+            tx.flush_lazily(Endpoint::Coordinator)?;
+        }
+        idle_since = Instant::now();
+        l.timing.busy_seconds += (idle_since - busy).as_secs_f64();
+        if stop {
+            if opts.verbose {
+                vlog(id, &format!("stops: {}", l.core.counters().in_words()));
+            }
+            // The run is over: what a neighbour (killed, say) did not
+            // read no longer matters; the last reports to the
+            // coordinator still do.
+            tx.forget_unread(Some(Endpoint::Coordinator));
+            return Ok(());
+        }
+    }
+}
+
+/// The node loop's state between two waits: the core, what it asked for
+/// (its clock, its timers, a hop measurement) and the buffers reused from
+/// one batch of frames to the next.
+struct Loop<'o, 'a> {
+    id: u32,
+    opts: &'o NodeLoop<'a>,
+    core: NodeCore,
+    /// The clock's drift factor (a `clock_drift` fault,
+    /// [`Control::ClockFactor`]).
+    drift: f64,
+    decoder: NodeDecoder,
+    outputs: Vec<Output>,
+    encoded: Vec<Frame>,
+    /// Iteration reports, sent with the sample's next report.
+    iteration_reports: Vec<Frame>,
+    timing: Timing,
+    /// Realtime clock: rate and next wake-up.
+    clock: Option<(f64, Instant)>,
+    /// Over a lossy channel: the core's timers (when, the command to hand it).
+    timers: Vec<(Instant, Command)>,
+    /// A hop measurement in progress ([`Control::ProbePeer`]).
+    probe: Option<Probe>,
+}
+
+impl<'o, 'a> Loop<'o, 'a> {
+    fn new(core: NodeCore, opts: &'o NodeLoop<'a>) -> Self {
+        Loop {
+            id: core.id(),
+            opts,
+            core,
+            drift: 1.0,
+            decoder: NodeDecoder::default(),
+            outputs: Vec::new(),
+            encoded: Vec::new(),
+            iteration_reports: Vec::new(),
+            timing: Timing::default(),
+            clock: None,
+            timers: Vec::new(),
+            probe: None,
+        }
+    }
+
+    /// Emulated seconds as wall seconds, times the clock's drift.
+    fn wall(&self, emulated: f64) -> f64 {
+        let w = match self.opts.channel {
+            Some(c) => emulated / c.time_scale,
+            None => emulated,
+        };
+        w * self.drift
+    }
+
+    /// How long to wait for frames: until the clock's next tick or the
+    /// first timer, at most [`IDLE_CHECK`].
+    fn timeout(&self) -> Duration {
+        self.clock
+            .map(|(_, next)| next)
+            .into_iter()
+            .chain(self.timers.iter().map(|t| t.0))
+            .map(|at| at.saturating_duration_since(Instant::now()))
+            .fold(IDLE_CHECK, Duration::min)
+    }
+
+    /// Decode frame `f` and act on it; `true` for STOP.
+    fn take<T: Transport>(&mut self, tx: &mut T, f: &Frame) -> Result<bool, NodeError> {
+        let id = self.id;
+        let input = self.decoder.feed(f).map_err(|error| NodeError::BadFrame {
+            from: f.from,
+            error,
+        })?;
+        match input {
+            None => {}
+            Some(NodeInput::Peer(m)) => {
+                let late = self.core.counters().late;
+                self.core.handle(Input::Peer(m), &mut self.outputs);
+                if self.opts.channel.is_some() && self.core.counters().late > late {
+                    tx.send(Endpoint::Coordinator, &codec::encode_late(id, &m))?;
+                }
+            }
+            Some(NodeInput::Control(Control::Command(c))) => {
+                if self.opts.verbose {
+                    log_command(id, &c);
+                }
+                self.core.handle(Input::Command(c), &mut self.outputs)
+            }
+            Some(NodeInput::Control(Control::StartClock(rate))) => {
+                let wait = self.core.draw_wait(rate);
+                self.clock = Some((rate, after(Instant::now(), self.wall(wait))));
+            }
+            Some(NodeInput::Control(Control::ClockFactor(f))) if f.is_finite() && f > 0.0 => {
+                self.drift = f;
+            }
+            Some(NodeInput::Control(Control::ClockFactor(_))) => {}
+            Some(NodeInput::Control(Control::Ping(seq))) => {
+                // Answered by the loop, not the protocol core: a node that
+                // waits for a neighbour is alive, and says so at once
+                // (pings are rare: only after half a stall timeout).
+                tx.send(Endpoint::Coordinator, &codec::encode_pong(id, seq))?;
+                tx.flush()?;
+            }
+            Some(NodeInput::Control(Control::ProbePeer { peer, count })) => {
+                let mut p = Probe::start(peer, count);
+                self.probe = p.send(id, tx)?.then_some(p);
+            }
+            Some(NodeInput::Probe {
+                from,
+                seq,
+                back: false,
+            }) => {
+                tx.send(Endpoint::Node(from), &codec::encode_probe(id, seq, true))?;
+                tx.flush()?;
+            }
+            Some(NodeInput::Probe {
+                from,
+                seq,
+                back: true,
+            }) => self.probe_answered(tx, from, seq)?,
+            Some(NodeInput::Control(Control::Stop)) => return Ok(true),
+        }
+        Ok(false)
+    }
+
+    /// The answer to probe `seq` came back from `from`: the next probe, or
+    /// the hops to the coordinator once all are in.
+    fn probe_answered<T: Transport>(
+        &mut self,
+        tx: &mut T,
+        from: u32,
+        seq: u64,
+    ) -> Result<(), NodeError> {
+        let Some(p) = &mut self.probe else {
+            return Ok(());
+        };
+        if p.peer != from || p.hops.len() as u64 != seq {
+            return Ok(());
+        }
+        p.hops.push(p.sent.elapsed().as_secs_f64() / 2.0);
+        if !p.send(self.id, tx)? {
+            self.encoded.clear();
+            codec::encode_hops(self.id, 0, &p.hops, &mut self.encoded);
+            for f in &self.encoded {
+                tx.send(Endpoint::Coordinator, f)?;
+            }
+            tx.flush()?;
+            self.probe = None;
+        }
+        Ok(())
+    }
+
+    /// Fire the timers that are due, then the clock's tick if it is due.
+    fn fire_due(&mut self) {
+        if !self.timers.is_empty() {
             let now = Instant::now();
-            timers.retain(|(at, then)| {
-                let due = *at <= now && !stop;
+            let (core, outputs) = (&mut self.core, &mut self.outputs);
+            self.timers.retain(|(at, then)| {
+                let due = *at <= now;
                 if due {
-                    core.handle(Input::Command(then.clone()), &mut outputs);
+                    core.handle(Input::Command(then.clone()), outputs);
                 }
                 !due
             });
         }
-        if let Some((rate, next)) = clock
-            && !stop
+        if let Some((rate, next)) = self.clock
             && Instant::now() >= next
         {
-            core.handle(Input::Command(Command::Tick), &mut outputs);
-            let wait = core.draw_wait(rate);
-            clock = Some((rate, after(next.max(Instant::now()), wall(wait))));
+            self.core
+                .handle(Input::Command(Command::Tick), &mut self.outputs);
+            let wait = self.core.draw_wait(rate);
+            self.clock = Some((rate, after(next.max(Instant::now()), self.wall(wait))));
         }
-        if outputs.is_empty() && !stop {
-            idle_since = Instant::now();
-            timing.busy_seconds += (idle_since - busy).as_secs_f64();
-            continue;
-        }
+    }
+
+    /// Send what the core returned (`busy`: when this busy stretch began);
+    /// `true` if the coordinator must be woken for it. Peers found gone are
+    /// handed to the core as down; what that returns waits for the next
+    /// batch.
+    fn send_outputs<T: Transport>(&mut self, tx: &mut T, busy: Instant) -> Result<bool, NodeError> {
+        let id = self.id;
         let mut gone: Vec<u32> = Vec::new();
-        // Whether the coordinator must be woken for what this batch sends it:
-        // a sample's report can wait while the node has samples queued
+        // A sample's report can wait while the node has samples queued
         // (`flush_lazily`), anything else cannot.
         let mut urgent = false;
+        let mut outputs = std::mem::take(&mut self.outputs);
         for o in outputs.drain(..) {
             match o {
-                Output::Peer { to, msg } if let Some(c) = opts.channel => {
+                Output::Peer { to, msg } if let Some(c) = self.opts.channel => {
                     let f = codec::encode_channel(&msg, to, c.now_s());
                     tx.send(Endpoint::Coordinator, &f)?;
                     urgent = true;
                 }
-                Output::Broadcast(msg) if let Some(c) = opts.channel => {
+                Output::Broadcast(msg) if let Some(c) = self.opts.channel => {
                     let f = codec::encode_channel(&msg, codec::TO_ALL, c.now_s());
                     tx.send(Endpoint::Coordinator, &f)?;
                     urgent = true;
@@ -271,70 +356,80 @@ pub fn run_node<T: Transport>(
                     }
                 }
                 Output::Broadcast(msg) => tx.broadcast(&codec::encode_peer(&msg))?,
-                Output::Checkpoint { sample, u, theta } => {
-                    if let Some(path) = &opts.checkpoint {
-                        // A failed write keeps the previous checkpoint (the
-                        // write is atomic); the node goes on, and says so.
-                        if let Err(e) = Checkpoint::new(id, sample, &u, &theta).write(path) {
-                            eprintln!(
-                                "[node {id}] warning: checkpoint of sample {sample} not written to {}: {e}",
-                                path.display()
-                            );
-                        }
-                    }
-                }
+                Output::Checkpoint { sample, u, theta } => self.checkpoint(sample, &u, &theta),
                 Output::Timer { after_s, then } => {
-                    timers.push((after(Instant::now(), wall(after_s)), then))
+                    let at = after(Instant::now(), self.wall(after_s));
+                    self.timers.push((at, then));
                 }
                 Output::Report(r @ Report::IterationDone { .. }) => {
                     // Batched: sent with the sample's final report, so the
                     // coordinator is woken once per sample, not per iteration.
-                    codec::encode_report(&r, &mut iteration_reports);
+                    codec::encode_report(&r, &mut self.iteration_reports);
                 }
-                Output::Report(r) => {
-                    if opts.verbose {
-                        vlog(id, &format!("reports {}", r.in_words()));
-                    }
-                    encoded.clear();
-                    encoded.append(&mut iteration_reports);
-                    if matches!(r, Report::SampleDone { .. } | Report::Snapshot { .. }) {
-                        let snapshot = Timing {
-                            busy_seconds: timing.busy_seconds + busy.elapsed().as_secs_f64(),
-                            wait_seconds: timing.wait_seconds,
-                        };
-                        encoded.push(codec::encode_timing(id, &snapshot));
-                    }
-                    urgent |= !matches!(r, Report::SampleDone { .. }) || core.samples_queued() == 0;
-                    codec::encode_report(&r, &mut encoded);
-                    for f in &encoded {
-                        tx.send(Endpoint::Coordinator, f)?;
-                    }
-                }
+                Output::Report(r) => urgent |= self.report(tx, &r, busy)?,
             }
         }
+        self.outputs = outputs;
         for node in gone {
-            if opts.verbose {
+            if self.opts.verbose {
                 vlog(id, &format!("node {node} has exited: treated as down"));
             }
-            core.handle(Input::Command(Command::NodeDown { node }), &mut outputs);
+            self.core.handle(
+                Input::Command(Command::NodeDown { node }),
+                &mut self.outputs,
+            );
         }
-        if urgent || stop {
-            tx.flush()?;
-        } else {
-            tx.flush_lazily(Endpoint::Coordinator)?;
+        Ok(urgent)
+    }
+
+    /// Write the core's checkpoint. A failed write keeps the previous
+    /// checkpoint (the write is atomic); the node goes on, and says so.
+    fn checkpoint(
+        &self,
+        sample: u32,
+        u: &crate::model::geometry::Vec3,
+        theta: &crate::model::geometry::Vec3,
+    ) {
+        let Some(path) = &self.opts.checkpoint else {
+            return;
+        };
+        if let Err(e) = Checkpoint::new(self.id, sample, u, theta).write(path) {
+            eprintln!(
+                "[node {}] warning: checkpoint of sample {sample} not written to {}: {e}",
+                self.id,
+                path.display()
+            );
         }
-        idle_since = Instant::now();
-        timing.busy_seconds += (idle_since - busy).as_secs_f64();
-        if stop {
-            if opts.verbose {
-                vlog(id, &format!("stops: {}", core.counters().in_words()));
-            }
-            // The run is over: what a neighbour (killed, say) did not
-            // read no longer matters; the last reports to the
-            // coordinator still do.
-            tx.forget_unread(Some(Endpoint::Coordinator));
-            return Ok(());
+    }
+
+    /// Send report `r` to the coordinator, after the batched iteration
+    /// reports and (for a sample's report) the node's timing so far; `true`
+    /// if the coordinator must be woken for it.
+    fn report<T: Transport>(
+        &mut self,
+        tx: &mut T,
+        r: &Report,
+        busy: Instant,
+    ) -> Result<bool, NodeError> {
+        let id = self.id;
+        if self.opts.verbose {
+            vlog(id, &format!("reports {}", r.in_words()));
         }
+        self.encoded.clear();
+        self.encoded.append(&mut self.iteration_reports);
+        if matches!(r, Report::SampleDone { .. } | Report::Snapshot { .. }) {
+            let snapshot = Timing {
+                busy_seconds: self.timing.busy_seconds + busy.elapsed().as_secs_f64(),
+                wait_seconds: self.timing.wait_seconds,
+            };
+            self.encoded.push(codec::encode_timing(id, &snapshot));
+        }
+        let urgent = !matches!(r, Report::SampleDone { .. }) || self.core.samples_queued() == 0;
+        codec::encode_report(r, &mut self.encoded);
+        for f in &self.encoded {
+            tx.send(Endpoint::Coordinator, f)?;
+        }
+        Ok(urgent)
     }
 }
 

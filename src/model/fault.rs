@@ -210,6 +210,18 @@ impl FaultSpec {
     /// sample lasts `period_s` emulated seconds. `Err((key, reason))` names
     /// the key (relative to the entry: `node`, `at_s`, ...).
     pub fn resolve(&self, n: usize, period_s: f64) -> Result<Fault, (String, String)> {
+        let kind = self.kind_among(n)?;
+        self.takes_only_keys_of(&kind)?;
+        let (at_s, until_s) = self.when(&kind, period_s)?;
+        Ok(Fault {
+            kind,
+            at_s,
+            until_s,
+        })
+    }
+
+    /// What the fault does, among `n` nodes: its kind with the keys it needs.
+    fn kind_among(&self, n: usize) -> Result<FaultKind, (String, String)> {
         let need = |v: Option<u32>, key: &str| -> Result<u32, (String, String)> {
             let v = v.ok_or_else(|| (key.to_string(), format!("`{}` needs it", self.kind)))?;
             if v as usize >= n {
@@ -310,7 +322,11 @@ impl FaultSpec {
                 ));
             }
         };
-        // Keys this kind does not take.
+        Ok(kind)
+    }
+
+    /// Refuses a key the fault's kind does not take.
+    fn takes_only_keys_of(&self, kind: &FaultKind) -> Result<(), (String, String)> {
         let takes: &[&str] = match kind {
             FaultKind::Pause { .. } | FaultKind::Crash { .. } => &["node"],
             FaultKind::Restart { .. } => &["node", "state", "checkpoint_every"],
@@ -333,6 +349,16 @@ impl FaultSpec {
         if let Some((k, _)) = given.iter().find(|(k, g)| *g && !takes.contains(k)) {
             return Err((k.to_string(), format!("`{}` does not take it", self.kind)));
         }
+        Ok(())
+    }
+
+    /// When the fault starts and ends (emulated seconds, samples `period_s`
+    /// long; no end: it lasts until the run ends).
+    fn when(
+        &self,
+        kind: &FaultKind,
+        period_s: f64,
+    ) -> Result<(f64, Option<f64>), (String, String)> {
         let at_s = match (self.at_s, self.at_sample) {
             (Some(t), None) => {
                 in_range("at_s", t, 0.0, 1e9)?;
@@ -370,11 +396,7 @@ impl FaultSpec {
             };
             return Err((key.into(), format!("`{}` is instantaneous", self.kind)));
         }
-        Ok(Fault {
-            kind,
-            at_s,
-            until_s: dur.map(|d| at_s + d),
-        })
+        Ok((at_s, dur.map(|d| at_s + d)))
     }
 
     /// Parses a `--fault` flag, `KIND:KEY=VALUE,KEY=VALUE,...`; each value is

@@ -62,6 +62,61 @@ fn distributed_run(
     (est, run.error.map(|e| e.to_string()))
 }
 
+/// Every baseline of `sc` on the first `done` samples of `real` (`ml`: the
+/// centralised ML track and the seconds it took).
+fn run_baselines(
+    sc: &Scenario,
+    real: &Realization,
+    done: usize,
+    ml: (&[Vec2], f64),
+) -> Vec<crate::estimators::baselines::BaselineTrack> {
+    sc.baselines
+        .iter()
+        .map(|b| {
+            let engine = |changes, samples: usize| distributed_run(changes, sc, real, samples);
+            crate::estimators::baselines::run_baseline(b, &sc.geometry, real, done, ml, &engine)
+        })
+        .collect()
+}
+
+/// Why some metrics are missing: no truth, or no sample completed.
+fn note(real: &Realization, done: usize) -> Option<String> {
+    if real.truth.is_none() {
+        Some(
+            "no truth file was given: error metrics (rmse, ctte, regret, ml_rmse, crlb, bound coverage) are not computed"
+                .to_string(),
+        )
+    } else if done == 0 {
+        Some("no sample completed".to_string())
+    } else {
+        None
+    }
+}
+
+/// Every node's counters, with its process's timing and peak RSS where
+/// node processes ran.
+fn node_counters(run: &RunOutcome) -> Vec<NodeCounters> {
+    let procs = run.processes.as_ref();
+    run.record
+        .counters
+        .iter()
+        .enumerate()
+        .map(|(node, c)| NodeCounters {
+            node,
+            counters: *c,
+            busy_seconds: procs
+                .and_then(|p| p.timing.get(node))
+                .map(|t| t.busy_seconds),
+            wait_seconds: procs
+                .and_then(|p| p.timing.get(node))
+                .map(|t| t.wait_seconds),
+            peak_rss_kib: procs
+                .and_then(|p| p.peak_rss_kib.get(node).copied())
+                .flatten(),
+        })
+        .collect()
+}
+
 /// Run the baselines and score every track of a record (no I/O).
 pub fn evaluate(
     sc: &Scenario,
@@ -87,21 +142,7 @@ pub fn evaluate(
         &real.sigmas[..done],
     );
     let ml_seconds = ml_start.elapsed().as_secs_f64();
-    let baselines: Vec<_> = sc
-        .baselines
-        .iter()
-        .map(|b| {
-            let engine = |changes, samples: usize| distributed_run(changes, sc, real, samples);
-            crate::estimators::baselines::run_baseline(
-                b,
-                &sc.geometry,
-                real,
-                done,
-                (&ml, ml_seconds),
-                &engine,
-            )
-        })
-        .collect();
+    let baselines = run_baselines(sc, real, done, (&ml, ml_seconds));
     let scored = score::score(sc, real, &est, ml, baselines, done);
     let tb = &scored.tracks[0].metrics;
     let ml = &scored.tracks[1].metrics;
@@ -113,16 +154,6 @@ pub fn evaluate(
         None => RunStatus::Ok,
         Some(EngineError::Interrupted { .. }) => RunStatus::Interrupted,
         Some(_) => RunStatus::Failed,
-    };
-    let note = if real.truth.is_none() {
-        Some(
-            "no truth file was given: error metrics (rmse, ctte, regret, ml_rmse, crlb, bound coverage) are not computed"
-                .to_string(),
-        )
-    } else if done == 0 {
-        Some("no sample completed".to_string())
-    } else {
-        None
     };
     let m = RunMetrics {
         rmse: tb.rmse,
@@ -146,7 +177,7 @@ pub fn evaluate(
         samples: sc.samples,
         status,
         error: error.map(|e| e.to_string()),
-        note,
+        note: note(real, done),
         startup_seconds: procs.and_then(|p| p.startup_seconds),
         realtime: realtime_stats(record, opts),
         channel: run
@@ -169,24 +200,7 @@ pub fn evaluate(
                 how: how.clone(),
             })
             .collect(),
-        nodes: record
-            .counters
-            .iter()
-            .enumerate()
-            .map(|(node, c)| NodeCounters {
-                node,
-                counters: *c,
-                busy_seconds: procs
-                    .and_then(|p| p.timing.get(node))
-                    .map(|t| t.busy_seconds),
-                wait_seconds: procs
-                    .and_then(|p| p.timing.get(node))
-                    .map(|t| t.wait_seconds),
-                peak_rss_kib: procs
-                    .and_then(|p| p.peak_rss_kib.get(node).copied())
-                    .flatten(),
-            })
-            .collect(),
+        nodes: node_counters(run),
         bounds: tb.bounds.clone(),
         theta_bar: tb.clone(),
         ml: ml.clone(),

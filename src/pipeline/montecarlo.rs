@@ -268,16 +268,9 @@ struct McRun {
     wall_seconds: f64,
 }
 
-fn write_outputs(
-    sc: &Scenario,
-    trials: &[Trial],
-    idx: &[usize],
-    opts: &RunOptions,
-    run: &McRun,
-) -> Result<MonteCarloOutcome, RunError> {
-    let wall_seconds = run.wall_seconds;
-    let dir = &opts.out_dir;
-    // trials.csv
+/// Write `trials.csv` (a row per trial: its seed, whether it failed, and
+/// every metric); the metric columns.
+fn write_trials_csv(path: &std::path::Path, trials: &[Trial]) -> Result<Vec<String>, RunError> {
     let mut cols: Vec<String> = trials
         .iter()
         .flat_map(|t| t.flat.keys().cloned())
@@ -288,7 +281,7 @@ fn write_outputs(
     let mut header: Vec<&str> = vec!["trial", "seed", "failed"];
     header.extend(cols.iter().map(String::as_str));
     pipeline::write_csv(
-        &dir.join("trials.csv"),
+        path,
         &header,
         trials.iter().map(|t| {
             let mut row = vec![
@@ -303,22 +296,13 @@ fn write_outputs(
             row
         }),
     )?;
-    // Statistics.
-    let stats_map: BTreeMap<String, BTreeMap<&'static str, f64>> = cols
-        .iter()
-        .map(|c| {
-            let v: Vec<f64> = trials
-                .iter()
-                .filter_map(|t| t.flat.get(c).copied())
-                .collect();
-            (c.clone(), stats(&v))
-        })
-        .collect();
-    let failed = trials.iter().filter(|t| t.status != RunStatus::Ok).count();
-    let expect =
-        pipeline::expect_results(crate::scenario::expect::check(&sc.expect, &|n: &str| {
-            lookup(&stats_map, n)
-        }));
+    Ok(cols)
+}
+
+/// Every track's bands across trials (error, CTTE, regret) at each of the
+/// `samples` recorded samples, in the track order of trial 0, and the
+/// CRLB's band.
+fn curve_bands(trials: &[Trial], samples: usize) -> (BTreeMap<String, TrackBands>, Option<Band>) {
     // Curves: track order of trial 0.
     let names: Vec<String> = trials
         .first()
@@ -327,7 +311,7 @@ fn write_outputs(
     let mut curves = BTreeMap::new();
     for (ti, name) in names.iter().enumerate() {
         let per = |f: &dyn Fn(&Curves, usize) -> Option<f64>| -> Option<Band> {
-            let cols: Vec<Vec<f64>> = (0..idx.len())
+            let cols: Vec<Vec<f64>> = (0..samples)
                 .map(|j| {
                     trials
                         .iter()
@@ -344,7 +328,7 @@ fn write_outputs(
         };
         curves.insert(name.clone(), bands);
     }
-    let crlb_cols: Vec<Vec<f64>> = (0..idx.len())
+    let crlb_cols: Vec<Vec<f64>> = (0..samples)
         .map(|j| {
             trials
                 .iter()
@@ -356,6 +340,36 @@ fn write_outputs(
         .iter()
         .any(|c| !c.is_empty())
         .then(|| band(crlb_cols));
+    (curves, crlb)
+}
+
+fn write_outputs(
+    sc: &Scenario,
+    trials: &[Trial],
+    idx: &[usize],
+    opts: &RunOptions,
+    run: &McRun,
+) -> Result<MonteCarloOutcome, RunError> {
+    let wall_seconds = run.wall_seconds;
+    let dir = &opts.out_dir;
+    let cols = write_trials_csv(&dir.join("trials.csv"), trials)?;
+    // Statistics.
+    let stats_map: BTreeMap<String, BTreeMap<&'static str, f64>> = cols
+        .iter()
+        .map(|c| {
+            let v: Vec<f64> = trials
+                .iter()
+                .filter_map(|t| t.flat.get(c).copied())
+                .collect();
+            (c.clone(), stats(&v))
+        })
+        .collect();
+    let failed = trials.iter().filter(|t| t.status != RunStatus::Ok).count();
+    let expect =
+        pipeline::expect_results(crate::scenario::expect::check(&sc.expect, &|n: &str| {
+            lookup(&stats_map, n)
+        }));
+    let (curves, crlb) = curve_bands(trials, idx.len());
     let summary = McSummary {
         status: Some(if run.interrupted {
             RunStatus::Interrupted

@@ -30,6 +30,7 @@ use crate::estimators::bounds::{BoundOutcome, Intersection};
 use crate::estimators::online::{self, XHatOptions};
 use crate::estimators::track::regions_of;
 use crate::model::geometry::Vec2;
+use crate::model::measure::{Geometry, SampleMeasurements, Sigmas};
 use crate::model::metrics;
 use crate::scenario::{BoundKind, Realization, Scenario};
 use serde::{Deserialize, Serialize};
@@ -205,58 +206,29 @@ pub fn score(
 
     let crlb: Vec<Option<f64>> = match truth {
         Some(t) => (0..done)
-            .map(|k| {
-                let obs = crate::estimators::central::observations(geometry, &meas[k]);
-                crate::estimators::central::crlb(&obs, &real.sigmas[k], &t[k])
-            })
+            .map(|k| crlb_of(geometry, &meas[k], &real.sigmas[k], &t[k]))
             .collect(),
         None => vec![None; done],
     };
-
     // x_hat per sample (regret), shared by every track.
-    let mut x_hat_not_converged = 0;
-    let x_hats: Option<Vec<Option<online::XHat>>> = match truth {
-        Some(t) if sc.scoring.regret => Some(
-            (0..done)
-                .map(|k| {
-                    if online::term_count(&meas[k]) == 0 {
-                        return None;
-                    }
-                    let xh = online::x_hat(geometry, &meas[k], t[k], &XHatOptions::default()).ok();
-                    if let Some(x) = &xh {
-                        x_hat_not_converged += usize::from(!x.converged);
-                    }
-                    xh
-                })
-                .collect(),
-        ),
-        _ => None,
-    };
-    let regret_curve = |est: &[Option<Vec2>]| -> Option<Vec<f64>> {
-        let xh = x_hats.as_ref()?;
-        let mut terms = Vec::with_capacity(done);
-        for k in 0..done {
-            let term = match (&xh[k], est[k]) {
-                (Some(h), Some(x)) => online::regret_term(geometry, &meas[k], &x, h).ok()?,
-                (None, _) => 0.0,
-                (Some(_), None) => return None,
-            };
-            terms.push(term);
+    let (x_hats, x_hat_not_converged) = match truth {
+        Some(t) if sc.scoring.regret => {
+            let (xh, nc) = x_hats(geometry, meas, t);
+            (Some(xh), nc)
         }
-        Some(metrics::running_sum(&terms))
+        _ => (None, 0),
     };
-
+    let regret_curve = |est: &[Option<Vec2>]| regret_curve(geometry, meas, x_hats.as_deref()?, est);
     // The certified-bound feasible sets, one per sample.
     let bound_cfg = sc.bounds.as_ref();
     let sets: Vec<Option<Intersection>> = match bound_cfg {
         Some(b) => (0..done)
             .map(|k| {
-                let rho = b.rho + b.rho_sigmas * real.sigmas[k].range;
-                let regions = regions_of(geometry, &meas[k], rho);
-                if regions.is_empty() {
-                    return None;
-                }
-                Intersection::new(&regions).ok().flatten()
+                feasible_set(
+                    geometry,
+                    &meas[k],
+                    b.rho + b.rho_sigmas * real.sigmas[k].range,
+                )
             })
             .collect(),
         None => Vec::new(),
@@ -283,31 +255,9 @@ pub fn score(
                 .collect()
         });
         let mut m = TrackMetrics::default();
-        let mut ctte_curve = None;
-        if let Some(err) = &error {
-            let present: Vec<f64> = err.iter().flatten().copied().collect();
-            let after: Vec<f64> = err
-                .get(burn_in..)
-                .unwrap_or(&[])
-                .iter()
-                .flatten()
-                .copied()
-                .collect();
-            m.rmse = metrics::rms(&present);
-            m.rmse_after_burn_in = metrics::rms(&after);
-            m.median_error = metrics::median(&present);
-            m.final_error = err.last().copied().flatten();
-            let c = metrics::running_sum(&err.iter().map(|e| e.unwrap_or(0.0)).collect::<Vec<_>>());
-            if present.len() == err.len() {
-                m.ctte = c.last().copied();
-                let t = c.len();
-                m.ctte_mid = at(&c, t / 2);
-                m.ctte_rate_mid = m.ctte_mid.map(|v| v / (t / 2) as f64);
-                m.ctte_rate_3q = at(&c, 3 * t / 4).map(|v| v / (3 * t / 4) as f64);
-                m.ctte_rate = m.ctte.map(|v| v / t as f64);
-                ctte_curve = Some(c);
-            }
-        }
+        let ctte_curve = error
+            .as_ref()
+            .and_then(|err| error_metrics(err, burn_in, &mut m));
         let regret = regret_curve(&est);
         if let Some(r) = &regret {
             m.regret = r.last().copied();
@@ -335,38 +285,13 @@ pub fn score(
         }
         // Bounds on this track.
         let mut series = Vec::new();
-        if let Some(bc) = bound_cfg {
-            for kind in bc.kinds_for(&name) {
-                let mut radii = Vec::with_capacity(done);
-                let start = Instant::now();
-                let mut instances = 0usize;
-                for k in 0..done {
-                    let r = match (&sets[k], est[k]) {
-                        (Some(set), Some(x)) => {
-                            instances += 1;
-                            let out = match kind {
-                                BoundKind::UppRbbox => set.upp_rbbox(&x),
-                                BoundKind::UppBbox => set.upp_bbox(&x),
-                                BoundKind::UppMinball => set.upp_minball(&x),
-                                BoundKind::UppMaxdis => set.upp_maxdis(&x),
-                                BoundKind::UppExact => set.upp_exact(&x),
-                            };
-                            match out {
-                                Ok(BoundOutcome::Bound(v)) if v.is_finite() => Some(v),
-                                _ => None,
-                            }
-                        }
-                        _ => None,
-                    };
-                    radii.push(r);
-                }
-                let secs = start.elapsed().as_secs_f64() / instances.max(1) as f64;
-                if let Some(err) = &error {
-                    m.bounds
-                        .insert(kind.as_str().to_string(), bound_metrics(&radii, err, secs));
-                }
-                series.push((kind.as_str().to_string(), radii));
+        for &kind in bound_cfg.map_or(&[][..], |bc| bc.kinds_for(&name)) {
+            let (radii, secs) = bound_series(kind, &sets, &est);
+            if let Some(err) = &error {
+                m.bounds
+                    .insert(kind.as_str().to_string(), bound_metrics(&radii, err, secs));
             }
+            series.push((kind.as_str().to_string(), radii));
         }
         tracks.push(ScoredTrack {
             name,
@@ -384,6 +309,139 @@ pub fn score(
         crlb,
         x_hat_not_converged,
     }
+}
+
+/// The CRLB of one sample's measurements at the true position `truth`.
+fn crlb_of(
+    geometry: &Geometry,
+    meas: &SampleMeasurements,
+    sigmas: &Sigmas,
+    truth: &Vec2,
+) -> Option<f64> {
+    let obs = crate::estimators::central::observations(geometry, meas);
+    crate::estimators::central::crlb(&obs, sigmas, truth)
+}
+
+/// The certified-bound feasible set of one sample: the intersection of its
+/// measurement regions widened by `rho` (`None` without regions, or when
+/// they do not intersect).
+fn feasible_set(geometry: &Geometry, meas: &SampleMeasurements, rho: f64) -> Option<Intersection> {
+    let regions = regions_of(geometry, meas, rho);
+    if regions.is_empty() {
+        return None;
+    }
+    Intersection::new(&regions).ok().flatten()
+}
+
+/// The best fixed point `x_hat` of every sample with regret terms (the
+/// comparator of Pun-So 2022's regret), and how many of them did not
+/// converge.
+fn x_hats(
+    geometry: &Geometry,
+    meas: &[SampleMeasurements],
+    truth: &[Vec2],
+) -> (Vec<Option<online::XHat>>, usize) {
+    let mut not_converged = 0;
+    let xh = meas
+        .iter()
+        .zip(truth)
+        .map(|(m, t)| {
+            if online::term_count(m) == 0 {
+                return None;
+            }
+            let xh = online::x_hat(geometry, m, *t, &XHatOptions::default()).ok();
+            if let Some(x) = &xh {
+                not_converged += usize::from(!x.converged);
+            }
+            xh
+        })
+        .collect();
+    (xh, not_converged)
+}
+
+/// The running regret of track `est` against the `x_hat` of every sample
+/// (`None` if a sample with regret terms has no estimate or a term fails).
+fn regret_curve(
+    geometry: &Geometry,
+    meas: &[SampleMeasurements],
+    x_hats: &[Option<online::XHat>],
+    est: &[Option<Vec2>],
+) -> Option<Vec<f64>> {
+    let mut terms = Vec::with_capacity(meas.len());
+    for k in 0..meas.len() {
+        let term = match (&x_hats[k], est[k]) {
+            (Some(h), Some(x)) => online::regret_term(geometry, &meas[k], &x, h).ok()?,
+            (None, _) => 0.0,
+            (Some(_), None) => return None,
+        };
+        terms.push(term);
+    }
+    Some(metrics::running_sum(&terms))
+}
+
+/// The error metrics of a track into `m` (rmse, median, final error, and the
+/// CTTE figures when every sample has an estimate); the CTTE curve then.
+fn error_metrics(err: &[Option<f64>], burn_in: usize, m: &mut TrackMetrics) -> Option<Vec<f64>> {
+    let present: Vec<f64> = err.iter().flatten().copied().collect();
+    let after: Vec<f64> = err
+        .get(burn_in..)
+        .unwrap_or(&[])
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+    m.rmse = metrics::rms(&present);
+    m.rmse_after_burn_in = metrics::rms(&after);
+    m.median_error = metrics::median(&present);
+    m.final_error = err.last().copied().flatten();
+    let c = metrics::running_sum(&err.iter().map(|e| e.unwrap_or(0.0)).collect::<Vec<_>>());
+    if present.len() != err.len() {
+        return None;
+    }
+    m.ctte = c.last().copied();
+    let t = c.len();
+    m.ctte_mid = at(&c, t / 2);
+    m.ctte_rate_mid = m.ctte_mid.map(|v| v / (t / 2) as f64);
+    m.ctte_rate_3q = at(&c, 3 * t / 4).map(|v| v / (3 * t / 4) as f64);
+    m.ctte_rate = m.ctte.map(|v| v / t as f64);
+    Some(c)
+}
+
+/// Bound `kind`'s radius around every estimate of a track (`None` where
+/// the sample has no feasible set or no estimate, or the bound fails), and
+/// the mean seconds per instance.
+fn bound_series(
+    kind: BoundKind,
+    sets: &[Option<Intersection>],
+    est: &[Option<Vec2>],
+) -> (Vec<Option<f64>>, f64) {
+    let mut radii = Vec::with_capacity(est.len());
+    let start = Instant::now();
+    let mut instances = 0usize;
+    for (set, x) in sets.iter().zip(est) {
+        let r = match (set, x) {
+            (Some(set), Some(x)) => {
+                instances += 1;
+                let out = match kind {
+                    BoundKind::UppRbbox => set.upp_rbbox(x),
+                    BoundKind::UppBbox => set.upp_bbox(x),
+                    BoundKind::UppMinball => set.upp_minball(x),
+                    BoundKind::UppMaxdis => set.upp_maxdis(x),
+                    BoundKind::UppExact => set.upp_exact(x),
+                };
+                match out {
+                    Ok(BoundOutcome::Bound(v)) if v.is_finite() => Some(v),
+                    _ => None,
+                }
+            }
+            _ => None,
+        };
+        radii.push(r);
+    }
+    (
+        radii,
+        start.elapsed().as_secs_f64() / instances.max(1) as f64,
+    )
 }
 
 /// Coverage and tightness of one bound series against the errors.

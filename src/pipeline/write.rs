@@ -4,7 +4,9 @@
 
 use super::RunJson;
 use super::RunStatus;
+use crate::engine::RunOutcome;
 use crate::model::geometry::Vec2;
+use crate::pipeline::FaultOutcome;
 use crate::pipeline::Outcome;
 use crate::pipeline::RunError;
 use crate::pipeline::RunOptions;
@@ -40,129 +42,11 @@ impl Outcome {
         write_run_json(dir, sc, opts, status, run, *started)?;
         write_scenario_toml(dir, sc, opts)?;
         write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
-        // With faults, a `paused` column (before `seed`); without, the file
-        // is as it always was.
-        let faults = sc.has_faults();
-        let mut header = vec!["sample", "node", "x", "y", "d", "alive"];
-        if faults {
-            header.push("paused");
+        write_nodes_csv(&dir.join("nodes.csv"), sc, run)?;
+        if sc.has_faults() {
+            write_faults_csv(&dir.join("faults.csv"), sc, &m.faults)?;
         }
-        header.push("seed");
-        write_csv(
-            &dir.join("nodes.csv"),
-            &header,
-            record.thetas.iter().enumerate().flat_map(|(k, ts)| {
-                let alive = record.alive.get(k);
-                let paused = run.paused(k);
-                ts.iter().enumerate().map(move |(i, t)| {
-                    let up = alive.and_then(|m| m.get(i)).copied().unwrap_or(true);
-                    let mut row = vec![
-                        k.to_string(),
-                        i.to_string(),
-                        num(t[0]),
-                        num(t[1]),
-                        num(t[2]),
-                        up.to_string(),
-                    ];
-                    if faults {
-                        let p = paused.and_then(|m| m.get(i)).copied().unwrap_or(false);
-                        row.push(p.to_string());
-                    }
-                    row.push(sc.seed.to_string());
-                    row
-                })
-            }),
-        )?;
-        if faults {
-            let opt = |v: Option<f64>| v.map(num).unwrap_or_default();
-            write_csv(
-                &dir.join("faults.csv"),
-                &[
-                    "t_s",
-                    "sample",
-                    "kind",
-                    "nodes",
-                    "detail",
-                    "detected_s",
-                    "recovered_s",
-                    "seed",
-                ],
-                m.faults.iter().map(|f| {
-                    vec![
-                        num(f.t_s),
-                        f.sample.to_string(),
-                        f.kind.clone(),
-                        f.nodes
-                            .iter()
-                            .map(u32::to_string)
-                            .collect::<Vec<_>>()
-                            .join(" "),
-                        f.detail.clone(),
-                        opt(f.detected_s),
-                        opt(f.recovered_s),
-                        sc.seed.to_string(),
-                    ]
-                }),
-            )?;
-        }
-        if !record.schedule.is_empty() {
-            write_csv(
-                &dir.join("schedule.csv"),
-                &["iteration", "v", "w", "seed"],
-                record.schedule.iter().enumerate().map(|(it, (v, w))| {
-                    vec![
-                        it.to_string(),
-                        v.to_string(),
-                        w.to_string(),
-                        sc.seed.to_string(),
-                    ]
-                }),
-            )?;
-        }
-        let messages = run.channel.as_ref().map_or(&[][..], |c| &c.messages[..]);
-        if !messages.is_empty() {
-            write_csv(
-                &dir.join("messages.csv"),
-                &[
-                    "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "seed",
-                ],
-                messages.iter().map(|r| {
-                    vec![
-                        num(r.t_send),
-                        r.t_recv.map(num).unwrap_or_default(),
-                        r.from.to_string(),
-                        r.to.to_string(),
-                        r.kind.to_string(),
-                        r.bits.to_string(),
-                        if r.lost.is_some() {
-                            "lost"
-                        } else {
-                            "delivered"
-                        }
-                        .to_string(),
-                        r.lost.map(|x| x.as_str().to_string()).unwrap_or_default(),
-                        sc.seed.to_string(),
-                    ]
-                }),
-            )?;
-        }
-        if !record.iteration_trace.is_empty() {
-            write_csv(
-                &dir.join("iterations.csv"),
-                &["iteration", "sample", "node", "x", "y", "d", "seed"],
-                record.iteration_trace.iter().map(|(it, k, i, t)| {
-                    vec![
-                        it.to_string(),
-                        k.to_string(),
-                        i.to_string(),
-                        num(t[0]),
-                        num(t[1]),
-                        num(t[2]),
-                        sc.seed.to_string(),
-                    ]
-                }),
-            )?;
-        }
+        write_run_csvs(dir, sc, run)?;
         write_trace(
             &dir.join("measurements.csv"),
             &real.measurements[..done],
@@ -180,6 +64,145 @@ impl Outcome {
         write_json(&dir.join("metrics.json"), m)?;
         Ok(())
     }
+}
+
+/// Write `nodes.csv`: every node's `theta` after every completed sample,
+/// whether it was alive, and (with faults) whether it was paused.
+fn write_nodes_csv(path: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), RunError> {
+    let record = &run.record;
+    // With faults, a `paused` column (before `seed`); without, the file
+    // is as it always was.
+    let faults = sc.has_faults();
+    let mut header = vec!["sample", "node", "x", "y", "d", "alive"];
+    if faults {
+        header.push("paused");
+    }
+    header.push("seed");
+    write_csv(
+        path,
+        &header,
+        record.thetas.iter().enumerate().flat_map(|(k, ts)| {
+            let alive = record.alive.get(k);
+            let paused = run.paused(k);
+            ts.iter().enumerate().map(move |(i, t)| {
+                let up = alive.and_then(|m| m.get(i)).copied().unwrap_or(true);
+                let mut row = vec![
+                    k.to_string(),
+                    i.to_string(),
+                    num(t[0]),
+                    num(t[1]),
+                    num(t[2]),
+                    up.to_string(),
+                ];
+                if faults {
+                    let p = paused.and_then(|m| m.get(i)).copied().unwrap_or(false);
+                    row.push(p.to_string());
+                }
+                row.push(sc.seed.to_string());
+                row
+            })
+        }),
+    )
+}
+
+/// Write `faults.csv`: every fault applied, its detection and recovery.
+fn write_faults_csv(path: &Path, sc: &Scenario, faults: &[FaultOutcome]) -> Result<(), RunError> {
+    let opt = |v: Option<f64>| v.map(num).unwrap_or_default();
+    write_csv(
+        path,
+        &[
+            "t_s",
+            "sample",
+            "kind",
+            "nodes",
+            "detail",
+            "detected_s",
+            "recovered_s",
+            "seed",
+        ],
+        faults.iter().map(|f| {
+            vec![
+                num(f.t_s),
+                f.sample.to_string(),
+                f.kind.clone(),
+                f.nodes
+                    .iter()
+                    .map(u32::to_string)
+                    .collect::<Vec<_>>()
+                    .join(" "),
+                f.detail.clone(),
+                opt(f.detected_s),
+                opt(f.recovered_s),
+                sc.seed.to_string(),
+            ]
+        }),
+    )
+}
+
+/// Write the files a run has only when it has their rows: `schedule.csv`
+/// (async schedules), `messages.csv` (the acoustic channel) and
+/// `iterations.csv` (`--trace-iterations`).
+fn write_run_csvs(dir: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), RunError> {
+    let record = &run.record;
+    if !record.schedule.is_empty() {
+        write_csv(
+            &dir.join("schedule.csv"),
+            &["iteration", "v", "w", "seed"],
+            record.schedule.iter().enumerate().map(|(it, (v, w))| {
+                vec![
+                    it.to_string(),
+                    v.to_string(),
+                    w.to_string(),
+                    sc.seed.to_string(),
+                ]
+            }),
+        )?;
+    }
+    let messages = run.channel.as_ref().map_or(&[][..], |c| &c.messages[..]);
+    if !messages.is_empty() {
+        write_csv(
+            &dir.join("messages.csv"),
+            &[
+                "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "seed",
+            ],
+            messages.iter().map(|r| {
+                vec![
+                    num(r.t_send),
+                    r.t_recv.map(num).unwrap_or_default(),
+                    r.from.to_string(),
+                    r.to.to_string(),
+                    r.kind.to_string(),
+                    r.bits.to_string(),
+                    if r.lost.is_some() {
+                        "lost"
+                    } else {
+                        "delivered"
+                    }
+                    .to_string(),
+                    r.lost.map(|x| x.as_str().to_string()).unwrap_or_default(),
+                    sc.seed.to_string(),
+                ]
+            }),
+        )?;
+    }
+    if !record.iteration_trace.is_empty() {
+        write_csv(
+            &dir.join("iterations.csv"),
+            &["iteration", "sample", "node", "x", "y", "d", "seed"],
+            record.iteration_trace.iter().map(|(it, k, i, t)| {
+                vec![
+                    it.to_string(),
+                    k.to_string(),
+                    i.to_string(),
+                    num(t[0]),
+                    num(t[1]),
+                    num(t[2]),
+                    sc.seed.to_string(),
+                ]
+            }),
+        )?;
+    }
+    Ok(())
 }
 
 /// Write `track.csv`: the distributed track's columns, then per baseline

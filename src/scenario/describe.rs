@@ -117,168 +117,19 @@ impl Scenario {
                 g.transmitters.len()
             ),
         );
-        let lens: Vec<(usize, usize, f64)> = self
-            .graph
-            .edges()
-            .iter()
-            .map(|&(a, b)| {
-                let (p, q) = (g.receivers[a], g.receivers[b]);
-                (a, b, ((p.x - q.x).powi(2) + (p.y - q.y).powi(2)).sqrt())
-            })
-            .collect();
-        let mut sorted: Vec<f64> = lens.iter().map(|l| l.2).collect();
-        sorted.sort_by(f64::total_cmp);
-        let degree = (0..self.graph.len()).map(|v| self.graph.degree(v));
-        let (dmin, dmax) = degree.fold((usize::MAX, 0), |(a, b), d| (a.min(d), b.max(d)));
-        put(
-            "links",
-            if sorted.is_empty() {
-                "none".into()
-            } else {
-                format!(
-                    "{} links, {} to {} long (median {}); node degree {dmin} to {dmax}{}",
-                    lens.len(),
-                    metres(sorted[0]),
-                    metres(sorted[sorted.len() - 1]),
-                    metres(sorted[sorted.len() / 2]),
-                    if lens.len() <= 12 {
-                        format!(
-                            ": {}",
-                            lens.iter()
-                                .map(|(a, b, l)| format!("{a}-{b} {}", metres(*l)))
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        )
-                    } else {
-                        String::new()
-                    }
-                )
-            },
-        );
-        put(
-            "samples",
-            match &self.source {
-                DataSource::Synthetic { motion } => {
-                    format!(
-                        "{} samples of a target moving as {}",
-                        self.samples,
-                        in_words(motion)
-                    )
-                }
-                DataSource::Trace { path, truth, .. } => format!(
-                    "{} samples read from the trace {}{}",
-                    self.samples,
-                    path.display(),
-                    if truth.is_some() {
-                        " (with its true track)"
-                    } else {
-                        " (no true track)"
-                    }
-                ),
-            },
-        );
-        let m = &self.measurements;
-        let mut what = Vec::new();
-        if m.bistatic {
-            what.push(format!(
-                "{} bistatic ranges",
-                g.receivers.len() * g.transmitters.len()
-            ));
-        }
-        if m.doa {
-            what.push(format!(
-                "{} directions of arrival (weight omega {})",
-                g.receivers.len(),
-                m.omega
-            ));
-        }
-        if m.range {
-            what.push(format!("{} one-way ranges", g.receivers.len()));
-        }
-        put("measurements", format!("per sample: {}", what.join(", ")));
-        put(
-            "noise",
-            format!(
-                "ranges: {}; directions: {}{}",
-                m.range_noise
-                    .as_ref()
-                    .map_or("none".into(), |n| in_words_with(n, " m")),
-                m.doa_noise
-                    .as_ref()
-                    .map_or("none".into(), |n| in_words_with(n, " rad")),
-                if m.nlos_links == Default::default() {
-                    String::new()
-                } else {
-                    format!("; NLOS links: {}", in_words(&m.nlos_links))
-                }
-            ),
-        );
-        let a = &self.algorithm;
-        put(
-            "mode",
-            format!(
-                "{} Douglas-Rachford gossip{}, gamma {:e}, {} iterations per sample, burn-in {} samples",
-                match a.mode {
-                    Mode::Sync => "synchronous",
-                    Mode::Async => "asynchronous randomized",
-                },
-                a.clock
-                    .map_or(String::new(), |c| format!(" on the {} clock", in_words(&c))),
-                a.gamma,
-                a.iterations_per_sample,
-                a.burn_in
-            ),
-        );
-        put(
-            "solver",
-            format!(
-                "{}{}, prox scaling {}, start {}, row weights {}",
-                a.local_solver.as_str(),
-                if a.local_solver == LocalSolver::GtrsL0 {
-                    format!(" (kappa {})", a.kappa)
-                } else {
-                    String::new()
-                },
-                in_words(&a.prox_scaling),
-                in_words(&a.init),
-                in_words(&a.row_weights)
-            ),
-        );
-        put(
-            "baselines",
-            if self.baselines.is_empty() {
-                "none (theta_bar and the centralised ML only)".into()
-            } else {
-                self.baselines
-                    .iter()
-                    .map(|b| {
-                        if b.name() == b.kind() {
-                            b.name()
-                        } else {
-                            format!("{} ({})", b.name(), b.kind())
-                        }
-                    })
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            },
-        );
+        put("links", self.links_in_words());
+        put("samples", self.samples_in_words());
+        put("measurements", self.measurements_in_words());
+        put("noise", self.noise_in_words());
+        put("mode", self.mode_in_words());
+        put("solver", self.solver_in_words());
+        put("baselines", self.baselines_in_words());
         put(
             "bounds",
             self.bounds.as_ref().map_or("none".into(), in_words),
         );
         put("channel", in_words(&self.channel));
-        put(
-            "faults",
-            if f.faults.is_empty() && self.nemesis.is_none() {
-                "none".into()
-            } else {
-                let mut v: Vec<String> = f.faults.iter().map(in_words).collect();
-                if let Some(n) = &self.nemesis {
-                    v.push(format!("nemesis: {}", in_words(n)));
-                }
-                v.join("; ")
-            },
-        );
+        put("faults", self.faults_in_words());
         put(
             "realtime",
             self.realtime
@@ -305,6 +156,176 @@ impl Scenario {
             },
         );
         out
+    }
+
+    /// The gossip graph's links: how many, how long, the node degrees (and
+    /// each link when there are at most twelve).
+    fn links_in_words(&self) -> String {
+        let g = &self.geometry;
+        let lens: Vec<(usize, usize, f64)> = self
+            .graph
+            .edges()
+            .iter()
+            .map(|&(a, b)| {
+                let (p, q) = (g.receivers[a], g.receivers[b]);
+                (a, b, ((p.x - q.x).powi(2) + (p.y - q.y).powi(2)).sqrt())
+            })
+            .collect();
+        let mut sorted: Vec<f64> = lens.iter().map(|l| l.2).collect();
+        sorted.sort_by(f64::total_cmp);
+        let degree = (0..self.graph.len()).map(|v| self.graph.degree(v));
+        let (dmin, dmax) = degree.fold((usize::MAX, 0), |(a, b), d| (a.min(d), b.max(d)));
+        if sorted.is_empty() {
+            return "none".into();
+        }
+        format!(
+            "{} links, {} to {} long (median {}); node degree {dmin} to {dmax}{}",
+            lens.len(),
+            metres(sorted[0]),
+            metres(sorted[sorted.len() - 1]),
+            metres(sorted[sorted.len() / 2]),
+            if lens.len() <= 12 {
+                format!(
+                    ": {}",
+                    lens.iter()
+                        .map(|(a, b, l)| format!("{a}-{b} {}", metres(*l)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            } else {
+                String::new()
+            }
+        )
+    }
+
+    /// Where the samples come from: the synthetic target's motion or a trace.
+    fn samples_in_words(&self) -> String {
+        match &self.source {
+            DataSource::Synthetic { motion } => {
+                format!(
+                    "{} samples of a target moving as {}",
+                    self.samples,
+                    in_words(motion)
+                )
+            }
+            DataSource::Trace { path, truth, .. } => format!(
+                "{} samples read from the trace {}{}",
+                self.samples,
+                path.display(),
+                if truth.is_some() {
+                    " (with its true track)"
+                } else {
+                    " (no true track)"
+                }
+            ),
+        }
+    }
+
+    /// What each sample measures.
+    fn measurements_in_words(&self) -> String {
+        let (m, g) = (&self.measurements, &self.geometry);
+        let mut what = Vec::new();
+        if m.bistatic {
+            what.push(format!(
+                "{} bistatic ranges",
+                g.receivers.len() * g.transmitters.len()
+            ));
+        }
+        if m.doa {
+            what.push(format!(
+                "{} directions of arrival (weight omega {})",
+                g.receivers.len(),
+                m.omega
+            ));
+        }
+        if m.range {
+            what.push(format!("{} one-way ranges", g.receivers.len()));
+        }
+        format!("per sample: {}", what.join(", "))
+    }
+
+    /// The noise of the ranges and directions, and the NLOS links.
+    fn noise_in_words(&self) -> String {
+        let m = &self.measurements;
+        format!(
+            "ranges: {}; directions: {}{}",
+            m.range_noise
+                .as_ref()
+                .map_or("none".into(), |n| in_words_with(n, " m")),
+            m.doa_noise
+                .as_ref()
+                .map_or("none".into(), |n| in_words_with(n, " rad")),
+            if m.nlos_links == Default::default() {
+                String::new()
+            } else {
+                format!("; NLOS links: {}", in_words(&m.nlos_links))
+            }
+        )
+    }
+
+    /// The gossip mode, its clock, step and iterations.
+    fn mode_in_words(&self) -> String {
+        let a = &self.algorithm;
+        format!(
+            "{} Douglas-Rachford gossip{}, gamma {:e}, {} iterations per sample, burn-in {} samples",
+            match a.mode {
+                Mode::Sync => "synchronous",
+                Mode::Async => "asynchronous randomized",
+            },
+            a.clock
+                .map_or(String::new(), |c| format!(" on the {} clock", in_words(&c))),
+            a.gamma,
+            a.iterations_per_sample,
+            a.burn_in
+        )
+    }
+
+    /// The local solver and its options.
+    fn solver_in_words(&self) -> String {
+        let a = &self.algorithm;
+        format!(
+            "{}{}, prox scaling {}, start {}, row weights {}",
+            a.local_solver.as_str(),
+            if a.local_solver == LocalSolver::GtrsL0 {
+                format!(" (kappa {})", a.kappa)
+            } else {
+                String::new()
+            },
+            in_words(&a.prox_scaling),
+            in_words(&a.init),
+            in_words(&a.row_weights)
+        )
+    }
+
+    /// The baselines by name (and kind, where the name differs).
+    fn baselines_in_words(&self) -> String {
+        if self.baselines.is_empty() {
+            return "none (theta_bar and the centralised ML only)".into();
+        }
+        self.baselines
+            .iter()
+            .map(|b| {
+                if b.name() == b.kind() {
+                    b.name()
+                } else {
+                    format!("{} ({})", b.name(), b.kind())
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The fault schedule and the nemesis.
+    fn faults_in_words(&self) -> String {
+        let f = &self.file;
+        if f.faults.is_empty() && self.nemesis.is_none() {
+            return "none".into();
+        }
+        let mut v: Vec<String> = f.faults.iter().map(in_words).collect();
+        if let Some(n) = &self.nemesis {
+            v.push(format!("nemesis: {}", in_words(n)));
+        }
+        v.join("; ")
     }
 }
 

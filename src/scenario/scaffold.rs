@@ -340,87 +340,9 @@ impl ScaffoldSpec {
             }
             .points(0),
         };
-        let r = |x: f64| (x * 10.0).round() / 10.0 + 0.0;
         let samples = 100;
-        let (motion, motion_note) = match self.motion {
-            MotionSpec::Spiral => (
-                format!(
-                    "{{ model = \"spiral\", center = [{:?}, {:?}], r0 = 0.0, dr = {:?}, t0 = 0.0, dt = 0.25 }}",
-                    r(c[0]),
-                    r(c[1]),
-                    r(size / 4.0 / samples as f64 * 10.0) / 10.0
-                ),
-                "a spiral out from the centre of the receivers",
-            ),
-            MotionSpec::Line => {
-                let (a, b) = (
-                    [lo[0] + size / 8.0, c[1]],
-                    [hi[0] - size / 8.0, c[1] + size / 8.0],
-                );
-                (
-                    format!(
-                        "{{ model = \"constant_velocity\", start = [{:?}, {:?}], velocity = [{:?}, {:?}] }}",
-                        r(a[0]),
-                        r(a[1]),
-                        r((b[0] - a[0]) / samples as f64 * 100.0) / 100.0,
-                        r((b[1] - a[1]) / samples as f64 * 100.0) / 100.0
-                    ),
-                    "a straight line across the scene (metres per sample)",
-                )
-            }
-            MotionSpec::Waypoints => {
-                let q = size / 4.0;
-                let w = [
-                    [c[0] - q, c[1] - q],
-                    [c[0] + q, c[1] - q],
-                    [c[0] + q, c[1] + q],
-                    [c[0] - q, c[1] + q],
-                    [c[0] - q, c[1] - q],
-                ];
-                (
-                    format!(
-                        "{{ model = \"waypoints\", points = {} }}",
-                        fmt_pts(&w.map(|p| [r(p[0]), r(p[1])])).replace('\n', " ")
-                    ),
-                    "a closed loop of waypoints at constant speed",
-                )
-            }
-            MotionSpec::Static => (
-                format!(
-                    "{{ model = \"constant_velocity\", start = [{:?}, {:?}], velocity = [0.0, 0.0] }}",
-                    r(c[0] + size / 10.0),
-                    r(c[1] + size / 10.0)
-                ),
-                "a target that does not move",
-            ),
-        };
-        let network = match &self.network {
-            NetworkSpec::Ring => "generator = { kind = \"ring\" }".to_string(),
-            NetworkSpec::Grid => match self.receivers {
-                Layout::Grid { rows, cols, .. } => {
-                    format!("generator = {{ kind = \"grid\", rows = {rows}, cols = {cols} }}")
-                }
-                _ => {
-                    return Err(cli_error(
-                        "--network",
-                        "grid needs receivers laid out as a grid (--receivers grid:RxC:SPACING)",
-                    ));
-                }
-            },
-            NetworkSpec::Rgg(radius) => {
-                format!("generator = {{ kind = \"random_geometric\", radius = {radius:?} }}")
-            }
-            NetworkSpec::Edges => {
-                let e: Vec<String> = nearest_edges(&rx)
-                    .iter()
-                    .map(|e| format!("[{}, {}]", e[0], e[1]))
-                    .collect();
-                format!(
-                    "# Each receiver joined to its two nearest neighbours: edit freely.\nedges = [{}]",
-                    e.join(", ")
-                )
-            }
-        };
+        let (motion, motion_note) = self.motion_toml(lo, hi, samples);
+        let network = self.network_toml(&rx)?;
         // The prox step scales as 1/length^2 (the local cost is quadratic in
         // lengths): 2e-6 at a 3 km scene tracks well from 6 to 20 receivers
         // (measured: within 2x of ML on rings of 6, 10 and 20 and a 4 x 5
@@ -498,6 +420,98 @@ wake_rate_hz = 2000.0
             tx = fmt_pts(&tx),
             rx = fmt_pts(&rx),
         ))
+    }
+
+    /// The target's motion as a TOML inline table in the scene `lo`..`hi`
+    /// (the receivers' bounding box), over `samples` samples, and a note on
+    /// it.
+    fn motion_toml(&self, lo: [f64; 2], hi: [f64; 2], samples: usize) -> (String, &'static str) {
+        let c = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        let size = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
+        let r = |x: f64| (x * 10.0).round() / 10.0 + 0.0;
+        match self.motion {
+            MotionSpec::Spiral => (
+                format!(
+                    "{{ model = \"spiral\", center = [{:?}, {:?}], r0 = 0.0, dr = {:?}, t0 = 0.0, dt = 0.25 }}",
+                    r(c[0]),
+                    r(c[1]),
+                    r(size / 4.0 / samples as f64 * 10.0) / 10.0
+                ),
+                "a spiral out from the centre of the receivers",
+            ),
+            MotionSpec::Line => {
+                let (a, b) = (
+                    [lo[0] + size / 8.0, c[1]],
+                    [hi[0] - size / 8.0, c[1] + size / 8.0],
+                );
+                (
+                    format!(
+                        "{{ model = \"constant_velocity\", start = [{:?}, {:?}], velocity = [{:?}, {:?}] }}",
+                        r(a[0]),
+                        r(a[1]),
+                        r((b[0] - a[0]) / samples as f64 * 100.0) / 100.0,
+                        r((b[1] - a[1]) / samples as f64 * 100.0) / 100.0
+                    ),
+                    "a straight line across the scene (metres per sample)",
+                )
+            }
+            MotionSpec::Waypoints => {
+                let q = size / 4.0;
+                let w = [
+                    [c[0] - q, c[1] - q],
+                    [c[0] + q, c[1] - q],
+                    [c[0] + q, c[1] + q],
+                    [c[0] - q, c[1] + q],
+                    [c[0] - q, c[1] - q],
+                ];
+                (
+                    format!(
+                        "{{ model = \"waypoints\", points = {} }}",
+                        fmt_pts(&w.map(|p| [r(p[0]), r(p[1])])).replace('\n', " ")
+                    ),
+                    "a closed loop of waypoints at constant speed",
+                )
+            }
+            MotionSpec::Static => (
+                format!(
+                    "{{ model = \"constant_velocity\", start = [{:?}, {:?}], velocity = [0.0, 0.0] }}",
+                    r(c[0] + size / 10.0),
+                    r(c[1] + size / 10.0)
+                ),
+                "a target that does not move",
+            ),
+        }
+    }
+
+    /// The `[network]` table's body for receivers `rx`.
+    fn network_toml(&self, rx: &[[f64; 2]]) -> Result<String, InputError> {
+        Ok(match &self.network {
+            NetworkSpec::Ring => "generator = { kind = \"ring\" }".to_string(),
+            NetworkSpec::Grid => match self.receivers {
+                Layout::Grid { rows, cols, .. } => {
+                    format!("generator = {{ kind = \"grid\", rows = {rows}, cols = {cols} }}")
+                }
+                _ => {
+                    return Err(cli_error(
+                        "--network",
+                        "grid needs receivers laid out as a grid (--receivers grid:RxC:SPACING)",
+                    ));
+                }
+            },
+            NetworkSpec::Rgg(radius) => {
+                format!("generator = {{ kind = \"random_geometric\", radius = {radius:?} }}")
+            }
+            NetworkSpec::Edges => {
+                let e: Vec<String> = nearest_edges(rx)
+                    .iter()
+                    .map(|e| format!("[{}, {}]", e[0], e[1]))
+                    .collect();
+                format!(
+                    "# Each receiver joined to its two nearest neighbours: edit freely.\nedges = [{}]",
+                    e.join(", ")
+                )
+            }
+        })
     }
 }
 
