@@ -12,7 +12,7 @@ use std::path::Path;
 fn spiral(mode: Mode, samples: usize) -> Scenario {
     Scenario::load(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/scenarios/mourya2017-spiral.toml"
+        "/../scenarios/mourya2017-spiral.toml"
     )))
     .expect("scenario")
     .with_mode(mode)
