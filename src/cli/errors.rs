@@ -11,7 +11,7 @@ pub enum CliError {
     #[error(transparent)]
     Input(#[from] crate::model::error::InputError),
     /// The run failed (exit 1); partial results were written to `dir`.
-    #[error("{error}\npartial results were written to {}", dir.display())]
+    #[error("{}\npartial results were written to {}", error.in_full(), dir.display())]
     RunFailed {
         /// The reason.
         error: crate::protocol::EngineError,

@@ -14,24 +14,7 @@ use crate::scenario::Scenario;
 use std::path::PathBuf;
 
 pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
-    let sets = args
-        .set
-        .iter()
-        .map(|s| Override::parse(s))
-        .collect::<Result<Vec<_>, _>>()?;
-    let axes = args
-        .grid
-        .iter()
-        .map(|g| Axis::parse(g))
-        .collect::<Result<Vec<_>, _>>()?;
-    let seeds = match &args.seeds {
-        Some(s) => parse_seeds(s)?,
-        None => {
-            let base = Scenario::load_all_with(&args.scenario, &sets, &args.variant)?;
-            vec![base.first().map_or(0, |s| s.seed)]
-        }
-    };
-    let plan = SweepPlan::new(&args.scenario, &sets, axes, seeds, &args.variant)?;
+    let plan = sweep_plan(args)?;
     let Some((_, first)) = plan.points.first() else {
         return Err(crate::model::error::InputError::at(
             std::path::Path::new("<command line>"),
@@ -40,15 +23,6 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
         )
         .into());
     };
-    if plan
-        .points
-        .iter()
-        .any(|(_, sc)| sc.file.monte_carlo.is_some())
-    {
-        eprintln!(
-            "note: [monte_carlo] is ignored: a sweep runs each grid point once per --seeds seed"
-        );
-    }
     let engine: EngineKind = args.engine;
     let out = args.out.clone().unwrap_or_else(|| {
         let keys: Vec<&str> = plan
@@ -102,21 +76,72 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
     pipeline::sweep::write_tables(&plan, &outcome, &out)?;
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let report = crate::report::write_sweep_report(&plan, &outcome, &out, &args.metric, &command);
-    // The summary.
-    let key = metric_key(&outcome.runs, &args.metric);
+    print_summary(&plan, &outcome.runs, &args.metric);
+    println!("  results in {}", out.display());
+    match &report {
+        Ok(p) => println!("  report     {}", p.display()),
+        Err(e) => eprintln!("warning: the sweep's report was not written: {e}"),
+    }
+    if outcome.interrupted {
+        return Err(CliError::SweepInterrupted {
+            done: outcome.runs.len(),
+            requested: outcome.requested,
+            dir: out,
+        });
+    }
+    report.map(drop).map_err(CliError::from)
+}
+
+/// The sweep's plan from its flags: every `--set`, `--grid` axis and
+/// seed checked before any work; notes what it ignores.
+fn sweep_plan(args: &SweepArgs) -> Result<SweepPlan, CliError> {
+    let sets = args
+        .set
+        .iter()
+        .map(|s| Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let axes = args
+        .grid
+        .iter()
+        .map(|g| Axis::parse(g))
+        .collect::<Result<Vec<_>, _>>()?;
+    let seeds = match &args.seeds {
+        Some(s) => parse_seeds(s)?,
+        None => {
+            let base = Scenario::load_all_with(&args.scenario, &sets, &args.variant)?;
+            vec![base.first().map_or(0, |s| s.seed)]
+        }
+    };
+    let plan = SweepPlan::new(&args.scenario, &sets, axes, seeds, &args.variant)?;
+    if plan
+        .points
+        .iter()
+        .any(|(_, sc)| sc.file.monte_carlo.is_some())
+    {
+        eprintln!(
+            "note: [monte_carlo] is ignored: a sweep runs each grid point once per --seeds seed"
+        );
+    }
+    Ok(plan)
+}
+
+/// The terminal summary: `metric`'s mean ± std over the seeds at every grid
+/// point (a warning naming the metrics there are, if no run has it).
+fn print_summary(plan: &SweepPlan, runs: &[crate::pipeline::sweep::SweepRun], metric: &str) {
+    let key = metric_key(runs, metric);
     match &key {
         Some(k) => println!("{k} (mean ± std over the seeds):"),
         None => {
             let names: std::collections::BTreeSet<&String> =
-                outcome.runs.iter().flat_map(|r| r.metrics.keys()).collect();
+                runs.iter().flat_map(|r| r.metrics.keys()).collect();
             eprintln!(
                 "warning: no run has a metric {:?}; the runs have: {}",
-                args.metric,
+                metric,
                 names.into_iter().cloned().collect::<Vec<_>>().join(", ")
             );
         }
     }
-    for (p, ok, failed, stats) in summarise(&plan, &outcome.runs) {
+    for (p, ok, failed, stats) in summarise(plan, runs) {
         let cell = key.as_ref().and_then(|k| stats.get(k).copied()).map_or(
             "–".to_string(),
             |(m, s, _)| match (m, s) {
@@ -135,19 +160,6 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
             }
         );
     }
-    println!("  results in {}", out.display());
-    match &report {
-        Ok(p) => println!("  report     {}", p.display()),
-        Err(e) => eprintln!("warning: the sweep's report was not written: {e}"),
-    }
-    if outcome.interrupted {
-        return Err(CliError::SweepInterrupted {
-            done: outcome.runs.len(),
-            requested: outcome.requested,
-            dir: out,
-        });
-    }
-    report.map(drop).map_err(CliError::from)
 }
 
 /// `--plots`: every completed run's plots, `jobs` runs at a time. A run whose

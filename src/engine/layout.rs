@@ -9,8 +9,8 @@ use crate::protocol::codec;
 use crate::protocol::{Clock, RunPlan};
 
 /// The nodes and transport topology of a run, for every engine that frames
-/// the protocol over a [`Transport`] (processes, threads).
-pub(crate) struct NetworkLayout {
+/// the protocol over a [`Transport`](crate::transport::Transport) (processes, threads).
+pub struct NetworkLayout {
     /// Node configurations, `configs[i].id == i`.
     pub configs: Vec<NodeConfig>,
     /// Who may send to whom: the gossip graph, plus every node to the sync root.
@@ -22,7 +22,7 @@ pub(crate) struct NetworkLayout {
 }
 
 /// The layout of `plan`'s nodes over a transport.
-pub(crate) fn network_layout(plan: &RunPlan) -> NetworkLayout {
+pub fn network_layout(plan: &RunPlan) -> NetworkLayout {
     let configs = plan.nodes.clone();
     let mut neighbours: Vec<Vec<u32>> = configs.iter().map(|c| c.neighbours.clone()).collect();
     let m = plan.transmitters;

@@ -326,7 +326,7 @@ pub enum BenchError {
     #[error(transparent)]
     Input(#[from] crate::model::error::InputError),
     /// A benchmark run failed; what it produced is in `dir`.
-    #[error("{error}\npartial results were written to {}", dir.display())]
+    #[error("{}\npartial results were written to {}", error.in_full(), dir.display())]
     RunFailed {
         /// The reason.
         error: crate::protocol::EngineError,
@@ -377,7 +377,7 @@ pub fn run_bench(
             .map(|k| *k as f64 / 1024.0)
             .collect();
         if let Some(e) = res {
-            eprintln!("scale run of {n} nodes failed: {e}");
+            eprintln!("scale run of {n} nodes failed: {}", e.in_full());
         }
         scale.push(Scale {
             nodes: n,
@@ -391,7 +391,7 @@ pub fn run_bench(
             },
             coordinator_rss_mib,
             completed: res.is_none(),
-            error: res.as_ref().map(|e| e.to_string()),
+            error: res.as_ref().map(crate::protocol::EngineError::in_full),
         });
     }
     let sc = spiral(scenarios)?;
@@ -411,7 +411,7 @@ pub fn run_bench(
             )
         }
         Some(e) => {
-            eprintln!("realtime run failed: {e}");
+            eprintln!("realtime run failed: {}", e.in_full());
             (None, None)
         }
     };

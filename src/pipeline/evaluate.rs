@@ -59,7 +59,7 @@ fn distributed_run(
     let est = (0..samples)
         .map(|k| run.record.thetas.get(k).map(|t| metrics::theta_bar(t)))
         .collect();
-    (est, run.error.map(|e| e.to_string()))
+    (est, run.error.as_ref().map(EngineError::in_full))
 }
 
 /// Every baseline of `sc` on the first `done` samples of `real` (`ml`: the
@@ -176,7 +176,7 @@ pub fn evaluate(
         samples_completed: done,
         samples: sc.samples,
         status,
-        error: error.map(|e| e.to_string()),
+        error: error.map(EngineError::in_full),
         note: note(real, done),
         startup_seconds: procs.and_then(|p| p.startup_seconds),
         realtime: realtime_stats(record, opts),

@@ -238,7 +238,10 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
             sample: run.record.thetas.len() as u32,
         };
         metrics.status = RunStatus::Interrupted;
-        metrics.error = Some(format!("{e} (while scoring: every sample had been run)"));
+        metrics.error = Some(format!(
+            "{} (while scoring: every sample had been run)",
+            e.in_full()
+        ));
         run.error = Some(e);
     }
     if run.error.is_none() && opts.check_expect {

@@ -455,7 +455,10 @@ fn write_run_json(
         poll_us: Some(opts.poll_us),
         command_line: opts.command_line.clone(),
         status: Some(status),
-        error: run.error.as_ref().map(|e| e.to_string()),
+        error: run
+            .error
+            .as_ref()
+            .map(crate::protocol::EngineError::in_full),
         run_id: run.processes.as_ref().map(|p| p.run_id.clone()),
         stall_timeout_s: Some(opts.stall_timeout.as_secs_f64()),
         git_commit: super::provenance::GIT_COMMIT.map(str::to_owned),

@@ -260,6 +260,7 @@ fn disc_polygon(d: &Disc, x: (f64, f64), y: (f64, f64)) -> Vec<(f64, f64)> {
     poly
 }
 
+/// Everything inside a panel's axes, bottom layer first.
 fn contents<DB, Y>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
     p: &Panel,
@@ -269,8 +270,25 @@ where
     DB: DrawingBackend,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
+    draw_shading(chart, p)?;
+    draw_mesh(chart, p)?;
+    draw_areas(chart, p)?;
+    draw_vlines(chart, p)?;
+    draw_lines(chart, p, joins)?;
+    draw_texts(chart, p)
+}
+
+/// The shaded spans with their captions, and the shading left of a
+/// vertical line that asks for it.
+fn draw_shading<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
     let (y0, y1) = p.y_range;
-    // Shaded regions first.
     for s in &p.spans {
         let (a, b) = (s.x0.max(p.x_range.0), s.x1.min(p.x_range.1));
         if b > a {
@@ -298,6 +316,18 @@ where
             )))?;
         }
     }
+    Ok(())
+}
+
+/// The grid, the axes and their labels.
+fn draw_mesh<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
     let fmt = |v: &f64| tick(*v);
     let fmt_x = |v: &f64| {
         if p.log10_x {
@@ -320,6 +350,18 @@ where
         .x_label_formatter(&fmt_x)
         .y_label_formatter(&fmt)
         .draw()?;
+    Ok(())
+}
+
+/// The bands and the discs.
+fn draw_areas<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
     for b in &p.bands {
         for seg in &b.segments {
             let mut poly: Vec<(f64, f64)> = seg.iter().map(|q| (q.0, q.2)).collect();
@@ -346,6 +388,19 @@ where
             rgb(d.color).mix(0.75).stroke_width(1),
         )))?;
     }
+    Ok(())
+}
+
+/// The dashed vertical lines with their captions.
+fn draw_vlines<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let (y0, y1) = p.y_range;
     for v in &p.vlines {
         chart.draw_series(DashedLineSeries::new(
             vec![(v.x, y0), (v.x, y1)],
@@ -362,6 +417,19 @@ where
                 ),
         ))?;
     }
+    Ok(())
+}
+
+/// Every series: its lines clipped to the plot area, its markers.
+fn draw_lines<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+    joins: Joins,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
     for s in &p.series {
         let st = shape(&s.style);
         for seg in &s.segments {
@@ -399,6 +467,18 @@ where
             }
         }
     }
+    Ok(())
+}
+
+/// The labels, the caption and the note.
+fn draw_texts<DB, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, Y>>,
+    p: &Panel,
+) -> DResult<DB>
+where
+    DB: DrawingBackend,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
     for l in &p.labels {
         let font = (FONT, l.size).into_font().color(&RGBColor(30, 30, 30));
         let lh = (l.size as f64 * 1.25).round() as i32;

@@ -362,32 +362,9 @@ impl<'a> Coordinator<'a> {
         let n = self.plan.n();
         let samples = self.plan.samples;
         let ips = self.plan.iterations_per_sample;
-        let mut advanced = false;
         for e in events {
-            match e {
-                Event::Report(_) => {
-                    // Progress: a liveness check in progress is moot.
-                    self.last_report = now;
-                    self.check = None;
-                }
-                Event::Timer(Timer::Watchdog) => {
-                    self.watchdog(now, out);
-                    continue;
-                }
-                Event::Timer(Timer::PingDeadline(seq)) => {
-                    self.ping_deadline(now, seq, out)?;
-                    continue;
-                }
-                Event::Pong { node, seq } => {
-                    if let Some(c) = &mut self.check
-                        && c.seq == seq
-                        && let Some(a) = c.answered.get_mut(node as usize)
-                    {
-                        *a = true;
-                    }
-                    continue;
-                }
-                _ => {}
+            if self.liveness(now, &e, out)? {
+                continue;
             }
             let Phase::Logical {
                 in_flight,
@@ -470,6 +447,55 @@ impl<'a> Coordinator<'a> {
                 Event::Report(_) | Event::Timer(_) | Event::Pong { .. } | Event::NodeUp { .. } => {}
             }
         }
+        if self.advance_logical(out) {
+            out.push(Action::Flush);
+        }
+        Ok(self.sample() as usize >= samples)
+    }
+
+    /// Logical clocks: the liveness side of event `e` (a report is
+    /// progress, which makes a check in progress moot; the watchdog, ping
+    /// deadlines and pongs). `Ok(true)`: the event is fully handled.
+    fn liveness(
+        &mut self,
+        now: Duration,
+        e: &Event,
+        out: &mut Vec<Action>,
+    ) -> Result<bool, EngineError> {
+        match *e {
+            Event::Report(_) => {
+                self.last_report = now;
+                self.check = None;
+                Ok(false)
+            }
+            Event::Timer(Timer::Watchdog) => {
+                self.watchdog(now, out);
+                Ok(true)
+            }
+            Event::Timer(Timer::PingDeadline(seq)) => {
+                self.ping_deadline(now, seq, out)?;
+                Ok(true)
+            }
+            Event::Pong { node, seq } => {
+                if let Some(c) = &mut self.check
+                    && c.seq == seq
+                    && let Some(a) = c.answered.get_mut(node as usize)
+                {
+                    *a = true;
+                }
+                Ok(true)
+            }
+            _ => Ok(false),
+        }
+    }
+
+    /// Logical clocks: record every sample now complete, oldest first, and
+    /// send the commands of the next sample for each; whether any was.
+    fn advance_logical(&mut self, out: &mut Vec<Action>) -> bool {
+        let n = self.plan.n();
+        let samples = self.plan.samples;
+        let ips = self.plan.iterations_per_sample;
+        let mut advanced = false;
         while let Some(thetas) = self.pop_complete() {
             self.rec
                 .thetas
@@ -491,10 +517,7 @@ impl<'a> Coordinator<'a> {
             }
             advanced = true;
         }
-        if advanced {
-            out.push(Action::Flush);
-        }
-        Ok(self.sample() as usize >= samples)
+        advanced
     }
 
     /// Logical clocks: the oldest sample in flight, taken out if every node
@@ -539,43 +562,10 @@ impl<'a> Coordinator<'a> {
                     out.push(boundary(0, period));
                 }
                 Event::Timer(Timer::SampleBoundary(s)) if s == k => {
-                    let asked: Vec<bool> = self.dead.iter().map(|d| !d).collect();
-                    for i in (0..n).filter(|&i| asked[i]) {
-                        out.push(send(i, Command::Snapshot { sample: k }));
-                    }
-                    out.push(Action::Flush);
-                    out.push(Action::SetTimer {
-                        at: now + self.plan.stall_timeout,
-                        timer: Timer::SnapshotDeadline(k),
-                    });
-                    if let Phase::Realtime { snapshot, got, .. } = &mut self.phase {
-                        *snapshot = Some(asked);
-                        got.fill(false);
-                    }
+                    self.ask_snapshots(now, k, out);
                 }
                 Event::Timer(Timer::SnapshotDeadline(s)) if s == k => {
-                    // A node that has not answered its snapshot within the
-                    // stall timeout is not responding (stopped?): it is
-                    // abandoned and left out like a dead node.
-                    let silent: Vec<u32> = match &self.phase {
-                        Phase::Realtime {
-                            snapshot: Some(asked),
-                            got,
-                            ..
-                        } => (0..n)
-                            .filter(|&i| asked[i] && !got[i] && !self.dead[i])
-                            .map(|i| i as u32)
-                            .collect(),
-                        _ => Vec::new(),
-                    };
-                    let how = format!(
-                        "not responding (stopped?) for {} s",
-                        self.plan.stall_timeout.as_secs_f64()
-                    );
-                    for node in silent {
-                        out.push(Action::Abandon { node });
-                        self.node_died(node, how.clone(), out)?;
-                    }
+                    self.snapshot_deadline(out)?;
                 }
                 Event::Report(Report::Snapshot {
                     node,
@@ -616,6 +606,60 @@ impl<'a> Coordinator<'a> {
                 Event::Report(_) | Event::Timer(_) | Event::Pong { .. } => {}
             }
         }
+        Ok(self.complete_snapshot(period, out))
+    }
+
+    /// Realtime: sample `k`'s boundary: every live node is asked for its
+    /// snapshot, with a deadline of one stall timeout.
+    fn ask_snapshots(&mut self, now: Duration, k: u32, out: &mut Vec<Action>) {
+        let n = self.plan.n();
+        let asked: Vec<bool> = self.dead.iter().map(|d| !d).collect();
+        for i in (0..n).filter(|&i| asked[i]) {
+            out.push(send(i, Command::Snapshot { sample: k }));
+        }
+        out.push(Action::Flush);
+        out.push(Action::SetTimer {
+            at: now + self.plan.stall_timeout,
+            timer: Timer::SnapshotDeadline(k),
+        });
+        if let Phase::Realtime { snapshot, got, .. } = &mut self.phase {
+            *snapshot = Some(asked);
+            got.fill(false);
+        }
+    }
+
+    /// Realtime: the snapshot deadline of the sample in progress. A node
+    /// that has not answered its snapshot within the stall timeout is not
+    /// responding (stopped?): it is abandoned and left out like a dead node.
+    fn snapshot_deadline(&mut self, out: &mut Vec<Action>) -> Result<(), EngineError> {
+        let n = self.plan.n();
+        let silent: Vec<u32> = match &self.phase {
+            Phase::Realtime {
+                snapshot: Some(asked),
+                got,
+                ..
+            } => (0..n)
+                .filter(|&i| asked[i] && !got[i] && !self.dead[i])
+                .map(|i| i as u32)
+                .collect(),
+            _ => Vec::new(),
+        };
+        let how = format!(
+            "not responding (stopped?) for {} s",
+            self.plan.stall_timeout.as_secs_f64()
+        );
+        for node in silent {
+            out.push(Action::Abandon { node });
+            self.node_died(node, how.clone(), out)?;
+        }
+        Ok(())
+    }
+
+    /// Realtime: once every live node's snapshot of the sample in progress
+    /// is in, record the sample and start the next (samples `period`
+    /// long); `true` when every sample is complete.
+    fn complete_snapshot(&mut self, period: Duration, out: &mut Vec<Action>) -> bool {
+        let n = self.plan.n();
         let Phase::Realtime {
             sample,
             snapshot,
@@ -624,13 +668,13 @@ impl<'a> Coordinator<'a> {
             updates_before,
         } = &mut self.phase
         else {
-            return Ok(false);
+            return false;
         };
         let complete = snapshot
             .as_ref()
             .is_some_and(|asked| (0..n).all(|i| !asked[i] || got[i] || self.dead[i]));
         if !complete {
-            return Ok(false);
+            return false;
         }
         let k = *sample;
         *snapshot = None;
@@ -656,12 +700,12 @@ impl<'a> Coordinator<'a> {
             iterations: self.rec.iterations,
         });
         if k + 1 >= self.plan.samples {
-            return Ok(true);
+            return true;
         }
         self.send_sample(k + 1, out);
         out.push(Action::Flush);
         out.push(boundary(k + 1, period));
-        Ok(false)
+        false
     }
 }
 

@@ -4,7 +4,39 @@
 //! machine's resources).
 
 use crate::protocol::config::Refused;
+use std::sync::Arc;
 use std::time::Duration;
+
+/// The error underneath an [`EngineError`] (an I/O or encoding error),
+/// kept as its `source()`: shared, so that the error stays `Clone`, and
+/// compared by its message.
+#[derive(Debug, Clone)]
+pub struct Cause(Arc<dyn std::error::Error + Send + Sync>);
+
+impl Cause {
+    /// `e` as a cause.
+    pub fn new(e: impl std::error::Error + Send + Sync + 'static) -> Cause {
+        Cause(Arc::new(e))
+    }
+}
+
+impl PartialEq for Cause {
+    fn eq(&self, other: &Cause) -> bool {
+        self.0.to_string() == other.0.to_string()
+    }
+}
+
+impl std::fmt::Display for Cause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for Cause {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
 
 /// Why a run stopped early.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -70,34 +102,43 @@ pub enum EngineError {
         path: std::path::PathBuf,
     },
     /// A node process could not be started.
-    #[error("cannot start {} for node {node}: {reason}", program.display())]
+    #[error("cannot start {} for node {node}", program.display())]
     Spawn {
         /// The node.
         node: u32,
         /// The program.
         program: std::path::PathBuf,
-        /// The operating system's reason.
-        reason: String,
+        /// The operating system's error.
+        #[source]
+        source: Cause,
     },
     /// A node's launch configuration could not be encoded.
-    #[error("cannot encode the launch configuration of node {node}: {reason}")]
+    #[error("cannot encode the launch configuration of node {node}")]
     Launch {
         /// The node.
         node: u32,
-        /// The encoder's reason.
-        reason: String,
+        /// The encoder's error.
+        #[source]
+        source: Cause,
     },
     /// The start gate of the node processes could not be set up
-    /// ([`crate::runtime::processes::wait_at_gate`]).
-    #[error("cannot set up the start gate of the node processes: {0}")]
-    StartGate(String),
+    /// ([`crate::runtime::processes::wait_at_gate`]) at step `step`.
+    #[error("cannot set up the start gate of the node processes: {step}")]
+    StartGate {
+        /// What was being done (`creating its pipe`, `passing it to node 3`).
+        step: String,
+        /// The operating system's error.
+        #[source]
+        source: Cause,
+    },
     /// The directory of the nodes' checkpoint files could not be created.
-    #[error("cannot create the checkpoint directory {}: {reason}", dir.display())]
+    #[error("cannot create the checkpoint directory {}", dir.display())]
     Checkpoints {
         /// The directory.
         dir: std::path::PathBuf,
         /// The I/O error.
-        reason: String,
+        #[source]
+        source: Cause,
     },
     /// The agents of some hosts of a placement did not connect in time.
     #[error(
@@ -142,11 +183,53 @@ pub enum EngineError {
     Stalled(String),
 }
 
+impl EngineError {
+    /// This error and its causes in one line, `: ` between them (the form of
+    /// `metrics.json`, `run.json` and the logs; the command line prints the
+    /// causes on lines of their own).
+    pub fn in_full(&self) -> String {
+        let mut out = self.to_string();
+        let mut src = std::error::Error::source(self);
+        while let Some(s) = src {
+            out.push_str(": ");
+            out.push_str(&s.to_string());
+            src = s.source();
+        }
+        out
+    }
+}
+
 /// `node 3 is` / `nodes 3, 4 are`.
 fn names(nodes: &[u32]) -> String {
     let list: Vec<String> = nodes.iter().map(u32::to_string).collect();
     match nodes.len() {
         1 => format!("node {} is", list[0]),
         _ => format!("nodes {} are", list.join(", ")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Cause, EngineError};
+    use std::error::Error;
+
+    #[test]
+    fn an_engine_error_keeps_its_cause_as_its_source_and_says_it_in_full() {
+        let e = EngineError::Spawn {
+            node: 3,
+            program: "/x/sonarnet-node".into(),
+            source: Cause::new(std::io::Error::from(std::io::ErrorKind::NotFound)),
+        };
+        assert_eq!(e.to_string(), "cannot start /x/sonarnet-node for node 3");
+        let cause = e.source().expect("a source");
+        assert_eq!(cause.to_string(), "entity not found");
+        assert_eq!(
+            e.in_full(),
+            "cannot start /x/sonarnet-node for node 3: entity not found"
+        );
+        // Clone and equality still hold (by the cause's message).
+        assert_eq!(e.clone(), e);
+        let without = EngineError::Interrupted { sample: 4 };
+        assert_eq!(without.in_full(), without.to_string());
     }
 }

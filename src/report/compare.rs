@@ -32,25 +32,9 @@ pub(super) fn better_is_lower(key: &str) -> Option<bool> {
     }
 }
 
-/// The comparison page of runs `a` and `b`.
-pub fn comparison_html(
-    a: &RunData,
-    b: &RunData,
-    overlays: &[(Figure, String)],
-    tracks: [&str; 2],
-) -> String {
-    let (la, lb) = ("A", "B");
-    let title = format!("sonarnet comparison: {} vs {}", a.title(), b.title());
-    let mut s = page_head(&title, overlays.len() + 2);
-    let _ = write!(
-        s,
-        "<h1>Comparison</h1>\n<p class=\"sub\"><b>A</b> = {} ({})<br><b>B</b> = {} ({})</p>\n",
-        esc(&a.title()),
-        esc(&a.dir.display().to_string()),
-        esc(&b.title()),
-        esc(&b.dir.display().to_string())
-    );
-    // Scenario side by side.
+/// The runs side by side (`<table id="runs">`), rows that differ
+/// highlighted.
+fn runs_table(s: &mut String, a: &RunData, b: &RunData) {
     s.push_str("<h2 id=\"scenario\">Runs</h2>\n<table id=\"runs\">\n<tr><th></th><th>A</th><th>B</th></tr>\n");
     let (sa, sb) = (scenario_summary(a), scenario_summary(b));
     let mut keys: Vec<String> = sa.iter().map(|r| r.0.clone()).collect();
@@ -85,7 +69,11 @@ pub fn comparison_html(
         status_html(a.info.run.status),
         status_html(b.info.run.status)
     );
-    // Metrics diff.
+}
+
+/// Every metric of both runs with their difference and ratio
+/// (`<table id="metrics-diff">`), coloured where lower is better.
+fn metrics_diff(s: &mut String, a: &RunData, b: &RunData) {
     s.push_str("<h2 id=\"metrics\">Metrics diff</h2>\n<table id=\"metrics-diff\">\n<tr><th>metric</th><th>A</th><th>B</th><th>B − A</th><th>B / A</th></tr>\n");
     let (fa, fb) = (
         comparison_metrics(a.metrics.as_ref()),
@@ -132,6 +120,28 @@ pub fn comparison_html(
         );
     }
     s.push_str("</table>\n<p class=\"note\">Green: B is lower (better) on an error or cost metric; red: B is higher.</p>\n");
+}
+
+/// The comparison page of runs `a` and `b`.
+pub fn comparison_html(
+    a: &RunData,
+    b: &RunData,
+    overlays: &[(Figure, String)],
+    tracks: [&str; 2],
+) -> String {
+    let (la, lb) = ("A", "B");
+    let title = format!("sonarnet comparison: {} vs {}", a.title(), b.title());
+    let mut s = page_head(&title, overlays.len() + 2);
+    let _ = write!(
+        s,
+        "<h1>Comparison</h1>\n<p class=\"sub\"><b>A</b> = {} ({})<br><b>B</b> = {} ({})</p>\n",
+        esc(&a.title()),
+        esc(&a.dir.display().to_string()),
+        esc(&b.title()),
+        esc(&b.dir.display().to_string())
+    );
+    runs_table(&mut s, a, b);
+    metrics_diff(&mut s, a, b);
     s.push_str("<h2 id=\"plots\">Plots</h2>\n");
     for (f, svg) in overlays {
         s.push_str(&figure_html(f, svg));

@@ -64,6 +64,67 @@ pub fn sweep_plot(plan: &SweepPlan, summary: &Summary, metric: &str) -> Figure {
     sweep_figure(&first.key, cats, metric, &curves)
 }
 
+/// The grid points' table: each point's values, how many runs completed
+/// and failed, `key`'s mean ± std, and links to its runs' directories
+/// (relative to `out`).
+fn points_table(
+    s: &mut String,
+    plan: &SweepPlan,
+    o: &SweepOutcome,
+    summary: &Summary,
+    (key, out): (&str, &Path),
+) {
+    s.push_str(
+        "<h2 id=\"points\">Grid points</h2>\n<table id=\"sweep-points\">\n<tr><th>point</th>",
+    );
+    for a in &plan.axes {
+        let _ = write!(s, "<th>{}</th>", esc(&a.key));
+    }
+    if plan.has_variants {
+        s.push_str("<th>variant</th>");
+    }
+    let _ = writeln!(
+        s,
+        "<th>n</th><th>failed</th><th>{} (mean ± std)</th><th>runs</th></tr>",
+        esc(key)
+    );
+    for (p, ok, failed, stats) in summary {
+        let (pt, _) = &plan.points[*p];
+        let _ = write!(s, "<tr><td class=\"num\">{p}</td>");
+        for (_, v) in &pt.values {
+            let _ = write!(s, "<td>{}</td>", esc(v));
+        }
+        if plan.has_variants {
+            let _ = write!(s, "<td>{}</td>", esc(pt.variant.as_deref().unwrap_or("")));
+        }
+        let cell = match stats.get(key).copied() {
+            Some((Some(m), Some(sd), _)) => format!("{} ± {}", fmt_num(m), fmt_num(sd)),
+            Some((Some(m), None, _)) => fmt_num(m),
+            _ => "–".into(),
+        };
+        let links: Vec<String> = o
+            .runs
+            .iter()
+            .filter(|r| r.point == *p)
+            .map(|r| {
+                let rel = r
+                    .dir
+                    .strip_prefix(out)
+                    .unwrap_or(&r.dir)
+                    .display()
+                    .to_string();
+                format!("<a href=\"{}/\">{}</a>", esc(&rel), r.seed)
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "<td class=\"num\">{ok}</td><td class=\"num\">{failed}</td><td class=\"num\">{}</td><td>seeds {}</td></tr>",
+            esc(&cell),
+            links.join(" ")
+        );
+    }
+}
+
 /// Write `sweep.svg` and `report.html` of a sweep into `out`; returns the
 /// report's path. `metric` is the plotted metric as the user named it.
 pub fn write_sweep_report(
@@ -128,55 +189,7 @@ pub fn write_sweep_report(
         esc(&key),
         esc(&plan.axes[0].key)
     );
-    s.push_str(
-        "<h2 id=\"points\">Grid points</h2>\n<table id=\"sweep-points\">\n<tr><th>point</th>",
-    );
-    for a in &plan.axes {
-        let _ = write!(s, "<th>{}</th>", esc(&a.key));
-    }
-    if plan.has_variants {
-        s.push_str("<th>variant</th>");
-    }
-    let _ = writeln!(
-        s,
-        "<th>n</th><th>failed</th><th>{} (mean ± std)</th><th>runs</th></tr>",
-        esc(&key)
-    );
-    for (p, ok, failed, stats) in &summary {
-        let (pt, _) = &plan.points[*p];
-        let _ = write!(s, "<tr><td class=\"num\">{p}</td>");
-        for (_, v) in &pt.values {
-            let _ = write!(s, "<td>{}</td>", esc(v));
-        }
-        if plan.has_variants {
-            let _ = write!(s, "<td>{}</td>", esc(pt.variant.as_deref().unwrap_or("")));
-        }
-        let cell = match stats.get(&key).copied() {
-            Some((Some(m), Some(sd), _)) => format!("{} ± {}", fmt_num(m), fmt_num(sd)),
-            Some((Some(m), None, _)) => fmt_num(m),
-            _ => "–".into(),
-        };
-        let links: Vec<String> = o
-            .runs
-            .iter()
-            .filter(|r| r.point == *p)
-            .map(|r| {
-                let rel = r
-                    .dir
-                    .strip_prefix(out)
-                    .unwrap_or(&r.dir)
-                    .display()
-                    .to_string();
-                format!("<a href=\"{}/\">{}</a>", esc(&rel), r.seed)
-            })
-            .collect();
-        let _ = writeln!(
-            s,
-            "<td class=\"num\">{ok}</td><td class=\"num\">{failed}</td><td class=\"num\">{}</td><td>seeds {}</td></tr>",
-            esc(&cell),
-            links.join(" ")
-        );
-    }
+    points_table(&mut s, plan, o, &summary, (&key, out));
     s.push_str("</table>\n<p class=\"note\">Every run: sweep.csv; mean, std and n per point and metric: sweep-summary.csv.</p>\n");
     let _ = writeln!(
         s,

@@ -204,7 +204,7 @@ pub fn run_agent(opts: &AgentOptions, term: &AtomicBool) -> Result<AgentEnd, Age
                         }
                         Err(e) => send(&AgentEvent::Failed {
                             node,
-                            reason: e.to_string(),
+                            reason: e.in_full(),
                         }),
                     }
                 }

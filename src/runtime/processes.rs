@@ -85,14 +85,8 @@ pub struct Processes {
     /// The run's faults, their wall-clock origin and emulated seconds per
     /// wall second ([`Processes::arm_faults`]).
     faults: Option<(FaultWorld, Instant, f64)>,
-    /// The node program, and what every node is told at start (node 0's
-    /// configuration), to start a node again (a `restart` fault).
-    program: NodeProgram,
-    launch0: NodeLaunch,
-    configs: Vec<NodeConfig>,
-    /// Where the nodes' checkpoint files go, and whether that directory is
-    /// a temporary one of this run (removed at the end).
-    checkpoints: Option<(std::path::PathBuf, bool)>,
+    /// What it takes to start a node (again, after a `restart` fault).
+    relaunch: Relaunch,
     /// Per node: restarted, its READY not yet seen.
     restarting: Vec<bool>,
     /// Events for the coordinator not yet handed over.
@@ -103,6 +97,18 @@ pub struct Processes {
     held: Vec<Vec<Frame>>,
 }
 
+/// What starting a node takes: the node program, what every node is told at
+/// start (node 0's launch), every node's configuration, and where the
+/// checkpoint files go.
+struct Relaunch {
+    program: NodeProgram,
+    launch0: NodeLaunch,
+    configs: Vec<NodeConfig>,
+    /// Where the nodes' checkpoint files go, and whether that directory is
+    /// a temporary one of this run (removed at the end).
+    checkpoints: Option<(std::path::PathBuf, bool)>,
+}
+
 impl Processes {
     /// Create the run's services (namespace `run_id`, from
     /// [`unique_run_id`](crate::transport::unique_run_id)) and spawn one node
@@ -111,13 +117,16 @@ impl Processes {
     /// the ideal channel's relay under link faults).
     pub fn spawn(
         run_id: String,
-        configs: Vec<NodeConfig>,
-        graph_neighbours: Vec<Vec<u32>>,
-        inbox_buffer: usize,
-        broadcast: bool,
+        layout: NetworkLayout,
         water: Option<Water>,
         opts: &ProcessOptions,
     ) -> Result<Processes, EngineError> {
+        let NetworkLayout {
+            configs,
+            neighbours: graph_neighbours,
+            inbox: inbox_buffer,
+            broadcast,
+        } = layout;
         let prog = &opts.node_program;
         if !prog.program.exists() {
             return Err(EngineError::NodeProgramMissing {
@@ -177,10 +186,12 @@ impl Processes {
             water,
             delivered: Vec::new(),
             faults: None,
-            program: prog.clone(),
-            launch0,
-            checkpoints: checkpoint_dir(&configs, &run_id, opts)?,
-            configs: configs.clone(),
+            relaunch: Relaunch {
+                program: prog.clone(),
+                launch0,
+                checkpoints: checkpoint_dir(&configs, &run_id, opts)?,
+                configs: configs.clone(),
+            },
             restarting: vec![false; n],
             events: Vec::new(),
             held: vec![Vec::new(); n],
@@ -497,7 +508,7 @@ impl Drop for Processes {
         if self.dead.iter().any(|&d| d) {
             let _ = crate::transport::cleanup_stale_resources();
         }
-        if let Some((dir, true)) = &self.checkpoints {
+        if let Some((dir, true)) = &self.relaunch.checkpoints {
             let _ = std::fs::remove_dir_all(dir);
         }
     }
@@ -617,12 +628,6 @@ pub fn run_processes(
         return failed(EngineError::Resources { key, reason });
     }
     super::preflight::raise_fd_limit(needs.coordinator_fds.max(needs.node_fds));
-    let NetworkLayout {
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-    } = layout;
     // The run id is chosen first, so that a run that fails to start still
     // records the namespace it used.
     let run_id = match (&opts.run_id, &opts.transport) {
@@ -649,15 +654,7 @@ pub fn run_processes(
         }
         None => None,
     };
-    let spawned = Processes::spawn(
-        run_id.clone(),
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-        water,
-        opts,
-    );
+    let spawned = Processes::spawn(run_id.clone(), layout, water, opts);
     let mut procs = match spawned {
         Ok(p) => p,
         Err(e) => {
@@ -709,7 +706,13 @@ mod tests {
             node_program: NodeProgram::binary("/nonexistent/sonarnet-node"),
             ..Default::default()
         };
-        let Err(e) = Processes::spawn("r".into(), vec![], vec![], 8, false, None, &opts) else {
+        let layout = NetworkLayout {
+            configs: vec![],
+            neighbours: vec![],
+            inbox: 8,
+            broadcast: false,
+        };
+        let Err(e) = Processes::spawn("r".into(), layout, None, &opts) else {
             panic!("spawned without a node program");
         };
         assert_eq!(

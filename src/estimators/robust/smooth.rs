@@ -214,27 +214,9 @@ pub(super) fn smooth_solve(
     let mut small_steps = 0;
     let mut converged = false;
     let mut iterations = 0;
-    let floor = pb.dist_floor;
     for k in 0..max_iter {
         iterations = k + 1;
-        let (mut h00, mut h01, mut h11, mut g0, mut g1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for l in 0..n {
-            let (dt, dr) = (cur.t[l], cur.r[l]);
-            let mut j = Vec2::zeros();
-            if dt > floor {
-                j -= (e - pb.t[l]) / dt;
-            }
-            if dr > floor {
-                j -= (e - pb.r[l]) / dr;
-            }
-            let r = pb.s[l] - dt - dr;
-            let w = loss.eval(r).1;
-            h00 += w * j.x * j.x;
-            h01 += w * j.x * j.y;
-            h11 += w * j.y * j.y;
-            g0 += w * j.x * r;
-            g1 += w * j.y * r;
-        }
+        let [h00, h01, h11, g0, g1] = weighted_normal_equations(pb, loss, &e, &cur);
         let scale = 0.5 * (h00 + h11);
         if !(scale.is_finite() && g0.is_finite() && g1.is_finite()) {
             return Err(RobustError::NonFinite {
@@ -246,26 +228,12 @@ pub(super) fn smooth_solve(
             converged = true;
             break;
         }
-        let mut accepted = None;
-        for _ in 0..60 {
-            let d = lambda * scale;
-            let (a00, a11) = (h00 + d, h11 + d);
-            let det = a00 * a11 - h01 * h01;
-            if det > 0.0 {
-                let step = Vec2::new(-(a11 * g0 - h01 * g1) / det, -(a00 * g1 - h01 * g0) / det);
-                let e_try = e + step;
-                let f_try = scratch.eval(pb, loss, &e_try);
-                if f_try < f {
-                    std::mem::swap(&mut cand, &mut scratch);
-                    accepted = Some((e_try, f_try, step));
-                    break;
-                }
-            }
-            lambda *= 8.0;
-            if lambda > 1e16 {
-                break;
-            }
-        }
+        let damped = Damped {
+            h: [h00, h01, h11],
+            g: [g0, g1],
+            scale,
+        };
+        let accepted = damped.step(pb, loss, (&e, f), &mut lambda, [&mut cand, &mut scratch]);
         let Some((mut e_new, mut f_new, mut step)) = accepted else {
             // No decrease possible at this precision: a stationary point.
             converged = true;
@@ -328,6 +296,78 @@ pub(super) fn smooth_solve(
         trace,
         outliers: Vec::new(),
     })
+}
+
+/// The IRLS normal equations at `e` (distances `cur`): `[H00, H01, H11,
+/// g0, g1]`, the sums over the links of `w J J^T` and `w J r` with `J` the
+/// gradient of the link's range and `w` the loss's weight of its residual.
+fn weighted_normal_equations(pb: &Problem, loss: Loss, e: &Vec2, cur: &Dists) -> [f64; 5] {
+    let floor = pb.dist_floor;
+    let (mut h00, mut h01, mut h11, mut g0, mut g1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for l in 0..pb.len() {
+        let (dt, dr) = (cur.t[l], cur.r[l]);
+        let mut j = Vec2::zeros();
+        if dt > floor {
+            j -= (e - pb.t[l]) / dt;
+        }
+        if dr > floor {
+            j -= (e - pb.r[l]) / dr;
+        }
+        let r = pb.s[l] - dt - dr;
+        let w = loss.eval(r).1;
+        h00 += w * j.x * j.x;
+        h01 += w * j.x * j.y;
+        h11 += w * j.y * j.y;
+        g0 += w * j.x * r;
+        g1 += w * j.y * r;
+    }
+    [h00, h01, h11, g0, g1]
+}
+
+/// The Levenberg-Marquardt step of one IRLS iteration: the normal equations
+/// `h` (`H00, H01, H11`) and `g`, damped by `lambda` times `scale`.
+struct Damped {
+    h: [f64; 3],
+    g: [f64; 2],
+    scale: f64,
+}
+
+impl Damped {
+    /// The first damped step from `e` (objective `f`) that lowers the
+    /// objective, raising `lambda` eightfold after each one that does not
+    /// (at most 60 tries, `lambda` up to 1e16): the new point, its objective
+    /// and the step, with its distances in `dists[0]` (`dists[1]` is
+    /// scratch). `None`: no decrease at this precision.
+    fn step(
+        &self,
+        pb: &Problem,
+        loss: Loss,
+        (e, f): (&Vec2, f64),
+        lambda: &mut f64,
+        dists: [&mut Dists; 2],
+    ) -> Option<(Vec2, f64, Vec2)> {
+        let [cand, scratch] = dists;
+        let ([h00, h01, h11], [g0, g1]) = (self.h, self.g);
+        for _ in 0..60 {
+            let d = *lambda * self.scale;
+            let (a00, a11) = (h00 + d, h11 + d);
+            let det = a00 * a11 - h01 * h01;
+            if det > 0.0 {
+                let step = Vec2::new(-(a11 * g0 - h01 * g1) / det, -(a00 * g1 - h01 * g0) / det);
+                let e_try = e + step;
+                let f_try = scratch.eval(pb, loss, &e_try);
+                if f_try < f {
+                    std::mem::swap(cand, scratch);
+                    return Some((e_try, f_try, step));
+                }
+            }
+            *lambda *= 8.0;
+            if *lambda > 1e16 {
+                break;
+            }
+        }
+        None
+    }
 }
 
 pub(super) fn check_eps(eps: f64) -> Result<(), RobustError> {

@@ -89,19 +89,7 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
         .map(|m| m.t_recv.unwrap_or(m.t_send + delay(m)))
         .fold(0.0f64, f64::max);
     let t0 = first.first().map_or(0.0, |m| m.t_send).min(0.0);
-    for i in 0..n_nodes {
-        panel.series.push(Series {
-            name: format!("node {i}"),
-            segments: vec![vec![(t0, i as f64), (t_end, i as f64)]],
-            style: Style::line(Rgb(200, 200, 200), 1),
-        });
-        panel.labels.push(Label {
-            at: (t0, i as f64),
-            offset: (4, -18),
-            lines: vec![format!("R{i}")],
-            size: 13,
-        });
-    }
+    node_lanes(&mut panel, n_nodes, (t0, t_end));
     let mut kinds: Vec<&str> = Vec::new();
     let mut reasons: Vec<&str> = Vec::new();
     for m in &first {
@@ -136,29 +124,9 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
                     segments: vec![vec![(t, y1)]],
                     style: Style::markers(LOST, Marker::Cross, 6),
                 });
-                // Losses close together on one lane share a label, a line
-                // per reason, instead of printing over each other.
                 // A label is about a tenth of the axis wide.
                 let near = (t_end - t0).abs().max(1e-9) * 0.12;
-                let lane = y1;
-                match panel
-                    .labels
-                    .iter_mut()
-                    .skip(n_nodes)
-                    .find(|l| (l.at.1 - lane).abs() < 0.5 && (l.at.0 - t).abs() < near)
-                {
-                    Some(l) => {
-                        if !l.lines.iter().any(|x| x == why) {
-                            l.lines.push(why.to_string());
-                        }
-                    }
-                    None => panel.labels.push(Label {
-                        at: (t, y1),
-                        offset: (5, 2),
-                        lines: vec![why.to_string()],
-                        size: 11,
-                    }),
-                }
+                label_loss(&mut panel, n_nodes, (t, y1), why, near);
                 if !reasons.contains(&why) {
                     reasons.push(why);
                 }
@@ -201,6 +169,48 @@ pub fn messages_figure(data: &RunData) -> Option<Figure> {
         panels: vec![panel],
         legend,
     })
+}
+
+/// One grey lane per node from `t0` to `t_end`, labelled `R<i>` at its
+/// left (the first `n_nodes` labels of the panel).
+fn node_lanes(panel: &mut Panel, n_nodes: usize, (t0, t_end): (f64, f64)) {
+    for i in 0..n_nodes {
+        panel.series.push(Series {
+            name: format!("node {i}"),
+            segments: vec![vec![(t0, i as f64), (t_end, i as f64)]],
+            style: Style::line(Rgb(200, 200, 200), 1),
+        });
+        panel.labels.push(Label {
+            at: (t0, i as f64),
+            offset: (4, -18),
+            lines: vec![format!("R{i}")],
+            size: 13,
+        });
+    }
+}
+
+/// Label a loss `why` at `at`: losses closer than `near` on one lane share
+/// a label, a line per reason, instead of printing over each other.
+fn label_loss(panel: &mut Panel, n_nodes: usize, at: (f64, f64), why: &str, near: f64) {
+    let (t, lane) = at;
+    match panel
+        .labels
+        .iter_mut()
+        .skip(n_nodes)
+        .find(|l| (l.at.1 - lane).abs() < 0.5 && (l.at.0 - t).abs() < near)
+    {
+        Some(l) => {
+            if !l.lines.iter().any(|x| x == why) {
+                l.lines.push(why.to_string());
+            }
+        }
+        None => panel.labels.push(Label {
+            at,
+            offset: (5, 2),
+            lines: vec![why.to_string()],
+            size: 11,
+        }),
+    }
 }
 
 /// `channel.svg`: every directed link's delivery ratio (`metrics.json`

@@ -74,10 +74,57 @@ pub fn consensus_figure(data: &RunData) -> Figure {
     for v in &mut per_node {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
-    // theta_bar and disagreement at each x where every node reported.
+    let xs: Vec<f64> = pts.iter().map(xpos).collect();
+    let bar = mean_and_disagreement(pts, &xs, n_nodes);
+    let truth_pts = truth_points(data, &keys, by_iteration);
+    let mut legend = Vec::new();
+    let mut panels: Vec<Panel> = [(0usize, "x (m)"), (1, "y (m)")]
+        .into_iter()
+        .map(|(axis, label)| {
+            let lines = Lines {
+                per_node: &per_node,
+                bar: &bar,
+                truth: &truth_pts,
+            };
+            coordinate_panel(axis, label, x_label, &lines, &mut legend)
+        })
+        .collect();
+    panels.push(disagreement_panel(x_label, &bar, &mut legend));
+    if pts.is_empty() {
+        for p in &mut panels {
+            p.note = Some("no per-node estimates (nodes.csv is empty or absent)".into());
+        }
+    }
+    Figure {
+        name: "consensus".into(),
+        title: format!(
+            "Per-node estimates against {} — {}",
+            if by_iteration {
+                "iterations"
+            } else {
+                "samples"
+            },
+            data.title()
+        ),
+        width: WIDTH,
+        panels,
+        legend,
+    }
+}
+
+/// At most this many points per line.
+const MAX_PTS: usize = 4000;
+
+/// `theta_bar` and the disagreement `max_v ||theta_v - theta_bar||` at each
+/// x (`xs[i]` is point `i`'s) where all `n_nodes` nodes reported, in x order.
+fn mean_and_disagreement(
+    pts: &[NodePoint],
+    xs: &[f64],
+    n_nodes: usize,
+) -> Vec<(f64, [f64; 2], f64)> {
     let mut by_x: std::collections::BTreeMap<u64, Vec<[f64; 2]>> = Default::default();
-    for p in pts {
-        by_x.entry(xpos(p).to_bits()).or_default().push(p.pos);
+    for (p, x) in pts.iter().zip(xs) {
+        by_x.entry(x.to_bits()).or_default().push(p.pos);
     }
     let mut bar: Vec<(f64, [f64; 2], f64)> = by_x
         .into_iter()
@@ -95,7 +142,12 @@ pub fn consensus_figure(data: &RunData) -> Figure {
         })
         .collect();
     bar.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Truth: per sample; with iterations, a step over the sample's iterations.
+    bar
+}
+
+/// The true position per sample; with iterations (`keys`: every
+/// `(sample, iteration)` in order), a step over the sample's iterations.
+fn truth_points(data: &RunData, keys: &[(u64, u64)], by_iteration: bool) -> Vec<(f64, [f64; 2])> {
     let truth_at = |s: usize| -> Option<[f64; 2]> {
         data.track
             .sample
@@ -117,66 +169,89 @@ pub fn consensus_figure(data: &RunData) -> Figure {
             }
         }
     }
-    const MAX_PTS: usize = 4000;
-    let mut legend = Vec::new();
-    let mut panels = Vec::new();
-    for (axis, label) in [(0usize, "x (m)"), (1, "y (m)")] {
-        let mut p = Panel::new(330, x_label, &format!("node estimate {label}"));
-        for (v, pts) in per_node.iter().enumerate() {
-            let st = Style::line(NODE_COLORS[v % NODE_COLORS.len()], 1).alpha(0.9);
-            p.series.push(Series {
-                name: format!("node {v}"),
-                segments: vec![decimate(
-                    pts.iter().map(|q| (q.0, q.1[axis])).collect(),
-                    MAX_PTS,
-                )],
-                style: st,
-            });
-            if axis == 0 {
-                legend.push(LegendItem {
-                    label: format!("node {v}"),
-                    swatch: Swatch::Line(Style::line(st.color, 2)),
-                });
-            }
-        }
-        let bar_st = Style::line(PALETTE[0], 2);
+    truth_pts
+}
+
+/// The lines of a coordinate panel: every node's, `theta_bar`'s, the truth's.
+struct Lines<'a> {
+    per_node: &'a [Vec<(f64, [f64; 2])>],
+    bar: &'a [(f64, [f64; 2], f64)],
+    truth: &'a [(f64, [f64; 2])],
+}
+
+/// The panel of coordinate `axis` (0: x, 1: y); the first one adds the
+/// legend's entries.
+fn coordinate_panel(
+    axis: usize,
+    label: &str,
+    x_label: &str,
+    lines: &Lines<'_>,
+    legend: &mut Vec<LegendItem>,
+) -> Panel {
+    let (per_node, bar, truth_pts) = (lines.per_node, lines.bar, lines.truth);
+    let mut p = Panel::new(330, x_label, &format!("node estimate {label}"));
+    for (v, pts) in per_node.iter().enumerate() {
+        let st = Style::line(NODE_COLORS[v % NODE_COLORS.len()], 1).alpha(0.9);
         p.series.push(Series {
-            name: THETA_BAR.into(),
+            name: format!("node {v}"),
             segments: vec![decimate(
-                bar.iter().map(|q| (q.0, q.1[axis])).collect(),
+                pts.iter().map(|q| (q.0, q.1[axis])).collect(),
                 MAX_PTS,
             )],
-            style: bar_st,
+            style: st,
         });
-        let tr_st = Style::line(BLACK, 2).dashed();
-        if !truth_pts.is_empty() {
-            p.series.push(Series {
-                name: "truth".into(),
-                segments: vec![decimate(
-                    truth_pts.iter().map(|q| (q.0, q.1[axis])).collect(),
-                    MAX_PTS,
-                )],
-                style: tr_st,
-            });
-        }
         if axis == 0 {
             legend.push(LegendItem {
-                label: "mean of the nodes".into(),
-                swatch: Swatch::Line(bar_st),
+                label: format!("node {v}"),
+                swatch: Swatch::Line(Style::line(st.color, 2)),
             });
-            if !truth_pts.is_empty() {
-                legend.push(LegendItem {
-                    label: "true position".into(),
-                    swatch: Swatch::Line(tr_st),
-                });
-            }
         }
-        for s in &mut p.series {
-            s.segments.retain(|g| !g.is_empty());
-        }
-        finish_series_panel(&mut p, false, false);
-        panels.push(p);
     }
+    let bar_st = Style::line(PALETTE[0], 2);
+    p.series.push(Series {
+        name: THETA_BAR.into(),
+        segments: vec![decimate(
+            bar.iter().map(|q| (q.0, q.1[axis])).collect(),
+            MAX_PTS,
+        )],
+        style: bar_st,
+    });
+    let tr_st = Style::line(BLACK, 2).dashed();
+    if !truth_pts.is_empty() {
+        p.series.push(Series {
+            name: "truth".into(),
+            segments: vec![decimate(
+                truth_pts.iter().map(|q| (q.0, q.1[axis])).collect(),
+                MAX_PTS,
+            )],
+            style: tr_st,
+        });
+    }
+    if axis == 0 {
+        legend.push(LegendItem {
+            label: "mean of the nodes".into(),
+            swatch: Swatch::Line(bar_st),
+        });
+        if !truth_pts.is_empty() {
+            legend.push(LegendItem {
+                label: "true position".into(),
+                swatch: Swatch::Line(tr_st),
+            });
+        }
+    }
+    for s in &mut p.series {
+        s.segments.retain(|g| !g.is_empty());
+    }
+    finish_series_panel(&mut p, false, false);
+    p
+}
+
+/// The disagreement panel (log-scaled when it spans decades).
+fn disagreement_panel(
+    x_label: &str,
+    bar: &[(f64, [f64; 2], f64)],
+    legend: &mut Vec<LegendItem>,
+) -> Panel {
     let mut dis = Panel::new(300, x_label, "disagreement (m)");
     let dis_st = Style::line(Rgb(90, 90, 90), 2);
     dis.series.push(Series {
@@ -200,25 +275,5 @@ pub fn consensus_figure(data: &RunData) -> Figure {
         dis.y_label = "disagreement (m, log)".into();
     }
     finish_series_panel(&mut dis, log, !log);
-    panels.push(dis);
-    if pts.is_empty() {
-        for p in &mut panels {
-            p.note = Some("no per-node estimates (nodes.csv is empty or absent)".into());
-        }
-    }
-    Figure {
-        name: "consensus".into(),
-        title: format!(
-            "Per-node estimates against {} — {}",
-            if by_iteration {
-                "iterations"
-            } else {
-                "samples"
-            },
-            data.title()
-        ),
-        width: WIDTH,
-        panels,
-        legend,
-    }
+    dis
 }

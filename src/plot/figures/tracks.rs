@@ -37,48 +37,9 @@ pub fn tracks_figure(data: &RunData) -> Figure {
     draw_geometry(data, &mut panel, &mut legend, true);
     let geometry = panel.clone();
     let mut tracks = Panel::new(700, "x (m)", "y (m)");
-    // Bound discs around theta_bar at every n-th sample.
-    let est = tt.track(THETA_BAR);
     let n = tt.sample.len();
-    let every = (n / 12).max(1);
-    for (bi, b) in tt.bounds.iter().enumerate() {
-        let color = BOUND_COLORS[bi % BOUND_COLORS.len()];
-        let mut any = false;
-        for k in (0..n).step_by(every) {
-            if let (Some(r), Some(Some(c))) = (b.radius[k], est.map(|e| e.pos[k])) {
-                tracks.discs.push(Disc {
-                    name: format!("bound_{}", b.name),
-                    center: (c[0], c[1]),
-                    radius: r,
-                    color,
-                });
-                any = true;
-            }
-        }
-        if any {
-            legend.push(LegendItem {
-                label: format!("bound {} (every {every} samples)", b.name),
-                swatch: Swatch::Disc(color),
-            });
-        }
-    }
-    let truth = point_segments(&tt.truth);
-    if !truth.is_empty() {
-        let st = Style {
-            marker: Some(Marker::Circle),
-            marker_size: 2,
-            ..Style::line(BLACK, 2)
-        };
-        tracks.series.push(Series {
-            name: "truth".into(),
-            segments: truth,
-            style: st,
-        });
-        legend.push(LegendItem {
-            label: "true track".into(),
-            swatch: Swatch::Line(st),
-        });
-    }
+    bound_discs(data, &mut tracks, &mut legend);
+    truth_line(&tt.truth, &mut tracks, &mut legend);
     // Reference first (under), then baselines, then theta_bar on top.
     let mut order: Vec<&Track> = tt.tracks.iter().collect();
     order.sort_by_key(|t| match t.kind {
@@ -160,5 +121,55 @@ pub fn tracks_figure(data: &RunData) -> Figure {
         width: WIDTH,
         panels,
         legend,
+    }
+}
+
+/// Bound discs around `theta_bar` at every n-th sample (a dozen in all).
+fn bound_discs(data: &RunData, tracks: &mut Panel, legend: &mut Vec<LegendItem>) {
+    let tt = &data.track;
+    let est = tt.track(THETA_BAR);
+    let n = tt.sample.len();
+    let every = (n / 12).max(1);
+    for (bi, b) in tt.bounds.iter().enumerate() {
+        let color = BOUND_COLORS[bi % BOUND_COLORS.len()];
+        let mut any = false;
+        for k in (0..n).step_by(every) {
+            if let (Some(r), Some(Some(c))) = (b.radius[k], est.map(|e| e.pos[k])) {
+                tracks.discs.push(Disc {
+                    name: format!("bound_{}", b.name),
+                    center: (c[0], c[1]),
+                    radius: r,
+                    color,
+                });
+                any = true;
+            }
+        }
+        if any {
+            legend.push(LegendItem {
+                label: format!("bound {} (every {every} samples)", b.name),
+                swatch: Swatch::Disc(color),
+            });
+        }
+    }
+}
+
+/// The true track, a line with a dot at every sample.
+fn truth_line(truth: &[Option<[f64; 2]>], tracks: &mut Panel, legend: &mut Vec<LegendItem>) {
+    let truth = point_segments(truth);
+    if !truth.is_empty() {
+        let st = Style {
+            marker: Some(Marker::Circle),
+            marker_size: 2,
+            ..Style::line(BLACK, 2)
+        };
+        tracks.series.push(Series {
+            name: "truth".into(),
+            segments: truth,
+            style: st,
+        });
+        legend.push(LegendItem {
+            label: "true track".into(),
+            swatch: Swatch::Line(st),
+        });
     }
 }

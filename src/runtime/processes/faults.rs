@@ -111,7 +111,7 @@ impl Processes {
         if let Err(e) = crate::transport::cleanup_run(&self.run_id) {
             eprintln!("warning: node {node} restart: cleaning up its old ports: {e}");
         }
-        let launch = self.launch_of(&self.configs[i], checkpoint);
+        let launch = self.launch_of(&self.relaunch.configs[i], checkpoint);
         match self.start_node(&launch) {
             Ok(child) => {
                 self.children[i] = Some(child);

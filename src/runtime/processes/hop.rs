@@ -2,7 +2,7 @@
 
 use super::Processes;
 use super::launch::ProcessOptions;
-use crate::engine::layout::{NetworkLayout, network_layout};
+use crate::engine::layout::network_layout;
 use crate::protocol::EngineError;
 use crate::protocol::codec::{Control, CoordinatorInput};
 use crate::protocol::plan::RunPlan;
@@ -26,13 +26,9 @@ pub fn measure_hop(
     opts: &ProcessOptions,
     count: usize,
 ) -> Result<(Vec<f64>, String), EngineError> {
-    let NetworkLayout {
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-    } = network_layout(plan);
-    let edges: Vec<(u32, u32)> = configs
+    let layout = network_layout(plan);
+    let edges: Vec<(u32, u32)> = layout
+        .configs
         .iter()
         .flat_map(|c| c.neighbours.iter().map(move |&w| (c.id, w)))
         .filter(|&(v, w)| v < w)
@@ -43,15 +39,7 @@ pub fn measure_hop(
         ));
     }
     let run_id = crate::transport::unique_run_id();
-    let mut p = Processes::spawn(
-        run_id.clone(),
-        configs,
-        neighbours,
-        inbox,
-        broadcast,
-        None,
-        opts,
-    )?;
+    let mut p = Processes::spawn(run_id.clone(), layout, None, opts)?;
     let mut hops = Vec::with_capacity(count);
     for &(v, w) in edges.iter().cycle() {
         if hops.len() >= count {

@@ -209,12 +209,13 @@ pub(crate) fn spawn_child(
     stdin: std::process::Stdio,
 ) -> Result<std::process::Child, crate::protocol::EngineError> {
     use crate::protocol::EngineError;
+    use crate::protocol::error::Cause;
     use std::os::unix::process::CommandExt;
     use std::process::{Command, Stdio};
     let id = launch.node.id;
     let json = serde_json::to_string(launch).map_err(|e| EngineError::Launch {
         node: id,
-        reason: e.to_string(),
+        source: Cause::new(e),
     })?;
     let mut cmd = Command::new(&prog.program);
     cmd.args(&prog.args)
@@ -233,7 +234,7 @@ pub(crate) fn spawn_child(
     cmd.spawn().map_err(|e| EngineError::Spawn {
         node: id,
         program: prog.program.clone(),
-        reason: e.to_string(),
+        source: Cause::new(e),
     })
 }
 
@@ -262,7 +263,7 @@ pub(super) fn checkpoint_dir(
     };
     std::fs::create_dir_all(&dir).map_err(|e| crate::protocol::EngineError::Checkpoints {
         dir: dir.clone(),
-        reason: e.to_string(),
+        source: crate::protocol::error::Cause::new(e),
     })?;
     Ok(Some((dir, temp)))
 }

@@ -8,6 +8,7 @@ use super::launch::{NodeLaunch, ProcessOptions, spawn_child};
 use crate::protocol::EngineError;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::CoordinatorInput;
+use crate::protocol::error::Cause;
 use crate::transport::IoxTransport;
 use std::time::{Duration, Instant};
 
@@ -19,22 +20,25 @@ impl Processes {
         configs: &[NodeConfig],
     ) -> Result<(), EngineError> {
         let p = self;
-        let prog = p.program.clone();
+        let prog = p.relaunch.program.clone();
         let prog = &prog;
         // The nodes start first, each waiting at a gate (its stdin, one pipe
         // for all) until the services exist: spawned while the coordinator
         // holds few file descriptors and mappings (the close-on-exec of
         // every one of them is paid per spawn: O(N^2) per run otherwise),
         // and starting up while the services are created.
-        let (gate, gate_writer) = std::io::pipe()
-            .map_err(|e| EngineError::StartGate(format!("creating its pipe: {e}")))?;
+        let (gate, gate_writer) = std::io::pipe().map_err(|e| EngineError::StartGate {
+            step: "creating its pipe".into(),
+            source: Cause::new(e),
+        })?;
         for cfg in configs {
             let launch = NodeLaunch {
                 gate: true,
                 ..p.launch_of(cfg, false)
             };
-            let stdin = gate.try_clone().map_err(|e| {
-                EngineError::StartGate(format!("passing it to node {}: {e}", cfg.id))
+            let stdin = gate.try_clone().map_err(|e| EngineError::StartGate {
+                step: format!("passing it to node {}", cfg.id),
+                source: Cause::new(e),
             })?;
             p.children.push(Some(NodeProc::Local(spawn_child(
                 prog,
@@ -116,7 +120,7 @@ impl Processes {
         match (&self.fleet, host) {
             (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch),
             _ => Ok(NodeProc::Local(spawn_child(
-                &self.program,
+                &self.relaunch.program,
                 launch,
                 std::process::Stdio::null(),
             )?)),
@@ -166,12 +170,13 @@ impl Processes {
         NodeLaunch {
             node: cfg.clone(),
             checkpoint: self
+                .relaunch
                 .checkpoints
                 .as_ref()
                 .filter(|_| cfg.checkpoint_every.is_some())
                 .map(|(dir, _)| crate::engine::checkpoint::path(dir, cfg.id)),
             resume,
-            ..self.launch0.clone()
+            ..self.relaunch.launch0.clone()
         }
     }
 }
