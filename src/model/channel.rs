@@ -40,7 +40,7 @@
 //! ([`fate_draw`]), so the same frame has the same fate wherever it is decided,
 //! whatever else happens meanwhile.
 
-use crate::model::error::in_range;
+use crate::model::error::{KeyError, in_range};
 use crate::model::geometry::Vec2;
 use crate::model::rng::{Stream, link_draw};
 use serde::{Deserialize, Serialize};
@@ -241,8 +241,8 @@ impl Default for AcousticCfg {
 
 impl AcousticCfg {
     /// Checks every number against its documented range, and the links
-    /// against the node count `n`: `Err((key, reason))` names the key.
-    pub fn validate(&self, n: usize) -> Result<(), (String, String)> {
+    /// against the node count `n`: a [`KeyError`] names the key.
+    pub fn validate(&self, n: usize) -> Result<(), KeyError> {
         in_range("channel.sound_speed", self.sound_speed, 1.0, 1e5)?;
         in_range("channel.bit_rate", self.bit_rate, 1.0, 1e9)?;
         in_range("channel.header_bits", self.header_bits as f64, 0.0, 1e6)?;
@@ -275,11 +275,14 @@ impl AcousticCfg {
             let key = |f: &str| format!("channel.links[{k}].{f}");
             for (f, v) in [("a", l.a), ("b", l.b)] {
                 if v as usize >= n {
-                    return Err((key(f), format!("node {v} does not exist ({n} nodes)")));
+                    return Err(KeyError::new(
+                        key(f),
+                        format!("node {v} does not exist ({n} nodes)"),
+                    ));
                 }
             }
             if l.a == l.b {
-                return Err((key("b"), "a link joins two different nodes".into()));
+                return Err(KeyError::new(key("b"), "a link joins two different nodes"));
             }
             if let Some(p) = l.loss_p {
                 in_range(&key("loss_p"), p, 0.0, 1.0)?;

@@ -240,12 +240,12 @@ fn every_number_is_checked_against_its_range_naming_the_key() {
         sound_speed: 0.0,
         ..AcousticCfg::default()
     });
-    assert_eq!(e.0, "channel.sound_speed");
+    assert_eq!(e.key, "channel.sound_speed");
     let e = bad(AcousticCfg {
         loss: LossCfg::Bernoulli { p: 1.5 },
         ..AcousticCfg::default()
     });
-    assert_eq!(e.0, "channel.loss.p");
+    assert_eq!(e.key, "channel.loss.p");
     let link = LinkOverride {
         a: 0,
         b: 3,
@@ -257,13 +257,13 @@ fn every_number_is_checked_against_its_range_naming_the_key() {
         links: vec![link],
         ..AcousticCfg::default()
     });
-    assert_eq!(e.0, "channel.links[0].b");
-    assert!(e.1.contains("node 3 does not exist"), "{}", e.1);
+    assert_eq!(e.key, "channel.links[0].b");
+    assert!(e.reason.contains("node 3 does not exist"), "{}", e.reason);
     let e = bad(AcousticCfg {
         bit_rate: f64::NAN,
         ..AcousticCfg::default()
     });
-    assert_eq!(e.0, "channel.bit_rate");
+    assert_eq!(e.key, "channel.bit_rate");
     // The TOML form, with its defaults and deny_unknown_fields.
     let cfg: AcousticCfg =
         toml::from_str("bit_rate = 500.0\nloss = { model = \"bernoulli\", p = 0.2 }\n").unwrap();

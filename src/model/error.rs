@@ -47,12 +47,48 @@ impl fmt::Display for InputError {
 
 impl std::error::Error for InputError {}
 
-/// `Err((key, reason))` unless `lo <= v <= hi` (and finite): the range check
+/// A bad value of one key: the key's path (`channel.loss.p`,
+/// `faults[0].node`) and the reason. Checks below the file level return it;
+/// [`KeyError::in_file`] makes it an [`InputError`] naming the file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{key}: {reason}")]
+pub struct KeyError {
+    /// The key's path.
+    pub key: String,
+    /// What is wrong with its value.
+    pub reason: String,
+}
+
+impl KeyError {
+    /// The key `key` is wrong because of `reason`.
+    pub fn new(key: impl Into<String>, reason: impl Into<String>) -> Self {
+        KeyError {
+            key: key.into(),
+            reason: reason.into(),
+        }
+    }
+
+    /// The same error with the key under `prefix` (`faults[2]` + `node`:
+    /// `faults[2].node`).
+    pub fn under(self, prefix: &str) -> Self {
+        KeyError {
+            key: format!("{prefix}.{}", self.key),
+            reason: self.reason,
+        }
+    }
+
+    /// The error in `file`.
+    pub fn in_file(self, file: &Path) -> InputError {
+        InputError::at(file, self.key, self.reason)
+    }
+}
+
+/// A [`KeyError`] unless `lo <= v <= hi` (and finite): the range check
 /// of the channel's and the faults' keys.
-pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), (String, String)> {
+pub(crate) fn in_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), KeyError> {
     if v.is_finite() && v >= lo && v <= hi {
         Ok(())
     } else {
-        Err((key.into(), format!("{v} is outside [{lo}, {hi}]")))
+        Err(KeyError::new(key, format!("{v} is outside [{lo}, {hi}]")))
     }
 }

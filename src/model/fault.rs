@@ -1,7 +1,9 @@
 //! Faults as a schedule: what can go wrong with a node or a link,
 //! and when. I/O-free: a [`FaultSpec`] is what a scenario's `[[faults]]` entry
-//! or a `--fault` flag says; [`FaultSpec::resolve`] checks it and turns it into
-//! a [`Fault`] in emulated seconds; the engines apply [`Fault`]s.
+//! or a `--fault` flag says, typed as it is read (a [`FaultKind`] tagged by
+//! `kind`, and [`When`]); [`FaultSpec::resolve`] checks it against the
+//! network and turns it into a [`Fault`] in emulated seconds; the engines
+//! apply [`Fault`]s.
 //!
 //! Kinds (the anchors are Jepsen's nemesis, Maelstrom and turmoil):
 //! * `pause { node }`: the node does nothing until the fault ends (SIGSTOP /
@@ -21,47 +23,49 @@
 //! `link_loss`, `delay`, `clock_drift`) ends after `for_s` seconds or
 //! `for_samples` samples, or never if neither is given.
 
-use crate::model::error::in_range;
+use crate::model::error::{KeyError, in_range};
 use crate::model::rng::{Stream, link_draw};
 use serde::{Deserialize, Serialize};
 
-/// One `[[faults]]` entry or `--fault` flag, as written. Every key but
-/// `kind` is optional here; [`FaultSpec::resolve`] checks which the kind
-/// needs and which it refuses.
+crate::named_enum! {
+    /// The name of a fault's kind (`kind = ...`, `--nemesis KINDS`).
+    pub enum FaultName {
+        /// The node does nothing until the fault ends.
+        Pause = "pause",
+        /// The node dies.
+        Crash = "crash",
+        /// The node starts again, fresh or from its checkpoint.
+        Restart = "restart",
+        /// Links between groups of nodes are blocked.
+        Partition = "partition",
+        /// Extra loss on one link.
+        LinkLoss = "link_loss",
+        /// Extra one-way delay on one link.
+        Delay = "delay",
+        /// A node's clock runs fast or slow.
+        ClockDrift = "clock_drift",
+    }
+}
+
+/// One `[[faults]]` entry or `--fault` flag: what goes wrong (`kind` and
+/// its keys) and when. Read with every key checked by name (a key the kind
+/// does not take, or a missing one, is refused as it is read); the values
+/// are checked against the network by [`FaultSpec::resolve`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FaultSpec {
+    /// What it does, with the keys of its kind.
+    #[serde(flatten)]
+    pub kind: FaultKind,
+    /// When it starts and how long it lasts.
+    #[serde(flatten)]
+    pub when: When,
+}
+
+/// When a fault starts (`at_s` or `at_sample`) and how long it lasts
+/// (`for_s`, `for_samples` or, if neither, until the run ends).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct FaultSpec {
-    /// `pause`, `crash`, `restart`, `partition`, `link_loss`, `delay` or
-    /// `clock_drift`.
-    pub kind: String,
-    /// The node (`pause`, `crash`, `restart`, `clock_drift`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub node: Option<u32>,
-    /// `restart`: `fresh` (the default) or `checkpoint`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub state: Option<String>,
-    /// `restart` from `checkpoint`: the node saves its state every this many
-    /// samples, from the start of the run (default 1, at most 1e6).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub checkpoint_every: Option<u32>,
-    /// `partition`: two or more disjoint groups of nodes.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub groups: Option<Vec<Vec<u32>>>,
-    /// One end of the link (`link_loss`, `delay`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub a: Option<u32>,
-    /// The other end.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub b: Option<u32>,
-    /// `link_loss`: loss probability in [0, 1].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub p: Option<f64>,
-    /// `delay`: extra one-way delay, seconds in [0, 3600].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub extra_s: Option<f64>,
-    /// `clock_drift`: parts per million in [-500000, 500000].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ppm: Option<f64>,
+pub struct When {
     /// Start, emulated seconds in [0, 1e9].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub at_s: Option<f64>,
@@ -76,8 +80,43 @@ pub struct FaultSpec {
     pub for_samples: Option<u32>,
 }
 
-/// What a fault does.
-#[derive(Debug, Clone, PartialEq)]
+impl When {
+    /// Its keys, as written.
+    const KEYS: [&'static str; 4] = ["at_s", "at_sample", "for_s", "for_samples"];
+}
+
+/// A fault's table is split in two by key: the keys of [`When`] and the
+/// rest, which is the kind's (internally tagged by `kind`, every key
+/// checked). serde's `flatten` would read it in one go but cannot refuse
+/// unknown keys.
+impl<'de> Deserialize<'de> for FaultSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut what = toml::Table::deserialize(d)?;
+        let mut when = toml::Table::new();
+        for key in When::KEYS {
+            if let Some(v) = what.remove(key) {
+                when.insert(key.into(), v);
+            }
+        }
+        if !what.contains_key("kind") {
+            return Err(D::Error::custom(format!(
+                "missing field `kind` (one of {})",
+                FaultName::NAMES.join(", ")
+            )));
+        }
+        let kind = FaultKind::deserialize(toml::Value::Table(what))
+            .map_err(|e| D::Error::custom(e.message()))?;
+        let when = When::deserialize(toml::Value::Table(when))
+            .map_err(|e| D::Error::custom(e.message()))?;
+        Ok(FaultSpec { kind, when })
+    }
+}
+
+/// What a fault does: the kind (`kind = "..."`, names as [`FaultName`])
+/// with its keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum FaultKind {
     /// The node does nothing.
     Pause {
@@ -93,14 +132,27 @@ pub enum FaultKind {
     Restart {
         /// The node.
         node: u32,
-        /// From its last checkpoint (else from `init_u`).
+        /// From its last checkpoint (`state = "checkpoint"`), else from
+        /// `init_u` (`state = "fresh"`, the default).
+        #[serde(
+            rename = "state",
+            default,
+            with = "restart_state",
+            skip_serializing_if = "is_false"
+        )]
         checkpoint: bool,
-        /// Samples between two checkpoints.
+        /// Samples between two checkpoints (`checkpoint_every`, in
+        /// [1, 1000000], default 1), counted from the start of the run.
+        #[serde(
+            rename = "checkpoint_every",
+            default = "every_sample",
+            skip_serializing_if = "is_every_sample"
+        )]
         every: u32,
     },
     /// Links between groups are blocked.
     Partition {
-        /// The groups; `group[i]` is node `i`'s group (`None`: in none).
+        /// Two or more disjoint, non-empty groups of nodes.
         groups: Vec<Vec<u32>>,
     },
     /// Extra loss on a link.
@@ -109,7 +161,7 @@ pub enum FaultKind {
         a: u32,
         /// The other.
         b: u32,
-        /// Probability.
+        /// Probability in [0, 1].
         p: f64,
     },
     /// Extra delay on a link.
@@ -118,30 +170,66 @@ pub enum FaultKind {
         a: u32,
         /// The other.
         b: u32,
-        /// Seconds.
+        /// Seconds in [0, 3600].
         extra_s: f64,
     },
     /// A node's clock runs fast or slow.
     ClockDrift {
         /// The node.
         node: u32,
-        /// Parts per million.
+        /// Parts per million in [-500000, 500000].
         ppm: f64,
     },
 }
 
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+fn every_sample() -> u32 {
+    1
+}
+
+fn is_every_sample(k: &u32) -> bool {
+    *k == 1
+}
+
+/// `state = "fresh" | "checkpoint"` as the `checkpoint` flag of a restart.
+mod restart_state {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(checkpoint: &bool, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(if *checkpoint { "checkpoint" } else { "fresh" })
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<bool, D::Error> {
+        match String::deserialize(d)?.as_str() {
+            "fresh" => Ok(false),
+            "checkpoint" => Ok(true),
+            other => Err(serde::de::Error::custom(format!(
+                "state `{other}` is not `fresh` or `checkpoint`"
+            ))),
+        }
+    }
+}
+
 impl FaultKind {
+    /// The kind's name.
+    pub fn which(&self) -> FaultName {
+        match self {
+            FaultKind::Pause { .. } => FaultName::Pause,
+            FaultKind::Crash { .. } => FaultName::Crash,
+            FaultKind::Restart { .. } => FaultName::Restart,
+            FaultKind::Partition { .. } => FaultName::Partition,
+            FaultKind::LinkLoss { .. } => FaultName::LinkLoss,
+            FaultKind::Delay { .. } => FaultName::Delay,
+            FaultKind::ClockDrift { .. } => FaultName::ClockDrift,
+        }
+    }
+
     /// The kind's name, as in the files.
     pub fn name(&self) -> &'static str {
-        match self {
-            FaultKind::Pause { .. } => "pause",
-            FaultKind::Crash { .. } => "crash",
-            FaultKind::Restart { .. } => "restart",
-            FaultKind::Partition { .. } => "partition",
-            FaultKind::LinkLoss { .. } => "link_loss",
-            FaultKind::Delay { .. } => "delay",
-            FaultKind::ClockDrift { .. } => "clock_drift",
-        }
+        self.which().as_str()
     }
 
     /// The nodes it concerns (`faults.csv` `nodes`).
@@ -192,6 +280,74 @@ impl FaultKind {
     fn lasts(&self) -> bool {
         !matches!(self, FaultKind::Crash { .. } | FaultKind::Restart { .. })
     }
+
+    /// Checks its values among `n` nodes: a [`KeyError`].
+    fn check(&self, n: usize) -> Result<(), KeyError> {
+        let exists = |v: u32, key: &str| -> Result<(), KeyError> {
+            if v as usize >= n {
+                return Err(KeyError::new(
+                    key,
+                    format!("node {v} does not exist ({n} nodes)"),
+                ));
+            }
+            Ok(())
+        };
+        let link = |a: u32, b: u32| -> Result<(), KeyError> {
+            exists(a, "a")?;
+            exists(b, "b")?;
+            if a == b {
+                return Err(KeyError::new("b", "a link joins two different nodes"));
+            }
+            Ok(())
+        };
+        match self {
+            FaultKind::Pause { node } | FaultKind::Crash { node } => exists(*node, "node"),
+            FaultKind::Restart { node, every, .. } => {
+                exists(*node, "node")?;
+                if !(1..=1_000_000).contains(every) {
+                    return Err(KeyError::new(
+                        "checkpoint_every",
+                        format!("{every} is outside [1, 1000000]"),
+                    ));
+                }
+                Ok(())
+            }
+            FaultKind::Partition { groups } => {
+                if groups.len() < 2 || groups.iter().any(Vec::is_empty) {
+                    return Err(KeyError::new("groups", "two or more non-empty groups"));
+                }
+                let mut seen = vec![false; n];
+                for &v in groups.iter().flatten() {
+                    let Some(s) = seen.get_mut(v as usize) else {
+                        return Err(KeyError::new(
+                            "groups",
+                            format!("node {v} does not exist ({n} nodes)"),
+                        ));
+                    };
+                    if *s {
+                        return Err(KeyError::new(
+                            "groups",
+                            format!("node {v} is in two groups"),
+                        ));
+                    }
+                    *s = true;
+                }
+                Ok(())
+            }
+            FaultKind::LinkLoss { a, b, p } => {
+                link(*a, *b)?;
+                in_range("p", *p, 0.0, 1.0)
+            }
+            FaultKind::Delay { a, b, extra_s } => {
+                link(*a, *b)?;
+                in_range("extra_s", *extra_s, 0.0, 3600.0)
+            }
+            FaultKind::ClockDrift { node, ppm } => {
+                exists(*node, "node")?;
+                in_range("ppm", *ppm, -500_000.0, 500_000.0)
+            }
+        }
+    }
 }
 
 /// A checked fault, in emulated seconds.
@@ -207,194 +363,61 @@ pub struct Fault {
 
 impl FaultSpec {
     /// Checks the spec against `n` nodes and turns it into a [`Fault`]; a
-    /// sample lasts `period_s` emulated seconds. `Err((key, reason))` names
+    /// sample lasts `period_s` emulated seconds. a [`KeyError`] names
     /// the key (relative to the entry: `node`, `at_s`, ...).
-    pub fn resolve(&self, n: usize, period_s: f64) -> Result<Fault, (String, String)> {
-        let kind = self.kind_among(n)?;
-        self.takes_only_keys_of(&kind)?;
-        let (at_s, until_s) = self.when(&kind, period_s)?;
+    pub fn resolve(&self, n: usize, period_s: f64) -> Result<Fault, KeyError> {
+        self.kind.check(n)?;
+        let (at_s, until_s) = self.when(period_s)?;
         Ok(Fault {
-            kind,
+            kind: self.kind.clone(),
             at_s,
             until_s,
         })
     }
 
-    /// What the fault does, among `n` nodes: its kind with the keys it needs.
-    fn kind_among(&self, n: usize) -> Result<FaultKind, (String, String)> {
-        let need = |v: Option<u32>, key: &str| -> Result<u32, (String, String)> {
-            let v = v.ok_or_else(|| (key.to_string(), format!("`{}` needs it", self.kind)))?;
-            if v as usize >= n {
-                return Err((key.into(), format!("node {v} does not exist ({n} nodes)")));
-            }
-            Ok(v)
-        };
-        let link = || -> Result<(u32, u32), (String, String)> {
-            let (a, b) = (need(self.a, "a")?, need(self.b, "b")?);
-            if a == b {
-                return Err(("b".into(), "a link joins two different nodes".into()));
-            }
-            Ok((a, b))
-        };
-        let kind = match self.kind.as_str() {
-            "pause" => FaultKind::Pause {
-                node: need(self.node, "node")?,
-            },
-            "crash" => FaultKind::Crash {
-                node: need(self.node, "node")?,
-            },
-            "restart" => FaultKind::Restart {
-                node: need(self.node, "node")?,
-                every: match self.checkpoint_every {
-                    None => 1,
-                    Some(k) if (1..=1_000_000).contains(&k) => k,
-                    Some(k) => {
-                        return Err((
-                            "checkpoint_every".into(),
-                            format!("{k} is outside [1, 1000000]"),
-                        ));
-                    }
-                },
-                checkpoint: match self.state.as_deref() {
-                    None | Some("fresh") => false,
-                    Some("checkpoint") => true,
-                    Some(o) => {
-                        return Err((
-                            "state".into(),
-                            format!("`{o}` is not `fresh` or `checkpoint`"),
-                        ));
-                    }
-                },
-            },
-            "partition" => {
-                let groups = self
-                    .groups
-                    .clone()
-                    .ok_or_else(|| ("groups".to_string(), "`partition` needs it".to_string()))?;
-                if groups.len() < 2 || groups.iter().any(Vec::is_empty) {
-                    return Err(("groups".into(), "two or more non-empty groups".into()));
-                }
-                let mut seen = vec![false; n];
-                for &v in groups.iter().flatten() {
-                    let Some(s) = seen.get_mut(v as usize) else {
-                        return Err((
-                            "groups".into(),
-                            format!("node {v} does not exist ({n} nodes)"),
-                        ));
-                    };
-                    if *s {
-                        return Err(("groups".into(), format!("node {v} is in two groups")));
-                    }
-                    *s = true;
-                }
-                FaultKind::Partition { groups }
-            }
-            "link_loss" => {
-                let (a, b) = link()?;
-                let p = self
-                    .p
-                    .ok_or_else(|| ("p".to_string(), "`link_loss` needs it".to_string()))?;
-                in_range("p", p, 0.0, 1.0)?;
-                FaultKind::LinkLoss { a, b, p }
-            }
-            "delay" => {
-                let (a, b) = link()?;
-                let e = self
-                    .extra_s
-                    .ok_or_else(|| ("extra_s".to_string(), "`delay` needs it".to_string()))?;
-                in_range("extra_s", e, 0.0, 3600.0)?;
-                FaultKind::Delay { a, b, extra_s: e }
-            }
-            "clock_drift" => {
-                let node = need(self.node, "node")?;
-                let ppm = self
-                    .ppm
-                    .ok_or_else(|| ("ppm".to_string(), "`clock_drift` needs it".to_string()))?;
-                in_range("ppm", ppm, -500_000.0, 500_000.0)?;
-                FaultKind::ClockDrift { node, ppm }
-            }
-            other => {
-                return Err((
-                    "kind".into(),
-                    format!(
-                        "`{other}` is not a fault (pause, crash, restart, partition, link_loss, delay, clock_drift)"
-                    ),
-                ));
-            }
-        };
-        Ok(kind)
-    }
-
-    /// Refuses a key the fault's kind does not take.
-    fn takes_only_keys_of(&self, kind: &FaultKind) -> Result<(), (String, String)> {
-        let takes: &[&str] = match kind {
-            FaultKind::Pause { .. } | FaultKind::Crash { .. } => &["node"],
-            FaultKind::Restart { .. } => &["node", "state", "checkpoint_every"],
-            FaultKind::Partition { .. } => &["groups"],
-            FaultKind::LinkLoss { .. } => &["a", "b", "p"],
-            FaultKind::Delay { .. } => &["a", "b", "extra_s"],
-            FaultKind::ClockDrift { .. } => &["node", "ppm"],
-        };
-        let given = [
-            ("node", self.node.is_some()),
-            ("state", self.state.is_some()),
-            ("checkpoint_every", self.checkpoint_every.is_some()),
-            ("groups", self.groups.is_some()),
-            ("a", self.a.is_some()),
-            ("b", self.b.is_some()),
-            ("p", self.p.is_some()),
-            ("extra_s", self.extra_s.is_some()),
-            ("ppm", self.ppm.is_some()),
-        ];
-        if let Some((k, _)) = given.iter().find(|(k, g)| *g && !takes.contains(k)) {
-            return Err((k.to_string(), format!("`{}` does not take it", self.kind)));
-        }
-        Ok(())
-    }
-
     /// When the fault starts and ends (emulated seconds, samples `period_s`
     /// long; no end: it lasts until the run ends).
-    fn when(
-        &self,
-        kind: &FaultKind,
-        period_s: f64,
-    ) -> Result<(f64, Option<f64>), (String, String)> {
-        let at_s = match (self.at_s, self.at_sample) {
+    fn when(&self, period_s: f64) -> Result<(f64, Option<f64>), KeyError> {
+        let w = &self.when;
+        let at_s = match (w.at_s, w.at_sample) {
             (Some(t), None) => {
                 in_range("at_s", t, 0.0, 1e9)?;
                 t
             }
             (None, Some(k)) => k as f64 * period_s,
-            (None, None) => return Err(("at_s".into(), "give at_s or at_sample".into())),
+            (None, None) => return Err(KeyError::new("at_s", "give at_s or at_sample")),
             (Some(_), Some(_)) => {
-                return Err((
-                    "at_sample".into(),
-                    "give at_s or at_sample, not both".into(),
+                return Err(KeyError::new(
+                    "at_sample",
+                    "give at_s or at_sample, not both",
                 ));
             }
         };
-        let dur = match (self.for_s, self.for_samples) {
+        let dur = match (w.for_s, w.for_samples) {
             (Some(d), None) => {
                 in_range("for_s", d, 1e-9, 1e9)?;
                 Some(d)
             }
-            (None, Some(0)) => return Err(("for_samples".into(), "at least 1".into())),
+            (None, Some(0)) => return Err(KeyError::new("for_samples", "at least 1")),
             (None, Some(k)) => Some(k as f64 * period_s),
             (None, None) => None,
             (Some(_), Some(_)) => {
-                return Err((
-                    "for_samples".into(),
-                    "give for_s or for_samples, not both".into(),
+                return Err(KeyError::new(
+                    "for_samples",
+                    "give for_s or for_samples, not both",
                 ));
             }
         };
-        if dur.is_some() && !kind.lasts() {
-            let key = if self.for_s.is_some() {
+        if dur.is_some() && !self.kind.lasts() {
+            let key = if w.for_s.is_some() {
                 "for_s"
             } else {
                 "for_samples"
             };
-            return Err((key.into(), format!("`{}` is instantaneous", self.kind)));
+            return Err(KeyError::new(
+                key,
+                format!("`{}` is instantaneous", self.kind.name()),
+            ));
         }
         Ok((at_s, dur.map(|d| at_s + d)))
     }
@@ -576,35 +599,20 @@ impl IdealLinks {
 #[serde(deny_unknown_fields)]
 pub struct NemesisCfg {
     /// Kinds to draw from (any of `pause`, `crash`, `restart`, `partition`,
-    /// `link_loss`, `delay`, `clock_drift`).
-    pub kinds: Vec<String>,
+    /// `link_loss`, `delay`, `clock_drift`; at least one).
+    pub kinds: Vec<FaultName>,
     /// Emulated seconds between two faults, in (0, 1e9]; the first comes
     /// after one interval.
     pub interval_s: f64,
 }
 
 impl NemesisCfg {
-    /// Checks the kinds and the interval: `Err((key, reason))`.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        const KINDS: [&str; 7] = [
-            "pause",
-            "crash",
-            "restart",
-            "partition",
-            "link_loss",
-            "delay",
-            "clock_drift",
-        ];
+    /// Checks the kinds and the interval: a [`KeyError`].
+    pub fn validate(&self) -> Result<(), KeyError> {
         if self.kinds.is_empty() {
-            return Err((
-                "nemesis.kinds".into(),
-                "name at least one fault kind".into(),
-            ));
-        }
-        if let Some(k) = self.kinds.iter().find(|k| !KINDS.contains(&k.as_str())) {
-            return Err((
-                "nemesis.kinds".into(),
-                format!("`{k}` is not a fault ({})", KINDS.join(", ")),
+            return Err(KeyError::new(
+                "nemesis.kinds",
+                "name at least one fault kind",
             ));
         }
         in_range("nemesis.interval_s", self.interval_s, 1e-9, 1e9)
@@ -635,7 +643,7 @@ impl NemesisCfg {
         let half = self.interval_s / 2.0;
         let mut t = self.interval_s;
         while t < horizon_s && out.len() < 100_000 {
-            let kind = &self.kinds[rng.random_range(0..self.kinds.len())];
+            let kind = self.kinds[rng.random_range(0..self.kinds.len())];
             let node = rng.random_range(0..n) as u32;
             let edge = (!edges.is_empty())
                 .then(|| edges[rng.random_range(0..edges.len())])
@@ -645,9 +653,9 @@ impl NemesisCfg {
                 at_s: t,
                 until_s: Some(t + half),
             };
-            match kind.as_str() {
-                "pause" => out.push(lasting(FaultKind::Pause { node })),
-                "crash" => {
+            match kind {
+                FaultName::Pause => out.push(lasting(FaultKind::Pause { node })),
+                FaultName::Crash => {
                     out.push(Fault {
                         kind: FaultKind::Crash { node },
                         at_s: t,
@@ -663,7 +671,7 @@ impl NemesisCfg {
                         until_s: None,
                     });
                 }
-                "restart" => out.push(Fault {
+                FaultName::Restart => out.push(Fault {
                     kind: FaultKind::Restart {
                         node,
                         checkpoint: true,
@@ -672,7 +680,7 @@ impl NemesisCfg {
                     at_s: t,
                     until_s: None,
                 }),
-                "partition" => {
+                FaultName::Partition => {
                     let mut order: Vec<u32> = (0..n as u32).collect();
                     for i in (1..order.len()).rev() {
                         order.swap(i, rng.random_range(0..=i));
@@ -685,12 +693,12 @@ impl NemesisCfg {
                         }));
                     }
                 }
-                "link_loss" => {
+                FaultName::LinkLoss => {
                     if let Some((a, b)) = edge {
                         out.push(lasting(FaultKind::LinkLoss { a, b, p: 0.5 }));
                     }
                 }
-                "delay" => {
+                FaultName::Delay => {
                     if let Some((a, b)) = edge {
                         out.push(lasting(FaultKind::Delay {
                             a,
@@ -699,7 +707,7 @@ impl NemesisCfg {
                         }));
                     }
                 }
-                _ => {
+                FaultName::ClockDrift => {
                     let ppm = if rng.random_bool(0.5) { 1e5 } else { -1e5 };
                     out.push(lasting(FaultKind::ClockDrift { node, ppm }));
                 }
@@ -756,30 +764,89 @@ mod tests {
     }
 
     #[test]
-    fn a_bad_fault_names_its_key_and_the_reason() {
+    fn a_bad_value_names_its_key_and_the_reason() {
         for (flag, key, needle) in [
-            ("pause:at_s=1", "node", "needs it"),
             ("pause:node=9,at_s=1", "node", "does not exist"),
             ("crash:node=1,at_s=1,for_s=2", "for_s", "instantaneous"),
             ("pause:node=1", "at_s", "give at_s or at_sample"),
+            ("pause:node=1,at_s=1,at_sample=2", "at_sample", "not both"),
             ("link_loss:a=1,b=1,p=0.5,at_s=1", "b", "two different nodes"),
             ("link_loss:a=0,b=1,p=1.5,at_s=1", "p", "outside"),
+            ("delay:a=0,b=7,extra_s=1,at_s=1", "b", "does not exist"),
+            ("clock_drift:node=0,ppm=1e6,at_s=1", "ppm", "outside"),
             (
                 "partition:groups=[[0,1],[1,2]],at_s=1",
                 "groups",
                 "two groups",
             ),
-            ("pause:node=1,p=0.5,at_s=1", "p", "does not take it"),
-            ("explode:node=1,at_s=1", "kind", "not a fault"),
-            ("restart:node=1,state=\"warm\",at_s=1", "state", "fresh"),
+            ("partition:groups=[[0,1]],at_s=1", "groups", "two or more"),
+            (
+                "restart:node=1,state=checkpoint,checkpoint_every=0,at_s=1",
+                "checkpoint_every",
+                "outside",
+            ),
         ] {
-            let (k, why) = spec(flag).resolve(6, 1.0).unwrap_err();
+            let KeyError {
+                key: k,
+                reason: why,
+            } = spec(flag).resolve(6, 1.0).unwrap_err();
             assert_eq!(k, key, "{flag}");
             assert!(why.contains(needle), "{flag}: {why}");
         }
-        assert!(FaultSpec::parse_flag("pause:node").is_err());
-        let e = FaultSpec::parse_flag("pause:nod=1").unwrap_err();
-        assert!(e.contains("unknown field"), "{e}");
+    }
+
+    #[test]
+    fn a_missing_or_foreign_key_or_an_unknown_kind_is_refused_as_it_is_read() {
+        for (flag, needle) in [
+            ("pause:at_s=1", "missing field `node`"),
+            ("pause:node=1,p=0.5,at_s=1", "unknown field `p`"),
+            ("pause:nod=1", "unknown field `nod`"),
+            ("explode:node=1,at_s=1", "unknown variant `explode`"),
+            (
+                "restart:node=1,state=\"warm\",at_s=1",
+                "not `fresh` or `checkpoint`",
+            ),
+            ("link_loss:a=0,b=1,at_s=1", "missing field `p`"),
+            ("pause:node", "KEY=VALUE"),
+        ] {
+            let e = FaultSpec::parse_flag(flag).unwrap_err();
+            assert!(e.contains(needle), "{flag}: {e}");
+        }
+        let e = toml::from_str::<FaultSpec>("node = 1\nat_s = 1").unwrap_err();
+        assert!(e.to_string().contains("missing field `kind`"), "{e}");
+    }
+
+    #[test]
+    fn a_fault_is_written_back_as_it_was_read_kind_first() {
+        for flag in [
+            "pause:node=3,at_s=20,for_s=10",
+            "restart:node=1,at_sample=3",
+            "restart:node=1,state=checkpoint,checkpoint_every=5,at_s=3",
+            "partition:groups=[[0,1],[2]],at_s=0,for_samples=2",
+            "link_loss:a=0,b=1,p=0.25,at_s=1",
+            "delay:a=0,b=1,extra_s=0.5,at_s=1",
+            "clock_drift:node=2,ppm=-100,at_s=1",
+        ] {
+            let f = spec(flag);
+            let text = toml::to_string(&f).unwrap();
+            assert!(text.starts_with("kind = "), "{flag}: {text}");
+            assert_eq!(toml::from_str::<FaultSpec>(&text).unwrap(), f, "{flag}");
+        }
+        // The defaults of a restart are not written out.
+        let text = toml::to_string(&spec("restart:node=1,at_s=3")).unwrap();
+        assert_eq!(text, "kind = \"restart\"\nnode = 1\nat_s = 3.0\n");
+        // Every kind's tag is its FaultName.
+        let kinds = [
+            "pause:node=0,at_s=0",
+            "crash:node=0,at_s=0",
+            "restart:node=0,at_s=0",
+            "partition:groups=[[0],[1]],at_s=0",
+            "link_loss:a=0,b=1,p=0.5,at_s=0",
+            "delay:a=0,b=1,extra_s=1,at_s=0",
+            "clock_drift:node=0,ppm=1,at_s=0",
+        ]
+        .map(|f| spec(f).kind.which());
+        assert_eq!(&kinds[..], FaultName::ALL);
     }
 
     #[test]
@@ -812,7 +879,7 @@ mod tests {
     #[test]
     fn the_nemesis_draws_the_same_faults_from_the_same_seed_and_others_from_another() {
         let nem = NemesisCfg {
-            kinds: vec!["pause".into(), "crash".into(), "partition".into()],
+            kinds: vec![FaultName::Pause, FaultName::Crash, FaultName::Partition],
             interval_s: 1.0,
         };
         nem.validate().unwrap();
@@ -831,10 +898,10 @@ mod tests {
             assert!(f.kind.nodes().iter().all(|&v| v < 4), "{f:?}");
         }
         let bad = NemesisCfg {
-            kinds: vec!["flood".into()],
+            kinds: vec![],
             interval_s: 1.0,
         };
-        assert_eq!(bad.validate().unwrap_err().0, "nemesis.kinds");
+        assert_eq!(bad.validate().unwrap_err().key, "nemesis.kinds");
     }
 
     #[test]

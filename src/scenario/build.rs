@@ -5,7 +5,7 @@
 use super::BoundsCfg;
 use super::ScenarioFile;
 use super::sections;
-use crate::model::error::InputError;
+use crate::model::error::{InputError, KeyError};
 use crate::model::measure::Geometry;
 use crate::scenario::Scenario;
 use std::collections::BTreeSet;
@@ -13,20 +13,20 @@ use std::path::Path;
 use std::path::PathBuf;
 
 /// Check the baselines (parameters, unique names) and the `[bounds]` table
-/// against them: `Err((key, reason))`. The one check for the file and for
+/// against them: a [`KeyError`]. The one check for the file and for
 /// `--baselines`, which replaces the list (so `bounds.tracks` must still name
 /// existing tracks).
 pub(super) fn check_tracks(
     baselines: &[crate::estimators::baselines::BaselineCfg],
     bounds: Option<&BoundsCfg>,
     geometry: &Geometry,
-) -> Result<(), (String, String)> {
+) -> Result<(), KeyError> {
     let mut names = BTreeSet::new();
     for (i, b) in baselines.iter().enumerate() {
         b.validate(geometry, !geometry.transmitters.is_empty())
-            .map_err(|e| (format!("baselines[{i}] ({})", b.kind()), e))?;
+            .map_err(|e| KeyError::new(format!("baselines[{i}] ({})", b.kind()), e))?;
         if !names.insert(b.name()) {
-            return Err((
+            return Err(KeyError::new(
                 format!("baselines[{i}].name"),
                 format!(
                     "duplicate track name {:?}: give each baseline its own `name`",
@@ -39,11 +39,14 @@ pub(super) fn check_tracks(
         return Ok(());
     };
     if b.names.is_empty() {
-        return Err(("bounds.names".into(), "list at least one bound".into()));
+        return Err(KeyError::new("bounds.names", "list at least one bound"));
     }
     for (k, v) in [("bounds.rho", b.rho), ("bounds.rho_sigmas", b.rho_sigmas)] {
         if !(v.is_finite() && v >= 0.0) {
-            return Err((k.into(), format!("must be finite and >= 0, got {v}")));
+            return Err(KeyError::new(
+                k,
+                format!("must be finite and >= 0, got {v}"),
+            ));
         }
     }
     let keys = b
@@ -59,7 +62,7 @@ pub(super) fn check_tracks(
         );
     for (key, t) in keys {
         if t != "theta_bar" && t != "ml" && !names.contains(t) {
-            return Err((
+            return Err(KeyError::new(
                 key,
                 format!(
                     "no track {t:?}: use theta_bar, ml or a baseline name ({})",
@@ -69,9 +72,9 @@ pub(super) fn check_tracks(
         }
     }
     if let Some((t, _)) = b.per_track.iter().find(|(_, v)| v.is_empty()) {
-        return Err((
+        return Err(KeyError::new(
             format!("bounds.per_track.{t}"),
-            "list at least one bound".into(),
+            "list at least one bound",
         ));
     }
     Ok(())
@@ -170,17 +173,17 @@ impl Scenario {
         sections::realtime(path, &file)?;
         if let Some(ch) = file.channel.acoustic() {
             ch.validate(geometry.receivers.len())
-                .map_err(|(key, reason)| InputError::at(path, key, reason))?;
+                .map_err(|e| e.in_file(path))?;
         }
         if let Some(d) = &file.deploy {
             d.validate(geometry.receivers.len())
                 .map_err(|r| InputError::at(path, "deploy.hosts", r))?;
         }
-        let faults = resolve_faults(&file, geometry.receivers.len())
-            .map_err(|(key, reason)| InputError::at(path, key, reason))?;
+        let faults =
+            resolve_faults(&file, geometry.receivers.len()).map_err(|e| e.in_file(path))?;
         // Baselines, bounds, Monte Carlo.
         check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
-            .map_err(|(key, reason)| InputError::at(path, key, reason))?;
+            .map_err(|e| e.in_file(path))?;
         crate::scenario::expect::validate_syntax(&file.expect)
             .map_err(|e| InputError::at(path, "expect.holds", e))?;
         if let Some(mc) = &file.monte_carlo {
@@ -304,14 +307,13 @@ fn unsupported_shape(t: &toml::Table) -> Option<InputError> {
 pub(crate) fn resolve_faults(
     file: &ScenarioFile,
     n: usize,
-) -> Result<Vec<crate::model::fault::Fault>, (String, String)> {
+) -> Result<Vec<crate::model::fault::Fault>, KeyError> {
     if let Some(nem) = &file.nemesis {
         nem.validate()?;
         if file.realtime.is_none() {
-            return Err((
-                "nemesis".into(),
-                "faults run on the realtime clock: add a [realtime] table (sample_period_ms, wake_rate_hz)"
-                    .into(),
+            return Err(KeyError::new(
+                "nemesis",
+                "faults run on the realtime clock: add a [realtime] table (sample_period_ms, wake_rate_hz)",
             ));
         }
     }
@@ -319,10 +321,9 @@ pub(crate) fn resolve_faults(
         return Ok(Vec::new());
     }
     let Some(rt) = &file.realtime else {
-        return Err((
-            "faults".into(),
-            "faults run on the realtime clock: add a [realtime] table (sample_period_ms, wake_rate_hz)"
-                .into(),
+        return Err(KeyError::new(
+            "faults",
+            "faults run on the realtime clock: add a [realtime] table (sample_period_ms, wake_rate_hz)",
         ));
     };
     file.faults
@@ -330,7 +331,7 @@ pub(crate) fn resolve_faults(
         .enumerate()
         .map(|(i, f)| {
             f.resolve(n, rt.sample_period_ms / 1000.0)
-                .map_err(|(k, r)| (format!("faults[{i}].{k}"), r))
+                .map_err(|e| e.under(&format!("faults[{i}]")))
         })
         .collect()
 }

@@ -14,7 +14,7 @@ pub use crate::model::synth::{MeasurementsCfg, Realization};
 pub use crate::scenario::expect::ExpectCfg;
 
 use crate::estimators::prox::LocalSolver;
-use crate::model::error::InputError;
+use crate::model::error::{InputError, KeyError};
 use crate::model::geometry::{Vec2, Vec3};
 use crate::model::graph::Graph;
 use crate::model::measure::{Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
@@ -235,7 +235,7 @@ impl Scenario {
         baselines: Vec<crate::estimators::baselines::BaselineCfg>,
     ) -> Result<Self, InputError> {
         check_tracks(&baselines, self.bounds.as_ref(), &self.geometry)
-            .map_err(|(key, reason)| cli_error("--baselines", format!("{key}: {reason}")))?;
+            .map_err(|e| cli_error("--baselines", e.to_string()))?;
         self.baselines = baselines;
         Ok(self)
     }
@@ -265,7 +265,7 @@ impl Scenario {
         };
         let f = spec
             .resolve(self.graph.len(), rt.sample_period_ms / 1000.0)
-            .map_err(|(k, r)| cli_error("--fault", format!("`{flag}`: {k}: {r}")))?;
+            .map_err(|e| cli_error("--fault", format!("`{flag}`: {e}")))?;
         self.faults.push(f);
         self.file.faults.push(spec);
         Ok(self)
@@ -279,12 +279,14 @@ impl Scenario {
     /// Draw random faults (`--nemesis KINDS --nemesis-interval-s S`); an
     /// error names the flag.
     pub fn with_nemesis(mut self, kinds: &str, interval_s: f64) -> Result<Self, InputError> {
-        let cfg = crate::model::fault::NemesisCfg {
-            kinds: kinds.split(',').map(|k| k.trim().to_string()).collect(),
-            interval_s,
-        };
-        cfg.validate().map_err(|(k, r)| {
-            let flag = if k.ends_with("interval_s") {
+        let kinds = kinds
+            .split(',')
+            .map(|k| k.trim().parse())
+            .collect::<Result<_, _>>()
+            .map_err(|e| cli_error("--nemesis", format!("{e} (fault kinds)")))?;
+        let cfg = crate::model::fault::NemesisCfg { kinds, interval_s };
+        cfg.validate().map_err(|KeyError { key, reason: r }| {
+            let flag = if key.ends_with("interval_s") {
                 "--nemesis-interval-s"
             } else {
                 "--nemesis"
