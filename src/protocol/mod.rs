@@ -199,13 +199,8 @@ impl NodeCore {
     }
 
     fn prox_step(&mut self) -> Result<(Vec3, Vec3), ProxError> {
-        let theta = prox(
-            self.cfg.solver,
-            &self.problem,
-            &self.u,
-            self.cfg.gamma,
-            self.cfg.kappa,
-        )?;
+        let solver = self.cfg.solver.with_kappa(self.cfg.kappa);
+        let theta = prox(solver, &self.problem, &self.u, self.cfg.gamma)?;
         self.counters.prox_solves += 1;
         let r = 2.0 * theta - self.u;
         Ok((theta, r))

@@ -70,8 +70,20 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
             match a.mode {
                 Mode::Async => {
                     let (v, w) = sched.next_pair();
-                    let tv = prox(a.local_solver, &probs[v], &u[v], gamma[v], a.kappa).unwrap();
-                    let tw = prox(a.local_solver, &probs[w], &u[w], gamma[w], a.kappa).unwrap();
+                    let tv = prox(
+                        a.local_solver.with_kappa(a.kappa),
+                        &probs[v],
+                        &u[v],
+                        gamma[v],
+                    )
+                    .unwrap();
+                    let tw = prox(
+                        a.local_solver.with_kappa(a.kappa),
+                        &probs[w],
+                        &u[w],
+                        gamma[w],
+                    )
+                    .unwrap();
                     let rv = 2.0 * tv - u[v];
                     let rw = 2.0 * tw - u[w];
                     let avg = Vec2::new((rv[0] + rw[0]) / 2.0, (rv[1] + rw[1]) / 2.0);
@@ -82,7 +94,15 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
                 }
                 Mode::Sync => {
                     let ts: Vec<Vec3> = (0..n)
-                        .map(|i| prox(a.local_solver, &probs[i], &u[i], gamma[i], a.kappa).unwrap())
+                        .map(|i| {
+                            prox(
+                                a.local_solver.with_kappa(a.kappa),
+                                &probs[i],
+                                &u[i],
+                                gamma[i],
+                            )
+                            .unwrap()
+                        })
                         .collect();
                     let rs: Vec<Vec3> = (0..n).map(|i| 2.0 * ts[i] - u[i]).collect();
                     let mut s = Vec2::zeros();

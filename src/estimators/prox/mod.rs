@@ -38,20 +38,54 @@ impl LocalSolver {
     }
 }
 
-/// Dispatch on [`LocalSolver`]: [`prox_gtrs`] (eq. 13), [`prox_relaxed`] (eq. 11) or
-/// [`prox_gtrs_l0`] (eq. 13 with `l0` outlier separation of up to
-/// `kappa` rows, Shi 2024 eq. 7). `kappa` is ignored by the other two.
-pub fn prox(
-    solver: LocalSolver,
-    p: &LocalProblem,
-    u: &Vec3,
-    gamma: f64,
-    kappa: usize,
-) -> Result<Vec3, ProxError> {
+impl LocalSolver {
+    /// The local prox this solver names, with its parameter: `kappa` is the
+    /// outlier budget of [`LocalSolver::GtrsL0`] (`algorithm.kappa`) and
+    /// is dropped by the other two.
+    pub fn with_kappa(self, kappa: usize) -> LocalProx {
+        match self {
+            LocalSolver::Gtrs => LocalProx::Gtrs,
+            LocalSolver::Relaxed => LocalProx::Relaxed,
+            LocalSolver::GtrsL0 => LocalProx::GtrsL0 { kappa },
+        }
+    }
+}
+
+/// A local prox with its parameters: what a node runs at each step
+/// ([`LocalSolver`] is its name in files, outputs and on the command line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LocalProx {
+    /// [`prox_gtrs`]: exact prox on the cone surface (Mourya 2017 eq. 13).
+    Gtrs,
+    /// [`prox_relaxed`]: unconstrained prox (Mourya 2017 eq. 11 without
+    /// eq. 12).
+    Relaxed,
+    /// [`prox_gtrs_l0`]: eq. 13 with `l0` outlier separation of up to
+    /// `kappa` rows (Shi 2024 eq. 7, 19-20).
+    GtrsL0 {
+        /// Rows that may be separated as outliers (capped at run time by
+        /// [`crate::estimators::prox::l0::effective_kappa`]).
+        kappa: usize,
+    },
+}
+
+impl LocalProx {
+    /// Its name.
+    pub fn solver(self) -> LocalSolver {
+        match self {
+            LocalProx::Gtrs => LocalSolver::Gtrs,
+            LocalProx::Relaxed => LocalSolver::Relaxed,
+            LocalProx::GtrsL0 { .. } => LocalSolver::GtrsL0,
+        }
+    }
+}
+
+/// The local prox step `prox_{gamma f_v}(u)` of `solver` on `p`.
+pub fn prox(solver: LocalProx, p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxError> {
     match solver {
-        LocalSolver::Gtrs => prox_gtrs(p, u, gamma),
-        LocalSolver::Relaxed => prox_relaxed(p, u, gamma),
-        LocalSolver::GtrsL0 => prox_gtrs_l0(p, u, gamma, kappa),
+        LocalProx::Gtrs => prox_gtrs(p, u, gamma),
+        LocalProx::Relaxed => prox_relaxed(p, u, gamma),
+        LocalProx::GtrsL0 { kappa } => prox_gtrs_l0(p, u, gamma, kappa),
     }
 }
 
@@ -63,13 +97,35 @@ mod tests {
     use crate::model::geometry::Vec2;
 
     #[test]
+    fn only_gtrs_l0_carries_kappa_and_every_prox_knows_its_name() {
+        assert_eq!(LocalSolver::Gtrs.with_kappa(3), LocalProx::Gtrs);
+        assert_eq!(LocalSolver::Relaxed.with_kappa(3), LocalProx::Relaxed);
+        assert_eq!(
+            LocalSolver::GtrsL0.with_kappa(3),
+            LocalProx::GtrsL0 { kappa: 3 }
+        );
+        for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
+            assert_eq!(s.with_kappa(2).solver(), s);
+        }
+        // With no row to separate, the l0 prox is the plain GTRS prox.
+        let p = paper_problem(0);
+        let u = Vec3::new(1.0, 2.0, 3.0);
+        let plain = prox(LocalProx::Gtrs, &p, &u, 1.0).unwrap();
+        let none = prox(LocalProx::GtrsL0 { kappa: 0 }, &p, &u, 1.0).unwrap();
+        approx::assert_relative_eq!(plain, none, max_relative = 1e-9);
+    }
+
+    #[test]
     fn bad_gamma_is_an_error_for_every_solver() {
         let p = paper_problem(0);
         let u = Vec3::new(1.0, 2.0, 3.0);
         for g in [0.0, -1e-8, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
                 assert!(
-                    matches!(prox(s, &p, &u, g, 1), Err(ProxError::BadGamma(_))),
+                    matches!(
+                        prox(s.with_kappa(1), &p, &u, g),
+                        Err(ProxError::BadGamma(_))
+                    ),
                     "{s:?} gamma {g}"
                 );
             }
@@ -110,7 +166,10 @@ mod tests {
         for (k, (p, u)) in cases.iter().enumerate() {
             for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
                 assert!(
-                    matches!(prox(s, p, u, 2e-8, 1), Err(ProxError::NonFinite(_))),
+                    matches!(
+                        prox(s.with_kappa(1), p, u, 2e-8),
+                        Err(ProxError::NonFinite(_))
+                    ),
                     "case {k} {s:?}"
                 );
             }
@@ -127,7 +186,7 @@ mod tests {
         );
         for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
             assert!(
-                prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), 1.0, 1).is_err(),
+                prox(s.with_kappa(1), &p, &Vec3::new(1.0, 2.0, 3.0), 1.0).is_err(),
                 "{s:?}"
             );
         }
@@ -144,7 +203,7 @@ mod tests {
         );
         for gamma in [1e10, 1e100, 1e300, f64::MAX] {
             for s in [LocalSolver::Gtrs, LocalSolver::Relaxed, LocalSolver::GtrsL0] {
-                if let Ok(th) = prox(s, &p, &Vec3::new(1.0, 2.0, 3.0), gamma, 1) {
+                if let Ok(th) = prox(s.with_kappa(1), &p, &Vec3::new(1.0, 2.0, 3.0), gamma) {
                     assert!(th.iter().all(|x| x.is_finite()), "{s:?} {gamma}: {th:?}");
                 }
             }
