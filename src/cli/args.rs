@@ -259,7 +259,14 @@ macro_rules! value_enum {
         }
     )+};
 }
-value_enum!(Mode, ProxScaling, EngineKind, Clock, TransportKind);
+value_enum!(
+    Mode,
+    ProxScaling,
+    EngineKind,
+    Clock,
+    TransportKind,
+    LocalSolver
+);
 
 impl RunArgs {
     /// `--mode`.
@@ -297,10 +304,8 @@ pub struct RunArgs {
     /// `inverse-probability` is accepted too).
     #[arg(help_heading = "Algorithm", long, value_enum)]
     pub prox_scaling: Option<ProxScaling>,
-    /// Local prox (overrides algorithm.local_solver): gtrs (exact, on the cone),
-    /// relaxed (no cone constraint) or gtrs_l0 (gtrs with up to algorithm.kappa
-    /// outlier rows per node separated).
-    #[arg(help_heading = "Algorithm", long, value_parser = parse_solver)]
+    /// Local prox (overrides algorithm.local_solver).
+    #[arg(help_heading = "Algorithm", long, value_enum)]
     pub local_solver: Option<LocalSolver>,
     /// Outlier budget of gtrs_l0: rows of each node's local cost that may be
     /// separated as outliers (overrides algorithm.kappa; must be below every
@@ -437,14 +442,6 @@ pub struct RunArgs {
     /// Also write every plot as PNG, beside its SVG.
     #[arg(long, help_heading = "Output")]
     pub png: bool,
-}
-
-/// Parse a `--local-solver` value with the scenario file's spelling.
-fn parse_solver(s: &str) -> Result<LocalSolver, String> {
-    serde::Deserialize::deserialize(
-        serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
-    )
-    .map_err(|_| format!("unknown local solver `{s}` (expected gtrs, relaxed or gtrs_l0)"))
 }
 
 /// `--stall-timeout`: seconds in [`STALL_TIMEOUT_RANGE_S`](crate::protocol::plan::STALL_TIMEOUT_RANGE_S).

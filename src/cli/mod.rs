@@ -53,7 +53,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
                         sc.graph.edges().len(),
                         sc.samples,
                         sc.algorithm.mode.as_str(),
-                        crate::estimators::baselines::solver_name(sc.algorithm.local_solver),
+                        sc.algorithm.local_solver.as_str(),
                         if sc.baselines.is_empty() {
                             String::new()
                         } else {

@@ -165,14 +165,6 @@ pub enum BaselineCfg {
     },
 }
 
-/// The file name of a local solver (`gtrs`, `relaxed`, ...).
-pub fn solver_name(s: LocalSolver) -> String {
-    serde_json::to_value(s)
-        .ok()
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_else(|| format!("{s:?}").to_lowercase())
-}
-
 /// Kinds accepted by `--baselines` (with default parameters).
 pub const KINDS: &[&str] = &[
     "ogd",
@@ -229,10 +221,9 @@ impl BaselineCfg {
         };
         given.unwrap_or_else(|| match self {
             BaselineCfg::Ml { .. } => "ml_baseline".into(),
-            BaselineCfg::Distributed { local_solver, .. } => format!(
-                "dr_{}",
-                local_solver.map_or("same".to_string(), solver_name)
-            ),
+            BaselineCfg::Distributed { local_solver, .. } => {
+                format!("dr_{}", local_solver.map_or("same", LocalSolver::as_str))
+            }
             other => other.kind().into(),
         })
     }

@@ -311,7 +311,11 @@ fn an_unknown_local_solver_lists_gtrs_l0_among_the_choices() {
         Duration::from_secs(30),
     );
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("gtrs, relaxed or gtrs_l0"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("[possible values: gtrs, relaxed, gtrs_l0]"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -11,30 +11,17 @@ use crate::estimators::local::LocalProblem;
 use crate::estimators::prox::gtrs::{ProxError, prox_gtrs, prox_relaxed};
 use crate::estimators::prox::l0::prox_gtrs_l0;
 use crate::model::geometry::Vec3;
-use serde::{Deserialize, Serialize};
 
-/// Which local prox the Douglas-Rachford engine uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LocalSolver {
-    /// Exact prox on the cone surface `||theta~[0:2] - r_v|| = theta~[2]` (eq. 13).
-    Gtrs,
-    /// Unconstrained prox, a 3x3 SPD solve (eq. 11 without eq. 12).
-    Relaxed,
-    /// Exact prox on the cone with `l0` outlier separation of up to `kappa` rows
-    /// (Shi 2024 eq. 7, 19-20); see [`crate::estimators::prox::l0`].
-    #[serde(rename = "gtrs_l0")]
-    GtrsL0,
-}
-
-impl LocalSolver {
-    /// The name used in scenario files and outputs.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            LocalSolver::Gtrs => "gtrs",
-            LocalSolver::Relaxed => "relaxed",
-            LocalSolver::GtrsL0 => "gtrs_l0",
-        }
+crate::named_enum! {
+    /// Which local prox the Douglas-Rachford engine uses
+    /// (`algorithm.local_solver`, `--local-solver`).
+    pub enum LocalSolver {
+        /// Exact prox on the cone surface (Mourya 2017 eq. 13).
+        Gtrs = "gtrs",
+        /// Unconstrained prox, a 3x3 SPD solve (Mourya 2017 eq. 11 without eq. 12).
+        Relaxed = "relaxed",
+        /// gtrs with up to algorithm.kappa outlier rows per node separated (Shi 2024 eq. 7).
+        GtrsL0 = "gtrs_l0",
     }
 }
 
