@@ -66,24 +66,13 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
                 )
             })
             .collect();
+        let solver = a.local_solver.with_kappa(a.kappa);
         for _ in 0..a.iterations_per_sample {
             match a.mode {
                 Mode::Async => {
                     let (v, w) = sched.next_pair();
-                    let tv = prox(
-                        a.local_solver.with_kappa(a.kappa),
-                        &probs[v],
-                        &u[v],
-                        gamma[v],
-                    )
-                    .unwrap();
-                    let tw = prox(
-                        a.local_solver.with_kappa(a.kappa),
-                        &probs[w],
-                        &u[w],
-                        gamma[w],
-                    )
-                    .unwrap();
+                    let tv = prox(solver, &probs[v], &u[v], gamma[v]).unwrap();
+                    let tw = prox(solver, &probs[w], &u[w], gamma[w]).unwrap();
                     let rv = 2.0 * tv - u[v];
                     let rw = 2.0 * tw - u[w];
                     let avg = Vec2::new((rv[0] + rw[0]) / 2.0, (rv[1] + rw[1]) / 2.0);
@@ -94,15 +83,7 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
                 }
                 Mode::Sync => {
                     let ts: Vec<Vec3> = (0..n)
-                        .map(|i| {
-                            prox(
-                                a.local_solver.with_kappa(a.kappa),
-                                &probs[i],
-                                &u[i],
-                                gamma[i],
-                            )
-                            .unwrap()
-                        })
+                        .map(|i| prox(solver, &probs[i], &u[i], gamma[i]).unwrap())
                         .collect();
                     let rs: Vec<Vec3> = (0..n).map(|i| 2.0 * ts[i] - u[i]).collect();
                     let mut s = Vec2::zeros();
