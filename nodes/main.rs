@@ -15,7 +15,9 @@
 
 use clap::Parser;
 use sonarnet::engine::node::{NodeLoop, run_node};
-use sonarnet::runtime::processes::{NodeLaunch, TEMP_CHECKPOINTS, guard_parent, wait_at_gate};
+use sonarnet::runtime::processes::{
+    NodeLaunch, NodeProcessError, TEMP_CHECKPOINTS, guard_parent, wait_at_gate,
+};
 use sonarnet::transport::{cleanup_run, open_node};
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -71,6 +73,11 @@ where
         Ok(Ended::Signalled) => ExitCode::from(SIGNALLED),
         Err(e) => {
             eprintln!("sonarnet-node: error: {e}");
+            let mut cause = std::error::Error::source(&e);
+            while let Some(c) = cause {
+                eprintln!("  caused by: {c}");
+                cause = c.source();
+            }
             ExitCode::from(1)
         }
     }
@@ -87,22 +94,21 @@ enum Ended {
     Signalled,
 }
 
-fn run(launch: NodeLaunch) -> Result<Ended, String> {
+fn run(launch: NodeLaunch) -> Result<Ended, NodeProcessError> {
     guard_parent(launch.coordinator_pid)?;
     let term = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGINT] {
-        signal_hook::flag::register(sig, Arc::clone(&term)).map_err(|e| e.to_string())?;
+        signal_hook::flag::register(sig, Arc::clone(&term)).map_err(NodeProcessError::Signals)?;
     }
     let parent = std::os::unix::process::parent_id();
-    let topo = launch.run_topology().map_err(|e| e.to_string())?;
+    let topo = launch.run_topology()?;
     wait_at_gate(&launch)?;
     let mut tx = open_node(
         &launch.transport,
         &topo,
         launch.node.id,
         Duration::from_micros(launch.poll_us),
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     let alive = move || std::os::unix::process::parent_id() == parent;
     let checkpoint = launch.checkpoint.clone();
     let opts = NodeLoop {
@@ -131,7 +137,7 @@ fn run(launch: NodeLaunch) -> Result<Ended, String> {
             let _ = std::fs::remove_dir(dir);
         }
     }
-    result.map_err(|e| e.to_string())?;
+    result?;
     Ok(if term.load(Ordering::Relaxed) {
         Ended::Signalled
     } else {

@@ -293,9 +293,13 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
 /// The results directory must be writable before the run starts (exit 2
 /// otherwise, naming `--out`).
 fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
-    pipeline::outdir::prepare_out_dir(dir).map_err(|reason| {
-        crate::model::error::InputError::at(std::path::Path::new("<command line>"), "--out", reason)
-            .into()
+    pipeline::outdir::prepare_out_dir(dir).map_err(|e| {
+        crate::model::error::InputError::at(
+            std::path::Path::new("<command line>"),
+            "--out",
+            e.one_line(),
+        )
+        .into()
     })
 }
 

@@ -120,9 +120,9 @@ pub(super) fn net_options(
     let placement = if args.place.is_empty() {
         sc.deploy.clone()
     } else {
-        let p = Placement::parse(&args.place).map_err(|e| cli_error("--place", e))?;
+        let p = Placement::parse(&args.place).map_err(|e| cli_error("--place", e.to_string()))?;
         p.validate(sc.graph.len())
-            .map_err(|e| cli_error("--place", e))?;
+            .map_err(|e| cli_error("--place", e.to_string()))?;
         Some(p)
     };
     let remote = placement.as_ref().is_some_and(|p| !p.agents().is_empty());
@@ -200,7 +200,7 @@ pub(super) fn agent_command(args: &AgentArgs) -> Result<(), CliError> {
         hosts: [(args.host.clone(), vec![0])].into(),
     }
     .validate(1)
-    .map_err(|e| cli_error("--host", e))?;
+    .map_err(|e| cli_error("--host", e.to_string()))?;
     if let Some(f) = &args.zenoh_config
         && !f.is_file()
     {

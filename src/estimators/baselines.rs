@@ -33,9 +33,10 @@ use crate::estimators::online::{self, NewtonDamping, StepSize};
 use crate::estimators::prox::LocalSolver;
 use crate::estimators::robust;
 use crate::estimators::track::{
-    ConfigError, LlsSolver, OnlineRule, OnlineSolver, PocsSolver, RobustMethod, RobustSolver,
-    SampleSolver, Sparsity, TrackProblem, TrackRun, run_track,
+    LlsSolver, OnlineRule, OnlineSolver, PocsSolver, RobustMethod, RobustSolver, SampleSolver,
+    Sparsity, TrackProblem, TrackRun, run_track,
 };
+use crate::model::error::KeyError;
 use crate::model::geometry::Vec2;
 use crate::model::measure::Geometry;
 use crate::model::synth::Realization;
@@ -228,21 +229,24 @@ impl BaselineCfg {
         })
     }
 
-    /// Check the parameters against the scenario geometry (`what` says which
-    /// measurements exist). Returns the reason of the first problem.
-    pub fn validate(&self, geometry: &Geometry, has_bistatic: bool) -> Result<(), String> {
+    /// Check the parameters against the scenario geometry (`has_bistatic`
+    /// says whether bistatic ranges exist): the first problem's key (under
+    /// the baseline's table) and reason.
+    pub fn validate(&self, geometry: &Geometry, has_bistatic: bool) -> Result<(), KeyError> {
         let name = self.name();
         if name.is_empty()
             || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
             || name.starts_with(|c: char| c.is_ascii_digit())
         {
-            return Err(format!(
-                "name {name:?} must be ASCII letters, digits or '_', not starting with a digit"
+            return Err(KeyError::new(
+                "name",
+                format!("{name:?} must be ASCII letters, digits or '_', not starting with a digit"),
             ));
         }
         if RESERVED.contains(&name.as_str()) || name.starts_with("bound_") {
-            return Err(format!(
-                "name {name:?} is reserved for another track.csv column"
+            return Err(KeyError::new(
+                "name",
+                format!("{name:?} is reserved for another track.csv column"),
             ));
         }
         let has_links = matches!(
@@ -253,44 +257,56 @@ impl BaselineCfg {
                 | BaselineCfg::LqIrls { .. }
         );
         if has_links && !has_bistatic {
-            return Err(format!(
-                "{} uses bistatic ranges only, and this scenario has none",
-                self.kind()
+            return Err(KeyError::new(
+                "kind",
+                format!(
+                    "{} uses bistatic ranges only, and this scenario has none",
+                    self.kind()
+                ),
             ));
         }
         match self {
             BaselineCfg::L0os { p, kappa, .. } => {
                 let n_links = geometry.transmitters.len() * geometry.receivers.len();
                 let k = match (p, kappa) {
-                    (Some(_), Some(_)) => return Err("give `p` or `kappa`, not both".into()),
-                    (None, None) => return Err("give the outlier fraction `p` or `kappa`".into()),
-                    (Some(p), None) => {
-                        robust::kappa_from_fraction(*p, n_links).map_err(|e| e.to_string())?
+                    (Some(_), Some(_)) => {
+                        return Err(KeyError::new("p", "give `p` or `kappa`, not both"));
                     }
+                    (None, None) => {
+                        return Err(KeyError::new(
+                            "p",
+                            "give the outlier fraction `p` or `kappa`",
+                        ));
+                    }
+                    (Some(p), None) => robust::kappa_from_fraction(*p, n_links)
+                        .map_err(|e| KeyError::new("p", e.to_string()))?,
                     (None, Some(k)) => *k,
                 };
                 if k >= n_links {
-                    return Err(format!(
-                        "kappa = {k} must be below the number of links ({n_links})"
+                    return Err(KeyError::new(
+                        "kappa",
+                        format!("{k} must be below the number of links ({n_links})"),
                     ));
                 }
             }
             BaselineCfg::Distributed {
                 iterations_per_sample: Some(0),
                 ..
-            } => return Err("iterations_per_sample must be at least 1".into()),
+            } => {
+                return Err(KeyError::new("iterations_per_sample", "must be at least 1"));
+            }
             _ => {}
         }
         // The solvers' builders check their own parameters.
-        self.plan().map(|_| ()).map_err(|e| e.to_string())
+        self.plan().map(|_| ())
     }
 
     /// How this baseline is computed: a solver of the seam
     /// ([`crate::estimators::track`]) built from the parameters (which its
     /// builders validate), the ML reference track, or a run of the engine.
-    fn plan(&self) -> Result<Plan, ConfigError> {
+    fn plan(&self) -> Result<Plan, KeyError> {
         let robust =
-            |m| -> Result<Plan, ConfigError> { Ok(Plan::Solver(Box::new(RobustSolver::new(m)?))) };
+            |m| -> Result<Plan, KeyError> { Ok(Plan::Solver(Box::new(RobustSolver::new(m)?))) };
         match self {
             BaselineCfg::Ogd { step, init, .. } => Ok(Plan::Solver(Box::new(
                 OnlineSolver::new(OnlineRule::Ogd(*step))?.with_init(*init),

@@ -16,33 +16,37 @@
 use crate::estimators::bounds::{self, Region};
 use crate::estimators::online::{self, NewtonDamping, StepSize, Tracker};
 use crate::estimators::robust;
+use crate::model::error::KeyError;
 use crate::model::geometry::Vec2;
 use crate::model::measure::{Geometry, SampleMeasurements};
-use std::fmt;
 use std::time::Instant;
 
-/// A parameter a solver's builder refused: the key and why.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ConfigError {
-    /// The parameter (`q`, `tol`, `step`, ...).
-    pub key: &'static str,
-    /// Why it was refused.
-    pub reason: String,
+/// Why a solver has no estimate: the underlying estimator's own error,
+/// kept as the source.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    /// `init = "exact"` without the true first position.
+    #[error("init = \"exact\" needs the true first position (no truth): use init = \"ols\"")]
+    NoTruth,
+    /// The online tracker's `x_0` could not be computed.
+    #[error("initialisation: {0}")]
+    Init(#[source] online::TrackError),
+    /// `solve` before a successful `start`.
+    #[error("the tracker was not started")]
+    NotStarted,
+    /// An online tracker or the linear least squares failed.
+    #[error(transparent)]
+    Online(#[from] online::TrackError),
+    /// A robust estimator of Shi 2024 failed.
+    #[error(transparent)]
+    Robust(#[from] robust::RobustError),
+    /// POCS failed.
+    #[error(transparent)]
+    Pocs(#[from] bounds::BoundError),
 }
 
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.key, self.reason)
-    }
-}
-
-impl std::error::Error for ConfigError {}
-
-fn refuse(key: &'static str, reason: impl Into<String>) -> ConfigError {
-    ConfigError {
-        key,
-        reason: reason.into(),
-    }
+fn refuse(key: &'static str, reason: impl Into<String>) -> KeyError {
+    KeyError::new(key, reason)
 }
 
 /// The estimation problem of a track: every sample's measurements in one
@@ -66,7 +70,7 @@ pub struct TrackProblem<'a> {
 pub trait SampleSolver {
     /// Prepare the track (e.g. choose `x_0`). An error here leaves every
     /// sample without an estimate.
-    fn start(&mut self, _problem: &TrackProblem<'_>) -> Result<(), String> {
+    fn start(&mut self, _problem: &TrackProblem<'_>) -> Result<(), SolveError> {
         Ok(())
     }
     /// The estimate held before the next `solve`, for estimators that carry
@@ -80,7 +84,7 @@ pub trait SampleSolver {
         geometry: &Geometry,
         sample: &SampleMeasurements,
         k: usize,
-    ) -> Result<Vec2, String>;
+    ) -> Result<Vec2, SolveError>;
     /// What the track holds where `solve` failed: nothing by default; an
     /// online tracker keeps its previous estimate.
     fn on_failure(&self) -> Option<Vec2> {
@@ -184,7 +188,7 @@ pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> T
     let started = solver.start(problem);
     run.step_seconds += start.elapsed().as_secs_f64();
     if let Err(e) = started {
-        run.fail(e);
+        run.fail(e.to_string());
         run.failures = n;
         run.est = vec![None; n];
         return run;
@@ -247,7 +251,7 @@ pub struct OnlineSolver {
 
 impl OnlineSolver {
     /// A tracker with the given rule, validated here (exact initialisation).
-    pub fn new(rule: OnlineRule) -> Result<Self, ConfigError> {
+    pub fn new(rule: OnlineRule) -> Result<Self, KeyError> {
         match rule {
             OnlineRule::Ogd(step) => online::OgdTracker::new(Vec2::zeros(), step)
                 .map(|_| ())
@@ -271,13 +275,10 @@ impl OnlineSolver {
 }
 
 impl SampleSolver for OnlineSolver {
-    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), String> {
+    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), SolveError> {
         let x0 = match (self.init, problem.truth0) {
             (online::Init::Exact, None) => {
-                return Err(
-                    "init = \"exact\" needs the true first position (no truth): use init = \"ols\""
-                        .to_string(),
-                );
+                return Err(SolveError::NoTruth);
             }
             (init, t0) => init
                 .initial_estimate(
@@ -285,15 +286,11 @@ impl SampleSolver for OnlineSolver {
                     &problem.samples[0],
                     t0.unwrap_or_else(Vec2::zeros),
                 )
-                .map_err(|e| format!("initialisation: {e}"))?,
+                .map_err(SolveError::Init)?,
         };
         let tracker: Box<dyn Tracker> = match self.rule {
-            OnlineRule::Ogd(step) => {
-                Box::new(online::OgdTracker::new(x0, step).map_err(|e| e.to_string())?)
-            }
-            OnlineRule::Onm(d) => {
-                Box::new(online::OnmTracker::new(x0, d).map_err(|e| e.to_string())?)
-            }
+            OnlineRule::Ogd(step) => Box::new(online::OgdTracker::new(x0, step)?),
+            OnlineRule::Onm(d) => Box::new(online::OnmTracker::new(x0, d)?),
         };
         self.tracker = Some(tracker);
         Ok(())
@@ -308,9 +305,9 @@ impl SampleSolver for OnlineSolver {
         geometry: &Geometry,
         sample: &SampleMeasurements,
         k: usize,
-    ) -> Result<Vec2, String> {
-        let t = self.tracker.as_mut().ok_or("the tracker was not started")?;
-        t.step(geometry, sample, k + 1).map_err(|e| e.to_string())
+    ) -> Result<Vec2, SolveError> {
+        let t = self.tracker.as_mut().ok_or(SolveError::NotStarted)?;
+        Ok(t.step(geometry, sample, k + 1)?)
     }
 
     fn on_failure(&self) -> Option<Vec2> {
@@ -349,7 +346,7 @@ pub struct RobustSolver {
 
 impl RobustSolver {
     /// The estimator, its parameters validated (`q` in `(1, 2)`, `p` in `[0, 1]`).
-    pub fn new(method: RobustMethod) -> Result<Self, ConfigError> {
+    pub fn new(method: RobustMethod) -> Result<Self, KeyError> {
         match method {
             RobustMethod::LqIrls(q) if !(q > 1.0 && q < 2.0) => {
                 return Err(refuse("q", format!("must be in (1, 2), got {q}")));
@@ -372,7 +369,7 @@ impl SampleSolver for RobustSolver {
         geometry: &Geometry,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, String> {
+    ) -> Result<Vec2, SolveError> {
         let links = robust::links_from_sample(sample);
         let r = match self.method {
             RobustMethod::Ls => robust::ls(geometry, &links, &Default::default()),
@@ -395,7 +392,7 @@ impl SampleSolver for RobustSolver {
                 k.and_then(|k| robust::l0os(geometry, &links, &robust::L0osConfig::new(k)))
             }
         };
-        r.map(|e| e.position).map_err(|e| e.to_string())
+        Ok(r.map(|e| e.position)?)
     }
 }
 
@@ -443,7 +440,7 @@ impl Default for PocsSolver {
 
 impl PocsSolver {
     /// At most `max_iter >= 1` projections per sample (default 1000).
-    pub fn with_max_iter(mut self, max_iter: usize) -> Result<Self, ConfigError> {
+    pub fn with_max_iter(mut self, max_iter: usize) -> Result<Self, KeyError> {
         if max_iter == 0 {
             return Err(refuse("max_iter", "must be at least 1"));
         }
@@ -452,7 +449,7 @@ impl PocsSolver {
     }
 
     /// Feasibility tolerance in metres, finite and `>= 0` (default `1e-9`).
-    pub fn with_tol(mut self, tol: f64) -> Result<Self, ConfigError> {
+    pub fn with_tol(mut self, tol: f64) -> Result<Self, KeyError> {
         if !(tol.is_finite() && tol >= 0.0) {
             return Err(refuse("tol", format!("must be finite and >= 0, got {tol}")));
         }
@@ -462,7 +459,7 @@ impl PocsSolver {
 }
 
 impl SampleSolver for PocsSolver {
-    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), String> {
+    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), SolveError> {
         self.x = problem.geometry.centroid();
         self.feasible = 0;
         Ok(())
@@ -473,10 +470,9 @@ impl SampleSolver for PocsSolver {
         geometry: &Geometry,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, String> {
+    ) -> Result<Vec2, SolveError> {
         let regions = regions_of(geometry, sample, 0.0);
-        let p =
-            bounds::pocs(&regions, self.x, self.max_iter, self.tol).map_err(|e| e.to_string())?;
+        let p = bounds::pocs(&regions, self.x, self.max_iter, self.tol)?;
         self.feasible += usize::from(p.feasible);
         self.x = p.x;
         Ok(p.x)
@@ -497,8 +493,8 @@ impl SampleSolver for LlsSolver {
         geometry: &Geometry,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, String> {
-        online::ols_position(geometry, sample).map_err(|e| e.to_string())
+    ) -> Result<Vec2, SolveError> {
+        Ok(online::ols_position(geometry, sample)?)
     }
 }
 
@@ -552,9 +548,9 @@ mod tests {
             _: &Geometry,
             _: &SampleMeasurements,
             k: usize,
-        ) -> Result<Vec2, String> {
+        ) -> Result<Vec2, SolveError> {
             if self.fail_at.contains(&k) {
-                return Err(format!("scripted failure {k}"));
+                return Err(SolveError::Online(online::TrackError::ZeroTime));
             }
             let x = Vec2::new(k as f64, 0.0);
             self.last = Some(x);
@@ -579,7 +575,7 @@ mod tests {
             assert_eq!(run.failures, 2);
             assert_eq!(
                 run.first_failure.as_deref(),
-                Some("sample 2: scripted failure 2")
+                Some("sample 2: sample index t is 1-based, got 0")
             );
             assert_eq!(run.est.len(), 6);
             assert_eq!(run.est[3], Some(Vec2::new(3.0, 0.0)));
@@ -665,7 +661,7 @@ mod tests {
 
     #[test]
     fn the_builders_refuse_bad_parameters_by_name() {
-        let key = |r: Result<PocsSolver, ConfigError>| r.unwrap_err().key;
+        let key = |r: Result<PocsSolver, KeyError>| r.unwrap_err().key;
         assert_eq!(key(PocsSolver::default().with_max_iter(0)), "max_iter");
         assert_eq!(key(PocsSolver::default().with_tol(-1.0)), "tol");
         assert_eq!(key(PocsSolver::default().with_tol(f64::NAN)), "tol");
@@ -676,7 +672,7 @@ mod tests {
         let e = RobustSolver::new(RobustMethod::L0os(Sparsity::Fraction(1.5))).unwrap_err();
         assert_eq!(e.key, "p");
         let e = OnlineSolver::new(OnlineRule::Ogd(StepSize::Constant { eta: -1.0 })).err();
-        assert_eq!(e.map(|e| e.key), Some("step"));
+        assert_eq!(e.map(|e| e.key), Some("step".to_string()));
         assert!(RobustSolver::new(RobustMethod::LqIrls(1.5)).is_ok());
         assert!(
             PocsSolver::default()

@@ -1,5 +1,6 @@
 //! Target motion models: the true track `x_k*`, `k = 0..samples`.
 
+use crate::model::error::KeyError;
 use crate::model::geometry::{Vec2, v2};
 use crate::model::rng::SonarRng;
 use rand::RngExt;
@@ -96,13 +97,14 @@ pub enum Motion {
 }
 
 impl Motion {
-    /// Check the parameters; `Err` says which key is wrong and why.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Check the parameters; the [`KeyError`] names the key (under the
+    /// motion's table) and why.
+    pub fn validate(&self) -> Result<(), KeyError> {
         let finite = |name: &str, v: &[f64]| {
             if v.iter().all(|x| x.is_finite()) {
                 Ok(())
             } else {
-                Err(format!("{name} must be finite, got {v:?}"))
+                Err(KeyError::new(name, format!("must be finite, got {v:?}")))
             }
         };
         match self {
@@ -122,9 +124,9 @@ impl Motion {
             }
             Motion::Waypoints { points } => {
                 if points.len() < 2 {
-                    return Err(format!(
-                        "points needs at least 2 entries, got {}",
-                        points.len()
+                    return Err(KeyError::new(
+                        "points",
+                        format!("needs at least 2 entries, got {}", points.len()),
                     ));
                 }
                 for p in points {
@@ -135,22 +137,29 @@ impl Motion {
             Motion::RandomWalk { start, c } => {
                 finite("start", start)?;
                 if !(c.is_finite() && *c >= 0.0) {
-                    return Err(format!("c must be finite and >= 0, got {c}"));
+                    return Err(KeyError::new(
+                        "c",
+                        format!("must be finite and >= 0, got {c}"),
+                    ));
                 }
                 Ok(())
             }
             Motion::DiagonalWalk { start, c } => {
                 finite("start", start)?;
                 if !(c.is_finite() && *c >= 0.0) {
-                    return Err(format!("c must be finite and >= 0, got {c}"));
+                    return Err(KeyError::new(
+                        "c",
+                        format!("must be finite and >= 0, got {c}"),
+                    ));
                 }
                 Ok(())
             }
             Motion::UniformBoxWalk { start, half_width } => {
                 finite("start", start)?;
                 if !(half_width.is_finite() && *half_width >= 0.0) {
-                    return Err(format!(
-                        "half_width must be finite and >= 0, got {half_width}"
+                    return Err(KeyError::new(
+                        "half_width",
+                        format!("must be finite and >= 0, got {half_width}"),
                     ));
                 }
                 Ok(())
@@ -170,7 +179,10 @@ impl Motion {
                 if min[0] <= max[0] && min[1] <= max[1] {
                     Ok(())
                 } else {
-                    Err(format!("min {min:?} must be below max {max:?}"))
+                    Err(KeyError::new(
+                        "min",
+                        format!("{min:?} must be below max {max:?}"),
+                    ))
                 }
             }
         }
@@ -451,11 +463,11 @@ mod tests {
         let m = Motion::Waypoints {
             points: vec![[0.0, 0.0]],
         };
-        assert!(m.validate().unwrap_err().contains("points"));
+        assert_eq!(m.validate().unwrap_err().key, "points");
         let m = Motion::RandomWalk {
             start: [0.0, f64::NAN],
             c: 1.0,
         };
-        assert!(m.validate().unwrap_err().contains("start"));
+        assert_eq!(m.validate().unwrap_err().key, "start");
     }
 }

@@ -18,6 +18,7 @@
 //! transmitter or receiver). `nlos_bernoulli_uniform` draws its own NLOS flag
 //! per measurement and ignores the link mask.
 
+use crate::model::error::KeyError;
 use rand::RngExt;
 use rand_distr::{Distribution, Exp1, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -147,19 +148,22 @@ pub struct NoiseDraw {
     pub nlos: bool,
 }
 
-fn check_nonneg(key: &str, v: f64) -> Result<(), String> {
+fn check_nonneg(key: &str, v: f64) -> Result<(), KeyError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
-        Err(format!("{key} must be finite and >= 0, got {v}"))
+        Err(KeyError::new(
+            key,
+            format!("must be finite and >= 0, got {v}"),
+        ))
     }
 }
 
-fn check_unit(key: &str, v: f64) -> Result<(), String> {
+fn check_unit(key: &str, v: f64) -> Result<(), KeyError> {
     if v.is_finite() && (0.0..=1.0).contains(&v) {
         Ok(())
     } else {
-        Err(format!("{key} must be in [0, 1], got {v}"))
+        Err(KeyError::new(key, format!("must be in [0, 1], got {v}")))
     }
 }
 
@@ -237,8 +241,9 @@ impl NoiseModel {
         }
     }
 
-    /// Check the parameters; `Err` names the offending key and reason.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Check the parameters; the [`KeyError`] names the offending key (under
+    /// the model's table) and the reason.
+    pub fn validate(&self) -> Result<(), KeyError> {
         match self {
             NoiseModel::Gaussian { sigma, .. } | NoiseModel::Laplacian { sigma, .. } => {
                 check_nonneg("sigma", *sigma)
@@ -252,9 +257,12 @@ impl NoiseModel {
                 check_unit("c2", *c2)?;
                 check_nonneg("sigma1", *sigma1)?;
                 if !(variance_ratio.is_finite() && *variance_ratio >= 1.0) {
-                    return Err(format!(
-                        "variance_ratio (sigma2^2 / sigma1^2) must be finite and >= 1 \
-                         (component 2 is the wide one), got {variance_ratio}"
+                    return Err(KeyError::new(
+                        "variance_ratio",
+                        format!(
+                            "sigma2^2 / sigma1^2 must be finite and >= 1 \
+                             (component 2 is the wide one), got {variance_ratio}"
+                        ),
                     ));
                 }
                 Ok(())
@@ -478,7 +486,7 @@ fn mark_random<R: RngExt + ?Sized>(mask: &mut [bool], count: usize, rng: &mut R)
 
 impl NlosLinks {
     /// Check the parameters that do not depend on the network size.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), KeyError> {
         match self {
             NlosLinks::RandomFraction { fraction } => check_unit("fraction", *fraction),
             _ => Ok(()),
@@ -802,7 +810,7 @@ mod tests {
         ];
         for (m, key) in bad {
             let err = m.validate().expect_err(&format!("{m:?} accepted"));
-            assert!(err.starts_with(key), "{m:?}: {err}");
+            assert_eq!(err.key, key, "{m:?}: {err}");
         }
         let good = [
             NoiseModel::gaussian(0.0),

@@ -226,7 +226,7 @@ pub fn check_expect(sc: &Scenario, flat: &BTreeMap<String, f64>) -> Vec<ExpectRe
 /// Checks as recorded in `metrics.json` / `summary.json`; one that could not
 /// be evaluated fails with its reason.
 pub fn expect_results(
-    checks: Vec<Result<crate::scenario::expect::Check, String>>,
+    checks: Vec<Result<crate::scenario::expect::Check, crate::scenario::expect::ExpectError>>,
 ) -> Vec<ExpectResult> {
     checks
         .into_iter()
@@ -238,7 +238,7 @@ pub fn expect_results(
                 holds: c.holds,
             },
             Err(e) => ExpectResult {
-                expect: e,
+                expect: e.to_string(),
                 lhs: None,
                 rhs: None,
                 holds: false,

@@ -208,10 +208,7 @@ impl Scenario {
     /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
     pub fn run_and_write(&self, opts: &RunOptions) -> Result<Outcome, RunError> {
         // The directory must be writable before any work is done.
-        check_out_dir(&opts.out_dir).map_err(|reason| RunError::Output {
-            path: opts.out_dir.clone(),
-            source: std::io::Error::other(reason),
-        })?;
+        check_out_dir(&opts.out_dir)?;
         let opts = &RunOptions {
             write_checkpoints: true,
             ..opts.clone()
@@ -334,6 +331,9 @@ pub enum RunError {
     /// Bad input.
     #[error(transparent)]
     Input(#[from] InputError),
+    /// The results directory cannot be used.
+    #[error(transparent)]
+    OutDir(#[from] outdir::OutDirError),
     /// Could not write the results directory.
     #[error("cannot write results to {}", path.display())]
     Output {

@@ -4,6 +4,67 @@
 
 use std::path::{Path, PathBuf};
 
+/// Why a results directory cannot be used; an I/O failure keeps its cause.
+#[derive(Debug, thiserror::Error)]
+pub enum OutDirError {
+    /// A file of that name is in the way.
+    #[error("{} exists and is not a directory", .0.display())]
+    NotADirectory(PathBuf),
+    /// Listing, creating, writing in or removing from the directory failed.
+    #[error("cannot {what} {}", path.display())]
+    Io {
+        /// What was being done (`list`, `create`, `write in`, `remove`).
+        what: &'static str,
+        /// The path.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The directory holds files sonarnet does not write.
+    #[error(
+        "{} holds files sonarnet did not write ({}): choose another --out, or move them",
+        dir.display(),
+        shown(names)
+    )]
+    Foreign {
+        /// The directory.
+        dir: PathBuf,
+        /// The foreign entries' names, sorted.
+        names: Vec<String>,
+    },
+}
+
+impl OutDirError {
+    fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Self {
+        let path = path.to_path_buf();
+        move |source| OutDirError::Io { what, path, source }
+    }
+
+    /// The error and its causes on one line (`cannot create x: permission
+    /// denied`), for a reason shown beside a key.
+    pub fn one_line(&self) -> String {
+        let mut s = self.to_string();
+        let mut src = std::error::Error::source(self);
+        while let Some(e) = src {
+            s.push_str(&format!(": {e}"));
+            src = e.source();
+        }
+        s
+    }
+}
+
+/// The first five names and how many more.
+fn shown(names: &[String]) -> String {
+    let first: Vec<&str> = names.iter().take(5).map(String::as_str).collect();
+    let more = if names.len() > 5 {
+        format!(" and {} more", names.len() - 5)
+    } else {
+        String::new()
+    };
+    format!("{}{more}", first.join(", "))
+}
+
 /// Files a run, a Monte Carlo run, a sweep or `sonarnet report` writes.
 const FILES: &[&str] = &[
     "run.json",
@@ -63,9 +124,9 @@ pub fn is_sonarnet_output(name: &str, is_dir: bool) -> bool {
 /// [`clear_previous_run`], then [`super::check_out_dir`] (writable). The
 /// library's [`crate::scenario::Scenario::run_and_write`] only checks that it
 /// can write, so a program may keep its own files next to a run's.
-pub fn prepare_out_dir(dir: &Path) -> Result<(), String> {
+pub fn prepare_out_dir(dir: &Path) -> Result<(), OutDirError> {
     if dir.exists() && !dir.is_dir() {
-        return Err(format!("{} exists and is not a directory", dir.display()));
+        return Err(OutDirError::NotADirectory(dir.to_path_buf()));
     }
     clear_previous_run(dir)?;
     super::check_out_dir(dir)
@@ -75,14 +136,14 @@ pub fn prepare_out_dir(dir: &Path) -> Result<(), String> {
 /// previous run's files, remove them (and nothing else). Refuses, naming
 /// them, when it holds anything sonarnet does not write. Returns the
 /// entries removed.
-pub fn clear_previous_run(dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn clear_previous_run(dir: &Path) -> Result<Vec<PathBuf>, OutDirError> {
     if !dir.exists() {
         return Ok(Vec::new());
     }
     let entries = std::fs::read_dir(dir)
-        .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
+        .map_err(OutDirError::io("list", dir))?
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| format!("cannot list {}: {e}", dir.display()))?;
+        .map_err(OutDirError::io("list", dir))?;
     let mut ours = Vec::new();
     let mut foreign = Vec::new();
     for e in entries {
@@ -96,17 +157,10 @@ pub fn clear_previous_run(dir: &Path) -> Result<Vec<PathBuf>, String> {
     }
     if !foreign.is_empty() {
         foreign.sort();
-        let shown: Vec<&str> = foreign.iter().take(5).map(String::as_str).collect();
-        return Err(format!(
-            "{} holds files sonarnet did not write ({}{}): choose another --out, or move them",
-            dir.display(),
-            shown.join(", "),
-            if foreign.len() > 5 {
-                format!(" and {} more", foreign.len() - 5)
-            } else {
-                String::new()
-            }
-        ));
+        return Err(OutDirError::Foreign {
+            dir: dir.to_path_buf(),
+            names: foreign,
+        });
     }
     for (p, is_dir) in &ours {
         let r = if *is_dir {
@@ -114,7 +168,7 @@ pub fn clear_previous_run(dir: &Path) -> Result<Vec<PathBuf>, String> {
         } else {
             std::fs::remove_file(p)
         };
-        r.map_err(|e| format!("cannot remove the previous run's {}: {e}", p.display()))?;
+        r.map_err(OutDirError::io("remove the previous run's", p))?;
     }
     Ok(ours.into_iter().map(|(p, _)| p).collect())
 }
@@ -157,7 +211,7 @@ mod tests {
         std::fs::write(d.join("notes.txt"), "mine").unwrap();
         std::fs::write(d.join("data.csv"), "mine").unwrap();
         let e = clear_previous_run(&d).unwrap_err();
-        assert!(e.contains("data.csv, notes.txt"), "{e}");
+        assert!(e.to_string().contains("(data.csv, notes.txt)"), "{e}");
         assert!(d.join("run.json").exists() && d.join("notes.txt").exists());
         std::fs::remove_dir_all(&d).unwrap();
     }

@@ -45,13 +45,37 @@ fn compared(name: &str) -> bool {
     name.ends_with(".csv") || name == "metrics.json" || name == "summary.json"
 }
 
+/// Why two results directories could not be compared.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    /// A directory could not be listed or a file read.
+    #[error("cannot read {}", path.display())]
+    Read {
+        /// The directory or file.
+        path: std::path::PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A JSON file did not parse.
+    #[error("{file} is not JSON")]
+    Json {
+        /// The file's name.
+        file: String,
+        /// The parser's error.
+        #[source]
+        source: serde_json::Error,
+    },
+}
+
 /// Compare the results in `a` (the original) with `b` (the replay): `None`
 /// if every compared file is equal, else the first difference (files in
 /// name order, rows in file order).
-pub fn compare_results(a: &Path, b: &Path) -> Result<Option<Difference>, String> {
-    let names = |d: &Path| -> Result<BTreeSet<String>, String> {
+pub fn compare_results(a: &Path, b: &Path) -> Result<Option<Difference>, CompareError> {
+    let read_error = |path: std::path::PathBuf| move |source| CompareError::Read { path, source };
+    let names = |d: &Path| -> Result<BTreeSet<String>, CompareError> {
         Ok(std::fs::read_dir(d)
-            .map_err(|e| format!("cannot list {}: {e}", d.display()))?
+            .map_err(read_error(d.to_path_buf()))?
             .filter_map(|e| e.ok())
             .map(|e| e.file_name().to_string_lossy().into_owned())
             .filter(|n| compared(n))
@@ -70,13 +94,13 @@ pub fn compare_results(a: &Path, b: &Path) -> Result<Option<Difference>, String>
         if !nb.contains(n) {
             return Ok(Some(diff(&format!("missing in {}", b.display()))));
         }
-        let read = |d: &Path| {
-            std::fs::read_to_string(d.join(n))
-                .map_err(|e| format!("cannot read {}: {e}", d.join(n).display()))
-        };
+        let read = |d: &Path| std::fs::read_to_string(d.join(n)).map_err(read_error(d.join(n)));
         let (ta, tb) = (read(a)?, read(b)?);
         let d = if n.ends_with(".json") {
-            json_difference(&ta, &tb)?
+            json_difference(&ta, &tb).map_err(|source| CompareError::Json {
+                file: n.clone(),
+                source,
+            })?
         } else {
             csv_difference(&ta, &tb)
         };
@@ -126,8 +150,8 @@ fn csv_difference(a: &str, b: &str) -> Found {
     }
 }
 
-fn json_difference(a: &str, b: &str) -> Result<Found, String> {
-    let parse = |t: &str| serde_json::from_str::<serde_json::Value>(t).map_err(|e| e.to_string());
+fn json_difference(a: &str, b: &str) -> Result<Found, serde_json::Error> {
+    let parse = |t: &str| serde_json::from_str::<serde_json::Value>(t);
     let (va, vb) = (parse(a)?, parse(b)?);
     let (mut sa, mut sb) = (Vec::new(), Vec::new());
     scalars(&va, "", &mut sa);

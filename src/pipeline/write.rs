@@ -10,6 +10,7 @@ use crate::pipeline::FaultOutcome;
 use crate::pipeline::Outcome;
 use crate::pipeline::RunError;
 use crate::pipeline::RunOptions;
+use crate::pipeline::outdir::OutDirError;
 use crate::pipeline::score;
 use crate::pipeline::score::Scored;
 use crate::protocol::Clock;
@@ -362,7 +363,7 @@ fn write_scenario_toml(dir: &Path, sc: &Scenario, opts: &RunOptions) -> Result<(
         .resolved_toml(logical_async, &how)
         .map_err(|e| RunError::Output {
             path: path.clone(),
-            source: std::io::Error::other(e),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
         })?;
     std::fs::write(&path, text).map_err(io_err(&path))
 }
@@ -385,17 +386,21 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> RunError + '_ {
 
 /// Make sure the results directory `dir` can be written before any work
 /// starts: create it (and its parents) and write and remove a probe file in
-/// it. Returns the reason it cannot be used, e.g. an existing file of that
+/// it. The error says why it cannot be used, e.g. an existing file of that
 /// name, a path below a file, or a read-only place. (The command line also
 /// clears a previous run's files first: [`super::outdir::prepare_out_dir`].)
-pub fn check_out_dir(dir: &Path) -> Result<(), String> {
+pub fn check_out_dir(dir: &Path) -> Result<(), OutDirError> {
     if dir.exists() && !dir.is_dir() {
-        return Err(format!("{} exists and is not a directory", dir.display()));
+        return Err(OutDirError::NotADirectory(dir.to_path_buf()));
     }
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let io = |what, path: &Path| {
+        let path = path.to_path_buf();
+        move |source| OutDirError::Io { what, path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io("create", dir))?;
     let probe = dir.join(".sonarnet-write-check");
-    std::fs::write(&probe, b"").map_err(|e| format!("cannot write in {}: {e}", dir.display()))?;
-    std::fs::remove_file(&probe).map_err(|e| format!("cannot remove {}: {e}", probe.display()))
+    std::fs::write(&probe, b"").map_err(io("write in", dir))?;
+    std::fs::remove_file(&probe).map_err(io("remove", &probe))
 }
 
 /// Write a CSV file with a header and string rows.

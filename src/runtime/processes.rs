@@ -52,23 +52,18 @@ pub use hop::{HOPS_PER_TURN, measure_hop};
 use launch::checkpoint_dir;
 pub(crate) use launch::spawn_child;
 pub use launch::{
-    NodeLaunch, NodeProgram, ProcessOptions, TEMP_CHECKPOINTS, default_node_program, guard_parent,
-    wait_at_gate,
+    NodeLaunch, NodeProcessError, NodeProgram, ProcessOptions, TEMP_CHECKPOINTS,
+    default_node_program, guard_parent, wait_at_gate,
 };
 
 /// The coordinator side of a multi-process run.
 pub struct Processes {
     /// `None` only while dropping.
     tx: Option<Box<dyn Transport>>,
-    children: Vec<Option<NodeProc>>,
-    /// The agents of the other hosts (a `[deploy]` placement over zenoh).
-    fleet: Option<Arc<RemoteFleet>>,
-    /// Which host runs which node (`None`: all here).
-    placement: Option<Placement>,
-    dead: Vec<bool>,
-    decoder: ReportDecoder,
-    frames: Vec<Frame>,
-    encoded: Vec<Frame>,
+    /// The node processes and what restarting one takes.
+    nodes: Nodes,
+    /// Frames and reports on their way to the coordinator.
+    inbox: Inbox,
     interrupt: Arc<AtomicBool>,
     /// Latest time split per node.
     pub timing: Vec<Timing>,
@@ -85,16 +80,34 @@ pub struct Processes {
     /// The run's faults, their wall-clock origin and emulated seconds per
     /// wall second ([`Processes::arm_faults`]).
     faults: Option<(FaultWorld, Instant, f64)>,
-    /// What it takes to start a node (again, after a `restart` fault).
-    relaunch: Relaunch,
-    /// Per node: restarted, its READY not yet seen.
-    restarting: Vec<bool>,
-    /// Events for the coordinator not yet handed over.
-    events: Vec<Event>,
-    /// When start-up last looked at the children.
-    children_checked: Instant,
     /// Per node: frames held while it is paused ([`Processes::send_to_node`]).
     held: Vec<Vec<Frame>>,
+}
+
+/// The node processes of a run: here or on the agents' hosts, which are
+/// gone, which are restarting, and what it takes to start one again.
+struct Nodes {
+    children: Vec<Option<NodeProc>>,
+    /// The agents of the other hosts (a `[deploy]` placement over zenoh).
+    fleet: Option<Arc<RemoteFleet>>,
+    /// Which host runs which node (`None`: all here).
+    placement: Option<Placement>,
+    dead: Vec<bool>,
+    /// Per node: restarted, its READY not yet seen.
+    restarting: Vec<bool>,
+    /// What it takes to start a node (again, after a `restart` fault).
+    relaunch: Relaunch,
+    /// When start-up last looked at the children.
+    checked: Instant,
+}
+
+/// What came in from the nodes and is not yet handed to the coordinator.
+struct Inbox {
+    decoder: ReportDecoder,
+    frames: Vec<Frame>,
+    encoded: Vec<Frame>,
+    /// Events for the coordinator not yet handed over.
+    events: Vec<Event>,
 }
 
 /// What starting a node takes: the node program, what every node is told at
@@ -170,13 +183,26 @@ impl Processes {
         let start = Instant::now();
         let mut p = Processes {
             tx: None,
-            children: Vec::with_capacity(n),
-            fleet: None,
-            placement: opts.placement.clone(),
-            dead: vec![false; n],
-            decoder: ReportDecoder::default(),
-            frames: Vec::new(),
-            encoded: Vec::new(),
+            nodes: Nodes {
+                children: Vec::with_capacity(n),
+                fleet: None,
+                placement: opts.placement.clone(),
+                dead: vec![false; n],
+                restarting: vec![false; n],
+                relaunch: Relaunch {
+                    program: prog.clone(),
+                    launch0,
+                    checkpoints: checkpoint_dir(&configs, &run_id, opts)?,
+                    configs: configs.clone(),
+                },
+                checked: Instant::now(),
+            },
+            inbox: Inbox {
+                decoder: ReportDecoder::default(),
+                frames: Vec::new(),
+                encoded: Vec::new(),
+                events: Vec::new(),
+            },
             interrupt,
             timing: vec![Timing::default(); n],
             startup_seconds: 0.0,
@@ -186,16 +212,7 @@ impl Processes {
             water,
             delivered: Vec::new(),
             faults: None,
-            relaunch: Relaunch {
-                program: prog.clone(),
-                launch0,
-                checkpoints: checkpoint_dir(&configs, &run_id, opts)?,
-                configs: configs.clone(),
-            },
-            restarting: vec![false; n],
-            events: Vec::new(),
             held: vec![Vec::new(); n],
-            children_checked: Instant::now(),
         };
         if let Some(z) = &zenoh {
             p.start_zenoh(&topo, z, &configs, opts)?;
@@ -218,24 +235,24 @@ impl Processes {
 
     /// Check every child; returns the first newly dead node and how it died.
     pub fn check_children(&mut self) -> Option<(u32, String)> {
-        for (i, c) in self.children.iter_mut().enumerate() {
-            if self.dead[i] && !self.restarting[i] {
+        for (i, c) in self.nodes.children.iter_mut().enumerate() {
+            if self.nodes.dead[i] && !self.nodes.restarting[i] {
                 continue;
             }
             if let Some(child) = c
                 && let Some(status) = child.try_wait()
             {
                 *c = None;
-                if self.restarting[i] {
+                if self.nodes.restarting[i] {
                     // It is dead to the coordinator already.
-                    self.restarting[i] = false;
+                    self.nodes.restarting[i] = false;
                     eprintln!(
                         "warning: restarted node {i} exited before it was ready ({})",
                         status
                     );
                     continue;
                 }
-                self.dead[i] = true;
+                self.nodes.dead[i] = true;
                 return Some((i as u32, status));
             }
         }
@@ -251,10 +268,10 @@ impl Processes {
         let out = self.receive(timeout)?;
         // One waitpid per child: every 50 ms at most, not after every batch
         // of READYs (that made start-up O(N^2) system calls).
-        if self.children_checked.elapsed() < Duration::from_millis(50) {
+        if self.nodes.checked.elapsed() < Duration::from_millis(50) {
             return Ok(out);
         }
-        self.children_checked = Instant::now();
+        self.nodes.checked = Instant::now();
         if let Some((node, how)) = self.check_children() {
             return Err(EngineError::NodeDied {
                 node,
@@ -268,13 +285,13 @@ impl Processes {
     /// Receive and decode whatever arrives within `timeout`, keeping the
     /// latest timing of every node.
     fn receive(&mut self, timeout: Duration) -> Result<Vec<CoordinatorInput>, EngineError> {
-        self.frames.clear();
+        self.inbox.frames.clear();
         let tx = self.tx.as_mut().ok_or(EngineError::TransportClosed)?;
-        tx.recv(&mut self.frames, Some(timeout))
+        tx.recv(&mut self.inbox.frames, Some(timeout))
             .map_err(EngineError::Transport)?;
         let mut out = Vec::new();
-        for f in &self.frames {
-            match self.decoder.feed(f) {
+        for f in &self.inbox.frames {
+            match self.inbox.decoder.feed(f) {
                 Ok(Some(CoordinatorInput::Timing { node, timing })) => {
                     if let Some(t) = self.timing.get_mut(node as usize) {
                         *t = timing;
@@ -312,7 +329,7 @@ impl Processes {
         }
         let mut delivered = std::mem::take(&mut self.delivered);
         for (to, msg) in delivered.drain(..) {
-            if !self.dead.get(to as usize).copied().unwrap_or(true) {
+            if !self.nodes.dead.get(to as usize).copied().unwrap_or(true) {
                 self.send_to_node(to, &[codec::encode_peer(&msg)])?;
             }
         }
@@ -322,7 +339,7 @@ impl Processes {
 
     /// Send signal `sig` to node `node`'s process, if it has one.
     fn signal(&self, node: u32, sig: i32) {
-        if let Some(Some(child)) = self.children.get(node as usize) {
+        if let Some(Some(child)) = self.nodes.children.get(node as usize) {
             child.signal(sig);
         }
     }
@@ -363,7 +380,7 @@ impl Processes {
             .get_mut(node as usize)
             .map(std::mem::take)
             .unwrap_or_default();
-        if !held.is_empty() && !self.dead.get(node as usize).copied().unwrap_or(true) {
+        if !held.is_empty() && !self.nodes.dead.get(node as usize).copied().unwrap_or(true) {
             self.send_to_node(node, &held)?;
             self.flush_all()?;
         }
@@ -384,20 +401,21 @@ impl Processes {
 
     /// Send a control message to one node.
     pub fn control(&mut self, node: u32, c: &Control) -> Result<(), EngineError> {
-        if self.stopped || self.dead.get(node as usize).copied().unwrap_or(true) {
+        if self.stopped || self.nodes.dead.get(node as usize).copied().unwrap_or(true) {
             return Ok(());
         }
-        let mut encoded = std::mem::take(&mut self.encoded);
+        let mut encoded = std::mem::take(&mut self.inbox.encoded);
         encoded.clear();
         codec::encode_control(c, &mut encoded);
         let r = self.send_to_node(node, &encoded);
-        self.encoded = encoded;
+        self.inbox.encoded = encoded;
         r
     }
 
     /// Peak resident set size (`VmHWM`, KiB) of every live node process.
     pub fn peak_rss_kib(&self) -> Vec<Option<u64>> {
-        self.children
+        self.nodes
+            .children
             .iter()
             .map(|c| {
                 let pid = c.as_ref()?.local_pid()?;
@@ -427,7 +445,7 @@ impl Processes {
         if self.stopped {
             return;
         }
-        let n = self.children.len();
+        let n = self.nodes.children.len();
         for i in 0..n {
             // A node paused at the end continues, to hear the stop.
             if self.is_paused(i as u32) {
@@ -437,16 +455,16 @@ impl Processes {
                 }
                 let _ = self.release(i as u32);
             }
-            if !self.dead[i] && self.children[i].is_some() {
+            if !self.nodes.dead[i] && self.nodes.children[i].is_some() {
                 let _ = self.control(i as u32, &Control::Stop);
             }
             // A restarted node not ready yet cannot be told to stop.
-            if self.restarting[i]
-                && let Some(mut child) = self.children[i].take()
+            if self.nodes.restarting[i]
+                && let Some(mut child) = self.nodes.children[i].take()
             {
                 child.kill();
                 child.wait();
-                self.restarting[i] = false;
+                self.nodes.restarting[i] = false;
             }
         }
         self.stopped = true;
@@ -456,7 +474,7 @@ impl Processes {
         let deadline = Instant::now() + Duration::from_secs(5);
         loop {
             let mut alive = 0;
-            for c in self.children.iter_mut() {
+            for c in self.nodes.children.iter_mut() {
                 if let Some(child) = c {
                     match child.try_wait() {
                         Some(_) => *c = None,
@@ -468,27 +486,27 @@ impl Processes {
                 break;
             }
             if Instant::now() > deadline {
-                for (i, c) in self.children.iter_mut().enumerate() {
+                for (i, c) in self.nodes.children.iter_mut().enumerate() {
                     if let Some(child) = c {
                         child.kill();
                         child.wait();
-                        self.dead[i] = true;
+                        self.nodes.dead[i] = true;
                     }
                     *c = None;
                 }
                 break;
             }
             // Keep draining so no node blocks on a full coordinator inbox.
-            self.frames.clear();
+            self.inbox.frames.clear();
             match self.tx.as_mut() {
                 Some(tx) => {
-                    let _ = tx.recv(&mut self.frames, Some(Duration::from_millis(10)));
+                    let _ = tx.recv(&mut self.inbox.frames, Some(Duration::from_millis(10)));
                 }
                 None => std::thread::sleep(Duration::from_millis(10)),
             }
         }
         // Every node is reaped: the agents may go.
-        if let Some(f) = &self.fleet {
+        if let Some(f) = &self.nodes.fleet {
             f.end(Duration::from_secs(2));
         }
     }
@@ -505,10 +523,10 @@ impl Drop for Processes {
         // Close our own ports first: with no live process left in the run,
         // the cleanup also removes what killed children left behind.
         self.tx = None;
-        if self.dead.iter().any(|&d| d) {
+        if self.nodes.dead.iter().any(|&d| d) {
             let _ = crate::transport::cleanup_stale_resources();
         }
-        if let Some((dir, true)) = &self.relaunch.checkpoints {
+        if let Some((dir, true)) = &self.nodes.relaunch.checkpoints {
             let _ = std::fs::remove_dir_all(dir);
         }
     }
@@ -558,7 +576,7 @@ impl Network for Processes {
             }
             self.pump()?;
             self.apply_faults();
-            out.append(&mut self.events);
+            out.append(&mut self.inbox.events);
             while let Some((node, how)) = self.check_children() {
                 if let Some(w) = &mut self.water {
                     w.set_dead(node);
@@ -587,7 +605,7 @@ impl Network for Processes {
     fn abandon(&mut self, node: u32) {
         let i = node as usize;
         self.fault_abandoned(node);
-        if let Some(Some(child)) = self.children.get_mut(i) {
+        if let Some(Some(child)) = self.nodes.children.get_mut(i) {
             child.kill();
             child.wait();
             Processes::log(
@@ -595,10 +613,10 @@ impl Network for Processes {
                 format_args!("node {node} abandoned: killed and reaped"),
             );
         }
-        if let Some(c) = self.children.get_mut(i) {
+        if let Some(c) = self.nodes.children.get_mut(i) {
             *c = None;
         }
-        if let Some(d) = self.dead.get_mut(i) {
+        if let Some(d) = self.nodes.dead.get_mut(i) {
             *d = true;
         }
         if let Some(w) = &mut self.water {

@@ -24,7 +24,7 @@ pub(super) fn check_tracks(
     let mut names = BTreeSet::new();
     for (i, b) in baselines.iter().enumerate() {
         b.validate(geometry, !geometry.transmitters.is_empty())
-            .map_err(|e| KeyError::new(format!("baselines[{i}] ({})", b.kind()), e))?;
+            .map_err(|e| e.under(&format!("baselines[{i}]")))?;
         if !names.insert(b.name()) {
             return Err(KeyError::new(
                 format!("baselines[{i}].name"),
@@ -177,15 +177,20 @@ impl Scenario {
         }
         if let Some(d) = &file.deploy {
             d.validate(geometry.receivers.len())
-                .map_err(|r| InputError::at(path, "deploy.hosts", r))?;
+                .map_err(|e| InputError::at(path, "deploy.hosts", e.to_string()))?;
         }
         let faults =
             resolve_faults(&file, geometry.receivers.len()).map_err(|e| e.in_file(path))?;
         // Baselines, bounds, Monte Carlo.
         check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
             .map_err(|e| e.in_file(path))?;
-        crate::scenario::expect::validate_syntax(&file.expect)
-            .map_err(|e| InputError::at(path, "expect.holds", e))?;
+        crate::scenario::expect::validate_syntax(&file.expect).map_err(|e| {
+            InputError::at(
+                path,
+                "expect.holds",
+                format!("{:?}: {}", e.relation, e.reason),
+            )
+        })?;
         if let Some(mc) = &file.monte_carlo {
             super::limits::check_count(mc.trials, super::MAX_TRIALS)
                 .map_err(|r| InputError::at(path, "monte_carlo.trials", r))?;

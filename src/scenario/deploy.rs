@@ -17,6 +17,62 @@ pub struct Placement {
     pub hosts: BTreeMap<String, Vec<u32>>,
 }
 
+/// Why a placement is refused (`[deploy] hosts` or `--place`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlacementError {
+    /// The table is empty.
+    #[error("no host is given")]
+    NoHost,
+    /// A host name outside `[A-Za-z0-9_-]{1,MAX_HOST_NAME}`.
+    #[error("host name {0:?} must have 1 to {MAX_HOST_NAME} characters from [A-Za-z0-9_-]")]
+    HostName(String),
+    /// A host with an empty node list.
+    #[error("host {0} has no nodes")]
+    NoNodes(String),
+    /// A node id the network does not have.
+    #[error("host {host} lists node {node}, but the network has nodes 0 to {last}")]
+    NoSuchNode {
+        /// The host.
+        host: String,
+        /// The node id.
+        node: u32,
+        /// The network's last node id.
+        last: usize,
+    },
+    /// A node on two hosts.
+    #[error("node {node} is placed on both {first} and {second}")]
+    Twice {
+        /// The node id.
+        node: u32,
+        /// The first host listing it.
+        first: String,
+        /// The second.
+        second: String,
+    },
+    /// Nodes on no host.
+    #[error("nodes {0:?} are on no host")]
+    Unplaced(Vec<usize>),
+    /// A `--place` value that is not `HOST=NODES`.
+    #[error("--place {0}: expected HOST=NODES, e.g. a=0-2,5")]
+    Form(String),
+    /// A node id that is not a number.
+    #[error("--place {value}: {part:?} is not a node id")]
+    NotANode {
+        /// The `--place` value.
+        value: String,
+        /// The part that is not a node id.
+        part: String,
+    },
+    /// A range `A-B` with `B < A` or too long.
+    #[error("--place {value}: bad range {part}")]
+    Range {
+        /// The `--place` value.
+        value: String,
+        /// The range.
+        part: String,
+    },
+}
+
 /// Longest accepted host name.
 pub const MAX_HOST_NAME: usize = 64;
 
@@ -24,9 +80,9 @@ impl Placement {
     /// Checks the placement against a network of `n` nodes: host names of 1
     /// to [`MAX_HOST_NAME`] characters from `[A-Za-z0-9_-]`, and every node
     /// `0..n` on exactly one host. The error is one sentence.
-    pub fn validate(&self, n: usize) -> Result<(), String> {
+    pub fn validate(&self, n: usize) -> Result<(), PlacementError> {
         if self.hosts.is_empty() {
-            return Err("no host is given".into());
+            return Err(PlacementError::NoHost);
         }
         let mut host_of: Vec<Option<&str>> = vec![None; n];
         for (h, nodes) in &self.hosts {
@@ -36,29 +92,32 @@ impl Placement {
                     .chars()
                     .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
             {
-                return Err(format!(
-                    "host name {h:?} must have 1 to {MAX_HOST_NAME} characters from [A-Za-z0-9_-]"
-                ));
+                return Err(PlacementError::HostName(h.clone()));
             }
             if nodes.is_empty() {
-                return Err(format!("host {h} has no nodes"));
+                return Err(PlacementError::NoNodes(h.clone()));
             }
             for &i in nodes {
                 let Some(slot) = host_of.get_mut(i as usize) else {
-                    return Err(format!(
-                        "host {h} lists node {i}, but the network has nodes 0 to {}",
-                        n.saturating_sub(1)
-                    ));
+                    return Err(PlacementError::NoSuchNode {
+                        host: h.clone(),
+                        node: i,
+                        last: n.saturating_sub(1),
+                    });
                 };
                 if let Some(other) = slot {
-                    return Err(format!("node {i} is placed on both {other} and {h}"));
+                    return Err(PlacementError::Twice {
+                        node: i,
+                        first: (*other).to_string(),
+                        second: h.clone(),
+                    });
                 }
                 *slot = Some(h);
             }
         }
         let unplaced: Vec<usize> = (0..n).filter(|&i| host_of[i].is_none()).collect();
         if !unplaced.is_empty() {
-            return Err(format!("nodes {unplaced:?} are on no host"));
+            return Err(PlacementError::Unplaced(unplaced));
         }
         Ok(())
     }
@@ -82,24 +141,30 @@ impl Placement {
 
     /// Parses `--place HOST=NODES` values: NODES is a comma-separated list
     /// of node ids and ranges `A-B` (inclusive), e.g. `a=0-2` `b=3,4,5`.
-    pub fn parse(values: &[String]) -> Result<Self, String> {
+    pub fn parse(values: &[String]) -> Result<Self, PlacementError> {
         let mut hosts: BTreeMap<String, Vec<u32>> = BTreeMap::new();
         for v in values {
             let (h, list) = v
                 .split_once('=')
-                .ok_or_else(|| format!("--place {v}: expected HOST=NODES, e.g. a=0-2,5"))?;
+                .ok_or_else(|| PlacementError::Form(v.clone()))?;
             let nodes = hosts.entry(h.trim().to_string()).or_default();
             for part in list.split(',').map(str::trim).filter(|p| !p.is_empty()) {
                 let num = |s: &str| {
                     s.trim()
                         .parse::<u32>()
-                        .map_err(|_| format!("--place {v}: {s:?} is not a node id"))
+                        .map_err(|_| PlacementError::NotANode {
+                            value: v.clone(),
+                            part: s.to_string(),
+                        })
                 };
                 match part.split_once('-') {
                     Some((a, b)) => {
                         let (a, b) = (num(a)?, num(b)?);
                         if b < a || b - a > 1 << 16 {
-                            return Err(format!("--place {v}: bad range {part}"));
+                            return Err(PlacementError::Range {
+                                value: v.clone(),
+                                part: part.to_string(),
+                            });
                         }
                         nodes.extend(a..=b);
                     }
@@ -115,7 +180,7 @@ impl Placement {
 mod tests {
     use super::*;
 
-    fn place(v: &[&str]) -> Result<Placement, String> {
+    fn place(v: &[&str]) -> Result<Placement, PlacementError> {
         Placement::parse(&v.iter().map(|s| s.to_string()).collect::<Vec<_>>())
     }
 
@@ -125,17 +190,38 @@ mod tests {
         assert!(p.validate(6).is_ok());
         assert_eq!(p.host_of(4), Some("b"));
         assert_eq!(p.agents(), vec!["a", "b"]);
-        let e = p.validate(7).unwrap_err();
-        assert!(e.contains("[6]"), "{e}");
+        assert_eq!(p.validate(7), Err(PlacementError::Unplaced(vec![6])));
         let e = place(&["a=0-2", "b=2-5"]).unwrap().validate(6).unwrap_err();
-        assert!(e.contains("node 2") && e.contains("both"), "{e}");
+        assert!(matches!(e, PlacementError::Twice { node: 2, .. }), "{e}");
         let e = p.validate(4).unwrap_err();
-        assert!(e.contains("node 4"), "{e}");
+        assert!(
+            matches!(
+                e,
+                PlacementError::NoSuchNode {
+                    node: 4,
+                    last: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let e = place(&["a b=0-5"]).unwrap().validate(6).unwrap_err();
-        assert!(e.contains("host name"), "{e}");
-        assert!(place(&["a"]).unwrap_err().contains("HOST=NODES"));
-        assert!(place(&["a=x"]).unwrap_err().contains("not a node id"));
-        assert!(place(&["a=5-2"]).unwrap_err().contains("bad range"));
+        assert_eq!(e, PlacementError::HostName("a b".into()));
+        assert!(e.to_string().starts_with("host name \"a b\""), "{e}");
+        assert!(
+            place(&["a"])
+                .unwrap_err()
+                .to_string()
+                .contains("HOST=NODES")
+        );
+        assert!(matches!(
+            place(&["a=x"]),
+            Err(PlacementError::NotANode { .. })
+        ));
+        assert!(matches!(
+            place(&["a=5-2"]),
+            Err(PlacementError::Range { .. })
+        ));
         let local = place(&["local=0,1", "b=2"]).unwrap();
         assert_eq!(local.agents(), vec!["b"]);
     }

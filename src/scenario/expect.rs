@@ -61,6 +61,17 @@ pub struct Check {
     pub holds: bool,
 }
 
+/// An expectation that cannot be evaluated: the relation as written and
+/// why (a syntax error, an unknown metric, a side that is not finite).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{relation}: {reason}")]
+pub struct ExpectError {
+    /// The relation (`theta_bar.rmse <= 20.0`).
+    pub relation: String,
+    /// Why it cannot be evaluated.
+    pub reason: String,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Tok {
     Num(f64),
@@ -256,10 +267,15 @@ pub fn eval_relation(
 pub fn check(
     expect: &ExpectCfg,
     lookup: &impl Fn(&str) -> Result<f64, String>,
-) -> Vec<Result<Check, String>> {
+) -> Vec<Result<Check, ExpectError>> {
     relations(expect)
-        .iter()
-        .map(|t| eval_relation(t, lookup).map_err(|e| format!("{t}: {e}")))
+        .into_iter()
+        .map(|t| {
+            eval_relation(&t, lookup).map_err(|reason| ExpectError {
+                relation: t,
+                reason,
+            })
+        })
         .collect()
 }
 
@@ -289,9 +305,12 @@ pub fn relations(expect: &ExpectCfg) -> Vec<String> {
 
 /// Check the syntax of every `holds` entry (no metric lookup; the values
 /// are only known after a run, so `a / (b - c)` is not judged here).
-pub fn validate_syntax(expect: &ExpectCfg) -> Result<(), String> {
+pub fn validate_syntax(expect: &ExpectCfg) -> Result<(), ExpectError> {
     for t in &expect.holds {
-        sides(t, &|_| Ok(1.0)).map_err(|e| format!("{t:?}: {e}"))?;
+        sides(t, &|_| Ok(1.0)).map_err(|reason| ExpectError {
+            relation: t.clone(),
+            reason,
+        })?;
     }
     Ok(())
 }

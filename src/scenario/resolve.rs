@@ -57,7 +57,11 @@ impl Scenario {
     /// `schedule.csv`), which hold every value exactly; a Monte Carlo run
     /// draws them from the seeds again. `logical_async` says whether the
     /// run's schedule replays (async on the logical clock).
-    pub fn resolved_toml(&self, logical_async: bool, how: &str) -> Result<String, String> {
+    pub fn resolved_toml(
+        &self,
+        logical_async: bool,
+        how: &str,
+    ) -> Result<String, toml::ser::Error> {
         let mut f = self.resolved_file();
         let single = self.trials.unwrap_or(1) <= 1;
         if single {
@@ -85,7 +89,7 @@ impl Scenario {
                 overrides: toml::Table::new(),
             }];
         }
-        let body = toml::to_string(&f).map_err(|e| e.to_string())?;
+        let body = toml::to_string(&f)?;
         Ok(format!(
             "# The resolved scenario of this run (sonarnet {}), with every override\n\
              # applied{}.\n\

@@ -123,15 +123,15 @@ pub(super) fn measurements(
     }
     if let Some(n) = &m.range_noise {
         n.validate()
-            .map_err(|e| InputError::at(path, "measurements.range_noise", e))?;
+            .map_err(|e| e.under("measurements.range_noise").in_file(path))?;
     }
     if let Some(n) = &m.doa_noise {
         n.validate()
-            .map_err(|e| InputError::at(path, "measurements.doa_noise", e))?;
+            .map_err(|e| e.under("measurements.doa_noise").in_file(path))?;
     }
     m.nlos_links
         .validate()
-        .map_err(|e| InputError::at(path, "measurements.nlos_links", e))?;
+        .map_err(|e| e.under("measurements.nlos_links").in_file(path))?;
     m.nlos_links
         .draw(
             geometry.transmitters.len(),
@@ -211,7 +211,7 @@ pub(super) fn data_source(
             };
             t.motion
                 .validate()
-                .map_err(|e| InputError::at(path, "target.motion", e))?;
+                .map_err(|e| e.under("target.motion").in_file(path))?;
             if !m.bistatic && !m.doa && !m.range {
                 return Err(InputError::at(
                     path,

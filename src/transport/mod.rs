@@ -182,6 +182,35 @@ impl fmt::Display for Endpoint {
     }
 }
 
+/// Why the per-user shared-memory directory is refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum RootProblem {
+    /// It could not be created.
+    #[error("cannot be created: {0}")]
+    Create(std::io::ErrorKind),
+    /// Its metadata could not be read.
+    #[error("cannot be examined: {0}")]
+    Stat(std::io::ErrorKind),
+    /// A file or link of that name is in the way.
+    #[error("is not a directory")]
+    NotADirectory,
+    /// Another user owns it.
+    #[error(
+        "belongs to uid {owner}, not to this user (uid {me}); sonarnet refuses to share iceoryx2 state with another user (remove the directory)"
+    )]
+    Foreign {
+        /// Its owner.
+        owner: u32,
+        /// This user.
+        me: u32,
+    },
+    /// Other users may enter it.
+    #[error(
+        "has mode {0:o}, open to other users; sonarnet needs 0700 (chmod 700 it, or remove it)"
+    )]
+    OpenMode(u32),
+}
+
 /// Errors of the transport layer.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum TransportError {
@@ -272,12 +301,12 @@ pub enum TransportError {
     Closed(Endpoint),
     /// The per-user iceoryx2 directory is not safe to use (another user's,
     /// or open to others).
-    #[error("{}: {reason}", path.display())]
+    #[error("{}: {problem}", path.display())]
     UnsafeRoot {
         /// The directory.
         path: std::path::PathBuf,
         /// Why it is refused.
-        reason: String,
+        problem: RootProblem,
     },
     /// This build has no zenoh transport (cargo feature `zenoh` off).
     #[error("this sonarnet was built without the zenoh transport (cargo feature `zenoh`)")]

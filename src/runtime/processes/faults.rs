@@ -17,7 +17,7 @@ impl Processes {
         }
         let period = plan.realtime.map(|rt| rt.sample_period.as_secs_f64());
         let scale = plan.channel.as_ref().map_or(1.0, |c| c.cfg.time_scale);
-        let sched = FaultWorld::new(&plan.faults, self.children.len(), period);
+        let sched = FaultWorld::new(&plan.faults, self.nodes.children.len(), period);
         self.faults = Some((sched, Instant::now(), scale));
     }
 
@@ -51,7 +51,7 @@ impl Processes {
                     }
                 }
                 FaultStep::Kill(n) => {
-                    if let Some(Some(child)) = self.children.get_mut(n as usize) {
+                    if let Some(Some(child)) = self.nodes.children.get_mut(n as usize) {
                         child.kill();
                     }
                 }
@@ -82,10 +82,10 @@ impl Processes {
     /// the run says why.
     fn restart(&mut self, node: u32, checkpoint: bool) {
         let i = node as usize;
-        if i >= self.children.len() {
+        if i >= self.nodes.children.len() {
             return;
         }
-        if let Some(mut child) = self.children[i].take() {
+        if let Some(mut child) = self.nodes.children[i].take() {
             child.kill();
             child.wait();
         }
@@ -96,12 +96,12 @@ impl Processes {
             s.died(node, now);
         }
         self.held[i].clear();
-        if !self.dead[i] {
-            self.dead[i] = true;
+        if !self.nodes.dead[i] {
+            self.nodes.dead[i] = true;
             if let Some(w) = &mut self.water {
                 w.set_dead(node);
             }
-            self.events.push(Event::NodeDied {
+            self.inbox.events.push(Event::NodeDied {
                 node,
                 how: "restarted (fault)".into(),
             });
@@ -111,11 +111,11 @@ impl Processes {
         if let Err(e) = crate::transport::cleanup_run(&self.run_id) {
             eprintln!("warning: node {node} restart: cleaning up its old ports: {e}");
         }
-        let launch = self.launch_of(&self.relaunch.configs[i], checkpoint);
+        let launch = self.launch_of(&self.nodes.relaunch.configs[i], checkpoint);
         match self.start_node(&launch) {
             Ok(child) => {
-                self.children[i] = Some(child);
-                self.restarting[i] = true;
+                self.nodes.children[i] = Some(child);
+                self.nodes.restarting[i] = true;
                 Processes::log(
                     self,
                     format_args!(
@@ -135,18 +135,18 @@ impl Processes {
     /// Node `node` reported READY: a restarted node is up again.
     pub(super) fn ready(&mut self, node: u32) {
         let i = node as usize;
-        if !self.restarting.get(i).copied().unwrap_or(false) {
+        if !self.nodes.restarting.get(i).copied().unwrap_or(false) {
             return;
         }
-        self.restarting[i] = false;
-        self.dead[i] = false;
+        self.nodes.restarting[i] = false;
+        self.nodes.dead[i] = false;
         if let Some((s, _, _)) = self.faults.as_mut() {
             s.restarted(node);
         }
         if let Some(w) = &mut self.water {
             w.set_alive(node);
         }
-        self.events.push(Event::NodeUp { node });
+        self.inbox.events.push(Event::NodeUp { node });
     }
 
     /// Node `node` was found dead (its process reaped): a crash that

@@ -57,33 +57,56 @@ pub struct NodeLaunch {
     pub transport: crate::transport::TransportChoice,
 }
 
+/// Why a node process ends with an error (exit 1): its start, its
+/// transport or its loop; the cause is kept as the source.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeProcessError {
+    /// `PR_SET_PDEATHSIG` failed.
+    #[error("cannot ask for SIGTERM at the parent's death (PR_SET_PDEATHSIG)")]
+    DeathSignal(#[source] std::io::Error),
+    /// The coordinator died before the node started.
+    #[error("the coordinator (pid {0}) is gone")]
+    CoordinatorGone(u32),
+    /// The SIGTERM/SIGINT flag could not be installed.
+    #[error("cannot install the SIGTERM/SIGINT handlers")]
+    Signals(#[source] std::io::Error),
+    /// Reading stdin at the start gate failed.
+    #[error("waiting at the start gate (stdin)")]
+    Gate(#[source] std::io::Error),
+    /// The transport could not be set up.
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// The node loop stopped on an error.
+    #[error(transparent)]
+    Node(#[from] crate::engine::node::NodeError),
+}
+
 /// In a node process with `launch.gate`: wait until the coordinator opens
 /// the start gate (stdin reaches its end; also if the coordinator dies).
-pub fn wait_at_gate(launch: &NodeLaunch) -> Result<(), String> {
+pub fn wait_at_gate(launch: &NodeLaunch) -> Result<(), NodeProcessError> {
     if !launch.gate {
         return Ok(());
     }
     let mut sink = Vec::new();
     std::io::Read::read_to_end(&mut std::io::stdin().lock(), &mut sink)
         .map(|_| ())
-        .map_err(|e| format!("waiting at the start gate (stdin): {e}"))
+        .map_err(NodeProcessError::Gate)
 }
 
 /// In a node process: ask the kernel for SIGTERM when the parent dies
 /// (`PR_SET_PDEATHSIG`), then check that the parent is still `coordinator`
 /// (it may have died between the spawn and the request). Errors if it is
 /// gone, so that the node exits at once.
-pub fn guard_parent(coordinator: Option<u32>) -> Result<(), String> {
+pub fn guard_parent(coordinator: Option<u32>) -> Result<(), NodeProcessError> {
     // SAFETY: prctl(PR_SET_PDEATHSIG) only sets a flag on this process.
     if unsafe { libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM) } != 0 {
-        return Err(format!(
-            "PR_SET_PDEATHSIG: {}",
-            std::io::Error::last_os_error()
+        return Err(NodeProcessError::DeathSignal(
+            std::io::Error::last_os_error(),
         ));
     }
     match coordinator {
         Some(pid) if std::os::unix::process::parent_id() != pid => {
-            Err(format!("the coordinator (pid {pid}) is gone"))
+            Err(NodeProcessError::CoordinatorGone(pid))
         }
         _ => Ok(()),
     }
@@ -280,6 +303,6 @@ mod tests {
         assert!(guard_parent(Some(parent)).is_ok());
         assert!(guard_parent(None).is_ok());
         let e = guard_parent(Some(parent.wrapping_add(7919))).unwrap_err();
-        assert!(e.contains("is gone"), "{e}");
+        assert!(matches!(e, NodeProcessError::CoordinatorGone(_)), "{e}");
     }
 }

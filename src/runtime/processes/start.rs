@@ -20,7 +20,7 @@ impl Processes {
         configs: &[NodeConfig],
     ) -> Result<(), EngineError> {
         let p = self;
-        let prog = p.relaunch.program.clone();
+        let prog = p.nodes.relaunch.program.clone();
         let prog = &prog;
         // The nodes start first, each waiting at a gate (its stdin, one pipe
         // for all) until the services exist: spawned while the coordinator
@@ -40,7 +40,7 @@ impl Processes {
                 step: format!("passing it to node {}", cfg.id),
                 source: Cause::new(e),
             })?;
-            p.children.push(Some(NodeProc::Local(spawn_child(
+            p.nodes.children.push(Some(NodeProc::Local(spawn_child(
                 prog,
                 &launch,
                 stdin.into(),
@@ -87,13 +87,13 @@ impl Processes {
                     listen: z.listen.join(", "),
                 });
             }
-            self.fleet = Some(fleet);
+            self.nodes.fleet = Some(fleet);
         }
         self.tx = Some(Box::new(tx));
         for cfg in configs {
             let launch = self.launch_of(cfg, false);
             let proc = self.start_node(&launch)?;
-            self.children.push(Some(proc));
+            self.nodes.children.push(Some(proc));
         }
         Ok(())
     }
@@ -114,13 +114,14 @@ impl Processes {
     /// Start node `launch.node.id`: through its host's agent, or here.
     pub(super) fn start_node(&self, launch: &NodeLaunch) -> Result<NodeProc, EngineError> {
         let host = self
+            .nodes
             .placement
             .as_ref()
             .and_then(|pl| pl.host_of(launch.node.id));
-        match (&self.fleet, host) {
+        match (&self.nodes.fleet, host) {
             (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch),
             _ => Ok(NodeProc::Local(spawn_child(
-                &self.relaunch.program,
+                &self.nodes.relaunch.program,
                 launch,
                 std::process::Stdio::null(),
             )?)),
@@ -134,7 +135,7 @@ impl Processes {
         timeout: Duration,
     ) -> Result<(), EngineError> {
         let p = self;
-        let n = p.children.len();
+        let n = p.nodes.children.len();
         // Wait for READY from everyone.
         let mut ready = vec![false; n];
         let mut count = 0;
@@ -170,13 +171,14 @@ impl Processes {
         NodeLaunch {
             node: cfg.clone(),
             checkpoint: self
+                .nodes
                 .relaunch
                 .checkpoints
                 .as_ref()
                 .filter(|_| cfg.checkpoint_every.is_some())
                 .map(|(dir, _)| crate::engine::checkpoint::path(dir, cfg.id)),
             resume,
-            ..self.relaunch.launch0.clone()
+            ..self.nodes.relaunch.launch0.clone()
         }
     }
 }

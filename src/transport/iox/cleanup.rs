@@ -8,6 +8,7 @@ use super::LogLevel;
 use super::Node;
 use super::SemanticString;
 use super::set_log_level_from_env_or;
+use crate::transport::RootProblem;
 use crate::transport::TransportError;
 use crate::transport::iox::Svc;
 use iceoryx2::config::Config;
@@ -67,17 +68,12 @@ pub(super) fn root_dir() -> String {
 }
 
 /// Whether a directory with this owner and mode may be this user's root.
-pub(super) fn check_root_owner(owner: u32, mode: u32, me: u32) -> Result<(), String> {
+pub(super) fn check_root_owner(owner: u32, mode: u32, me: u32) -> Result<(), RootProblem> {
     if owner != me {
-        return Err(format!(
-            "belongs to uid {owner}, not to this user (uid {me}); sonarnet refuses to share iceoryx2 state with another user (remove the directory)"
-        ));
+        return Err(RootProblem::Foreign { owner, me });
     }
     if mode & 0o077 != 0 {
-        return Err(format!(
-            "has mode {:o}, open to other users; sonarnet needs 0700 (chmod 700 it, or remove it)",
-            mode & 0o7777
-        ));
+        return Err(RootProblem::OpenMode(mode & 0o7777));
     }
     Ok(())
 }
@@ -86,18 +82,19 @@ pub(super) fn check_root_owner(owner: u32, mode: u32, me: u32) -> Result<(), Str
 fn ensure_root(dir: &str) -> Result<(), TransportError> {
     use std::os::unix::fs::{DirBuilderExt, MetadataExt};
     let path = Path::new(dir);
-    let unsafe_root = |reason: String| TransportError::UnsafeRoot {
+    let unsafe_root = |problem: RootProblem| TransportError::UnsafeRoot {
         path: path.to_path_buf(),
-        reason,
+        problem,
     };
     match std::fs::DirBuilder::new().mode(0o700).create(path) {
         Ok(()) => return Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-        Err(e) => return Err(unsafe_root(format!("cannot be created: {e}"))),
+        Err(e) => return Err(unsafe_root(RootProblem::Create(e.kind()))),
     }
-    let meta = std::fs::symlink_metadata(path).map_err(|e| unsafe_root(e.to_string()))?;
+    let meta =
+        std::fs::symlink_metadata(path).map_err(|e| unsafe_root(RootProblem::Stat(e.kind())))?;
     if !meta.file_type().is_dir() {
-        return Err(unsafe_root("is not a directory".into()));
+        return Err(unsafe_root(RootProblem::NotADirectory));
     }
     // SAFETY: getuid has no failure mode.
     let me = unsafe { libc::getuid() };
@@ -302,10 +299,12 @@ mod root_tests {
         assert!(check_root_owner(me, 0o40700, me).is_ok());
         let foreign = check_root_owner(me + 1, 0o40700, me).unwrap_err();
         assert!(
-            foreign.contains(&format!("belongs to uid {}", me + 1)),
+            foreign
+                .to_string()
+                .contains(&format!("belongs to uid {}", me + 1)),
             "{foreign}"
         );
         let open = check_root_owner(me, 0o40750, me).unwrap_err();
-        assert!(open.contains("mode 750"), "{open}");
+        assert!(open.to_string().contains("mode 750"), "{open}");
     }
 }
