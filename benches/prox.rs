@@ -3,12 +3,21 @@
 //! gamma 2e-8. Each iteration is ONE prox call; calls cycle through 6 nodes x 16 noisy
 //! samples with Douglas-Rachford-like inputs `u` near the lifted target. `gtrs_l0` runs
 //! on the same instances with `kappa = 1`.
+//!
+//! The cone step alone (`min_quadratic_on_upper_nappe`, the core of the GTRS prox):
+//! the 2-D angle solver and the any-dimension secular solver on the same 2-D
+//! instances, and the secular solver on 3-D instances: the same geometry with
+//! transmitters 10 m deep, receivers 100-600 m deep and the target at 300 m,
+//! bistatic rows `[2 (t_m - r_v)^T, -2 rho_m]` and the DOA rows of the unit direction
+//! `e` to the target, `omega [I, -e]` (Mourya 2017 eq. 9 with 3-D vectors).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarnet::estimators::local::LocalProblem;
+use sonarnet::estimators::prox::gtrs::min_quadratic_on_upper_nappe;
 use sonarnet::estimators::prox::gtrs::{prox_gtrs, prox_relaxed};
 use sonarnet::estimators::prox::l0::prox_gtrs_l0;
-use sonarnet::model::geometry::{Vec2, Vec3};
+use sonarnet::estimators::prox::nappe::min_quadratic_on_upper_nappe_n;
+use sonarnet::model::geometry::{Mat3, Vec2, Vec3};
 use sonarnet::model::measure::{Geometry, NodeMeasurements};
 use sonarnet::model::noise::NoiseModel;
 use sonarnet::model::rng::{Stream, stream_rng};
@@ -51,6 +60,72 @@ fn instances() -> Vec<(LocalProblem, Vec3)> {
     out
 }
 
+/// The cone problem `(A, b)` of the GTRS prox of a 2-D instance, as `prox_gtrs`
+/// forms it: `A = H + I/gamma`, `b = (c - H r~) + (u - r~)/gamma`.
+fn cone_2d(p: &LocalProblem, u: &Vec3, gamma: f64) -> (Mat3, Vec3) {
+    let r = Vec3::new(p.anchor.x, p.anchor.y, 0.0);
+    let a = p.h + Mat3::identity() / gamma;
+    let b = (p.c - p.h * r) + (u - r) / gamma;
+    (a, b)
+}
+
+type Cone3 = (nalgebra::Matrix4<f64>, nalgebra::Vector4<f64>);
+
+/// 3-D instances (see the module docs), 6 receivers x 16 samples.
+fn cone_3d(gamma: f64) -> Vec<Cone3> {
+    use nalgebra::{Matrix4, Vector3, Vector4};
+    let tx = [
+        Vector3::new(0.0, 0.0, -10.0),
+        Vector3::new(2000.0, 2000.0, -10.0),
+    ];
+    let geometry = Geometry::mourya2017();
+    let depths = [100.0, 200.0, 300.0, 400.0, 500.0, 600.0];
+    let noise = NoiseModel::gaussian(5.0);
+    let mut rng = stream_rng(2017, Stream::Aux, 1);
+    let mut out = Vec::new();
+    for k in 0..16 {
+        let target = Vector3::new(500.0 + 2.5 * k as f64, 500.0 - 1.5 * k as f64, -300.0);
+        for (r2, depth) in geometry.receivers.iter().zip(depths) {
+            let r = Vector3::new(r2.x, r2.y, -depth);
+            let mut rows: Vec<(Vector4<f64>, f64)> = Vec::new();
+            for t in &tx {
+                let rho =
+                    (target - t).norm() + (target - r).norm() + noise.sample(k, false, &mut rng);
+                let d = 2.0 * (t - r);
+                rows.push((
+                    Vector4::new(d.x, d.y, d.z, -2.0 * rho),
+                    t.norm_squared() - rho * rho - r.norm_squared(),
+                ));
+            }
+            let e =
+                (target - r + Vector3::new(0.0, 0.0, noise.sample(k, false, &mut rng))).normalize();
+            for i in 0..3 {
+                let mut row = Vector4::zeros();
+                row[i] = 1.0;
+                row[3] = -e[i];
+                rows.push((row, r[i]));
+            }
+            let mut h = Matrix4::zeros();
+            let mut c = Vector4::zeros();
+            for (row, g) in &rows {
+                h += row * row.transpose();
+                c += row * *g;
+            }
+            let rt = Vector4::new(r.x, r.y, r.z, 0.0);
+            let u = Vector4::new(
+                target.x + 20.0 * noise.sample(k, false, &mut rng) / 5.0,
+                target.y,
+                target.z,
+                (target - r).norm(),
+            );
+            let a = h + Matrix4::identity() / gamma;
+            let b = (c - h * rt) + (u - rt) / gamma;
+            out.push((a, b));
+        }
+    }
+    out
+}
+
 fn bench_prox(c: &mut Criterion) {
     let inst = instances();
     let gamma = 2e-8;
@@ -87,5 +162,38 @@ fn bench_prox(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench_prox);
+fn bench_cone(c: &mut Criterion) {
+    let gamma = 2e-8;
+    let cones: Vec<(Mat3, Vec3)> = instances()
+        .iter()
+        .map(|(p, u)| cone_2d(p, u, gamma))
+        .collect();
+    let mut i = 0usize;
+    c.bench_function("cone_2d_angle", |b| {
+        b.iter(|| {
+            let (a, bv) = &cones[i % cones.len()];
+            i = i.wrapping_add(1);
+            black_box(min_quadratic_on_upper_nappe(black_box(a), black_box(bv)))
+        })
+    });
+    let mut i = 0usize;
+    c.bench_function("cone_2d_secular", |b| {
+        b.iter(|| {
+            let (a, bv) = &cones[i % cones.len()];
+            i = i.wrapping_add(1);
+            black_box(min_quadratic_on_upper_nappe_n(black_box(a), black_box(bv)))
+        })
+    });
+    let cones3 = cone_3d(gamma);
+    let mut i = 0usize;
+    c.bench_function("cone_3d_secular", |b| {
+        b.iter(|| {
+            let (a, bv) = &cones3[i % cones3.len()];
+            i = i.wrapping_add(1);
+            black_box(min_quadratic_on_upper_nappe_n(black_box(a), black_box(bv)))
+        })
+    });
+}
+
+criterion_group!(benches, bench_prox, bench_cone);
 criterion_main!(benches);

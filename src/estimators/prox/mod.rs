@@ -6,6 +6,7 @@
 
 pub mod gtrs;
 pub mod l0;
+pub mod nappe;
 
 use crate::estimators::local::LocalProblem;
 use crate::estimators::prox::gtrs::{ProxError, prox_gtrs, prox_relaxed};
