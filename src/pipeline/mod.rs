@@ -267,7 +267,7 @@ pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
     };
     let needs = crate::runtime::preflight::needs(&plan);
     crate::runtime::preflight::check(&needs, &crate::runtime::preflight::machine())
-        .map_err(|(key, reason)| InputError::at(&sc.path, key, reason))
+        .map_err(|e| e.in_file(&sc.path))
 }
 
 /// What the engine side of one run produced.

@@ -165,13 +165,8 @@ pub enum EngineError {
     },
     /// This machine cannot hold the run ([`crate::runtime::preflight`]): the key most to
     /// blame and the reason with the numbers. Found before anything starts.
-    #[error("{key}: {reason}")]
-    Resources {
-        /// The scenario key.
-        key: &'static str,
-        /// What is needed and what there is.
-        reason: String,
-    },
+    #[error(transparent)]
+    Resources(crate::model::error::KeyError),
     /// The engine cannot run this combination (e.g. realtime clocks in-process).
     #[error("unsupported: {0}")]
     Unsupported(String),

@@ -15,6 +15,7 @@
 //! [`NODE_RSS_BYTES`] besides the shared memory it maps.
 
 use crate::engine::layout::{NetworkLayout, network_layout};
+use crate::model::error::KeyError;
 use crate::protocol::RunPlan;
 
 /// Bytes of shared memory per frame slot of one publisher (116 measured).
@@ -93,14 +94,14 @@ fn gib(b: u64) -> String {
     format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)
 }
 
-/// Why a run with `needs` cannot run on `m`: the key of the scenario most
-/// to blame and the reason with the numbers.
-pub fn check(needs: &Needs, m: &Machine) -> Result<(), (&'static str, String)> {
+/// Why a run with `needs` cannot run on `m`: the [`KeyError`] names the
+/// scenario key most to blame and gives the reason with the numbers.
+pub fn check(needs: &Needs, m: &Machine) -> Result<(), KeyError> {
     let n = needs.nodes;
     if let Some(left) = m.processes_left
         && n > left
     {
-        return Err((
+        return Err(KeyError::new(
             "geometry.receivers",
             format!("{n} receivers need {n} node processes; this user may start only {left} more"),
         ));
@@ -108,7 +109,7 @@ pub fn check(needs: &Needs, m: &Machine) -> Result<(), (&'static str, String)> {
     if let Some(hard) = m.fd_hard_limit {
         let need = needs.coordinator_fds.max(needs.node_fds);
         if need > hard {
-            return Err((
+            return Err(KeyError::new(
                 "geometry.receivers",
                 format!(
                     "{n} node processes need about {need} open files each (the coordinator 9 per node), \
@@ -125,7 +126,7 @@ pub fn check(needs: &Needs, m: &Machine) -> Result<(), (&'static str, String)> {
     if let Some(free) = m.shm_free
         && needs.shm_bytes > free
     {
-        return Err((
+        return Err(KeyError::new(
             shm_key,
             format!(
                 "the processes engine needs about {} of shared memory for {n} nodes \
@@ -141,7 +142,7 @@ pub fn check(needs: &Needs, m: &Machine) -> Result<(), (&'static str, String)> {
     if let Some(avail) = m.memory_available
         && needs.memory_bytes > avail
     {
-        return Err((
+        return Err(KeyError::new(
             shm_key,
             format!(
                 "{n} node processes need about {} of memory (shared memory included), {} is available",
@@ -298,7 +299,7 @@ mod tests {
             shm_free: Some(1 << 30),
             ..plenty()
         };
-        let (key, reason) = check(&n, &m).unwrap_err();
+        let KeyError { key, reason } = check(&n, &m).unwrap_err();
         assert_eq!(key, "algorithm.iterations_per_sample");
         assert!(reason.contains("/dev/shm has 1.00 GiB free"), "{reason}");
     }
@@ -316,7 +317,7 @@ mod tests {
                 ..plenty()
             },
         ] {
-            let (key, reason) = check(&n, &m).unwrap_err();
+            let KeyError { key, reason } = check(&n, &m).unwrap_err();
             assert_eq!(key, "geometry.receivers", "{reason}");
         }
     }

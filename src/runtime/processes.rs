@@ -642,8 +642,8 @@ pub fn run_processes(
     let failed = |e| RunOutcome::failed(Driver::Processes, plan.n(), e);
     let layout = network_layout(plan);
     let needs = super::preflight::needs_of(&layout);
-    if let Err((key, reason)) = super::preflight::check(&needs, &super::preflight::machine()) {
-        return failed(EngineError::Resources { key, reason });
+    if let Err(e) = super::preflight::check(&needs, &super::preflight::machine()) {
+        return failed(EngineError::Resources(e));
     }
     super::preflight::raise_fd_limit(needs.coordinator_fds.max(needs.node_fds));
     // The run id is chosen first, so that a run that fails to start still
