@@ -97,6 +97,9 @@ const PLOTS: &[&str] = &[
     "messages",
     "channel",
     "sweep",
+    "error-cdf",
+    "tightness",
+    "scatter",
 ];
 
 /// Directories a run writes (checkpoint files, a sweep's runs).

@@ -195,11 +195,24 @@ fn every_track_appears_in_the_tracks_error_and_ctte_plots() {
     assert!(error_figure(&d).drawn_names().contains(&"crlb"));
 }
 
+/// A results directory holding the figure is recognised as a run's, so the
+/// next run into it may replace it.
+fn assert_recognised(f: &Figure) {
+    for ext in ["svg", "png"] {
+        let file = format!("{}.{ext}", f.name);
+        assert!(
+            crate::pipeline::outdir::is_sonarnet_output(&file, false),
+            "{file} is not recognised as a plot sonarnet writes"
+        );
+    }
+}
+
 #[test]
 fn axis_ranges_include_every_point_of_every_figure() {
-    for d in [data(), mc_data()] {
+    for d in [data(), mc_data(), snapshot_data()] {
         for fig in run_figures(&d) {
             assert_ranges_cover(&fig);
+            assert_recognised(&fig);
         }
     }
     for fig in comparison_figures(&data(), &mc_data(), "A", "B") {
@@ -766,6 +779,9 @@ fn a_snapshot_monte_carlo_run_draws_error_cdfs_tightness_cdfs_and_a_scatter_not_
         !names.contains(&"error") && !names.contains(&"ctte"),
         "{names:?}"
     );
+    for f in &figs {
+        assert_recognised(f);
+    }
     for want in ["error-cdf", "tightness", "scatter"] {
         let f = figs
             .iter()
