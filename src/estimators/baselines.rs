@@ -34,7 +34,7 @@ use crate::estimators::prox::LocalSolver;
 use crate::estimators::robust;
 use crate::estimators::track::{
     LlsSolver, OnlineRule, OnlineSolver, PocsSolver, RobustMethod, RobustSolver, SampleSolver,
-    Sparsity, TrackProblem, TrackRun, run_track,
+    SdpSolver, Sparsity, TrackProblem, TrackRun, run_track,
 };
 use crate::model::error::KeyError;
 use crate::model::geometry::Vec2;
@@ -148,6 +148,14 @@ pub enum BaselineCfg {
         #[serde(default)]
         name: Option<String>,
     },
+    /// The SDP relaxation estimate of Biswas et al. 2006, as Gholami 2015
+    /// Sec. 4 compares it ([`crate::estimators::bounds::sdp_toa`]): one-way
+    /// ranges only (at least three per sample).
+    Sdp {
+        /// Track name (default `sdp`).
+        #[serde(default)]
+        name: Option<String>,
+    },
     /// The distributed DR engine run again in-process with other settings,
     /// e.g. `local_solver = "gtrs"` next to a `gtrs_l0` main track.
     Distributed {
@@ -202,6 +210,7 @@ impl BaselineCfg {
             BaselineCfg::Lad { .. } => "lad",
             BaselineCfg::Pocs { .. } => "pocs",
             BaselineCfg::Lls { .. } => "lls",
+            BaselineCfg::Sdp { .. } => "sdp",
             BaselineCfg::Distributed { .. } => "distributed",
         }
     }
@@ -218,6 +227,7 @@ impl BaselineCfg {
             | BaselineCfg::Lad { name }
             | BaselineCfg::Pocs { name, .. }
             | BaselineCfg::Lls { name }
+            | BaselineCfg::Sdp { name }
             | BaselineCfg::Distributed { name, .. } => name.clone(),
         };
         given.unwrap_or_else(|| match self {
@@ -329,6 +339,7 @@ impl BaselineCfg {
                     .with_tol(*tol)?,
             ))),
             BaselineCfg::Lls { .. } => Ok(Plan::Solver(Box::new(LlsSolver))),
+            BaselineCfg::Sdp { .. } => Ok(Plan::Solver(Box::new(SdpSolver))),
             BaselineCfg::Distributed {
                 local_solver,
                 mode,

@@ -40,9 +40,12 @@ pub enum SolveError {
     /// A robust estimator of Shi 2024 failed.
     #[error(transparent)]
     Robust(#[from] robust::RobustError),
-    /// POCS failed.
+    /// POCS or the SDP estimate failed.
     #[error(transparent)]
-    Pocs(#[from] bounds::BoundError),
+    Bound(#[from] bounds::BoundError),
+    /// Too few one-way ranges for the SDP estimate.
+    #[error("the SDP estimate needs at least 3 one-way ranges, got {0}")]
+    TooFewRanges(usize),
 }
 
 fn refuse(key: &'static str, reason: impl Into<String>) -> KeyError {
@@ -480,6 +483,33 @@ impl SampleSolver for PocsSolver {
 
     fn feasible(&self) -> Option<usize> {
         Some(self.feasible)
+    }
+}
+
+/// The SDP relaxation estimate ([`bounds::sdp_toa`], Biswas et al. 2006 as
+/// Gholami 2015 Sec. 4 uses it) per sample, from the sample's one-way
+/// ranges.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SdpSolver;
+
+impl SampleSolver for SdpSolver {
+    fn solve(
+        &mut self,
+        geometry: &Geometry,
+        sample: &SampleMeasurements,
+        _k: usize,
+    ) -> Result<Vec2, SolveError> {
+        let anchors: Vec<([f64; 2], f64)> = sample
+            .nodes
+            .iter()
+            .zip(&geometry.receivers)
+            .filter_map(|(node, r)| node.range.map(|d| ([r.x, r.y], d)))
+            .collect();
+        if anchors.len() < 3 {
+            return Err(SolveError::TooFewRanges(anchors.len()));
+        }
+        let e = bounds::sdp_toa(&anchors)?;
+        Ok(Vec2::new(e.x[0], e.x[1]))
     }
 }
 

@@ -46,6 +46,7 @@
 mod estimators;
 pub mod exact;
 mod region;
+mod sdp;
 mod solve;
 
 #[cfg(test)]
@@ -55,6 +56,7 @@ mod tests;
 
 pub use estimators::{PocsResult, pocs};
 pub use region::{Quadratic, Region};
+pub use sdp::{SdpEstimate, sdp_toa};
 
 use crate::model::geometry::Vec2;
 

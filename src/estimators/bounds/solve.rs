@@ -11,18 +11,18 @@ use clarabel::solver::{
 };
 
 /// A conic problem `min 1/2 v^T P v + q^T v  s.t.  b - A v in K` under construction.
-struct Conic {
-    ncols: usize,
+pub(super) struct Conic {
+    pub(super) ncols: usize,
     rows: usize,
     ti: Vec<usize>,
     tj: Vec<usize>,
     tv: Vec<f64>,
     b: Vec<f64>,
-    cones: Vec<SupportedConeT<f64>>,
+    pub(super) cones: Vec<SupportedConeT<f64>>,
 }
 
 impl Conic {
-    fn new(ncols: usize) -> Self {
+    pub(super) fn new(ncols: usize) -> Self {
         Self {
             ncols,
             rows: 0,
@@ -35,7 +35,7 @@ impl Conic {
     }
 
     /// Append the row `s = b - sum coef * v[col]`.
-    fn row(&mut self, coefs: &[(usize, f64)], b: f64) {
+    pub(super) fn row(&mut self, coefs: &[(usize, f64)], b: f64) {
         for &(j, v) in coefs {
             self.ti.push(self.rows);
             self.tj.push(j);
@@ -238,7 +238,7 @@ fn settings() -> DefaultSettings<f64> {
 }
 
 /// Outcome of one solve.
-enum Solved {
+pub(super) enum Solved {
     /// The primal objective value and the primal variables (the dual
     /// variables stay in the solver, for [`Conic::certified_min`]).
     Optimal { primal: f64, x: Vec<f64> },
@@ -248,7 +248,10 @@ enum Solved {
     Infeasible,
 }
 
-fn run(solver: &mut DefaultSolver<f64>, problem: &'static str) -> Result<Solved, BoundError> {
+pub(super) fn run(
+    solver: &mut DefaultSolver<f64>,
+    problem: &'static str,
+) -> Result<Solved, BoundError> {
     run_with(solver, problem, false)
 }
 
@@ -298,7 +301,7 @@ fn run_with(
     }
 }
 
-fn build(
+pub(super) fn build(
     p: &CscMatrix<f64>,
     q: &[f64],
     c: &Conic,
