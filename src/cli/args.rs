@@ -369,7 +369,7 @@ pub struct RunArgs {
     /// Centralised baselines to score next to the distributed track, with
     /// default parameters, replacing the scenario's [[baselines]]
     /// (comma separated: ogd, onm, ml, ls, l0os, lq_irls, lad, pocs, lls,
-    /// distributed; l0os needs p or kappa, so give it in the file).
+    /// sdp, distributed; l0os needs p or kappa, so give it in the file).
     #[arg(
         help_heading = "Evaluation",
         long,

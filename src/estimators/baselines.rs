@@ -185,6 +185,7 @@ pub const KINDS: &[&str] = &[
     "lad",
     "pocs",
     "lls",
+    "sdp",
     "distributed",
 ];
 

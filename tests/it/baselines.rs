@@ -360,3 +360,22 @@ fn the_default_ogd_step_tracks_the_spiral_and_a_diverging_constant_step_counts_f
     let track = std::fs::read_to_string(out.join("track.csv")).unwrap();
     assert!(!track.contains("inf") && !track.contains("NaN"));
 }
+
+#[test]
+fn the_listed_baseline_kinds_are_exactly_the_kinds_a_file_may_name() {
+    use sonarnet::estimators::baselines::{BaselineCfg, KINDS};
+    for k in KINDS {
+        let b = BaselineCfg::default_of(k).unwrap_or_else(|| panic!("{k} does not parse"));
+        assert_eq!(b.kind(), *k);
+    }
+    // serde names every variant it knows when a kind is unknown.
+    let err = toml::from_str::<BaselineCfg>("kind = \"none_such\"")
+        .unwrap_err()
+        .to_string();
+    let known: Vec<&str> = err.split('`').skip(3).step_by(2).collect();
+    let mut listed: Vec<&str> = KINDS.to_vec();
+    let mut known_sorted = known.clone();
+    listed.sort_unstable();
+    known_sorted.sort_unstable();
+    assert_eq!(listed, known_sorted, "serde's kinds: {err}");
+}
