@@ -38,56 +38,79 @@
 //! case"), where `z_i` is free and fixed by the constraint. `F = 0`
 //! everywhere means the apex is optimal.
 //!
-//! The candidates are therefore: every real root of `p` (the eigenvalues of
-//! its companion matrix, polished by Newton steps on `phi` itself), the real
+//! The candidates are therefore: every real root of `p` (all its complex
+//! roots by the Aberth-Ehrlich iteration, polished by Newton steps on `phi`
+//! itself), the real
 //! part of every complex pair (a near-double real root perturbed into a
 //! pair by rounding), both hard-case points of every pole, and the limits
 //! `lambda = 0` (the unconstrained minimiser) and `lambda -> infinity`
 //! (direction `D^{-1} beta`). Each candidate `y` is mapped to the feasible
 //! direction `w = [y_p / ||y_p||, 1]` and scored by the exact `F(w)`, so the
 //! answer is always feasible and at least as good as every candidate; the
-//! apex (`F = 0`) is the fallback. Extra candidates can only help.
+//! apex (`F = 0`) is the fallback. Extra candidates can only help. The best
+//! few (within 1e-3 of the best value) are refined by Newton
+//! ascent of `log F` on the sphere of directions, unless already stationary:
+//! near the hard case a root's value is good but its direction is not.
+//!
+//! Everything is on fixed-size matrices of the lifted dimension `M` (the
+//! eigendecomposition by cyclic Jacobi sweeps, the polynomial on arrays), so
+//! a solve allocates nothing.
 
 use crate::estimators::prox::gtrs::ProxError;
-use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use nalgebra::{Complex, SMatrix, SVector};
 
-/// Iterations of the Schur decomposition of the companion matrix before it
-/// gives up (it converges in a few dozen on every case seen).
-const SCHUR_ITERATIONS: usize = 500;
+/// Largest lifted dimension handled (the secular polynomial of degree
+/// `2 (M - 1)` lives in arrays of this length).
+const MAX_M: usize = 6;
+const CAP: usize = 2 * MAX_M;
 
-/// Newton steps on `phi` from each root of the companion matrix.
+/// Cyclic Jacobi sweeps of the eigendecomposition before it gives up.
+const JACOBI_SWEEPS: usize = 50;
+
+/// Aberth-Ehrlich iterations before the roots are taken as they are.
+const ABERTH_ITERATIONS: usize = 60;
+
+/// Newton steps on `phi` from each root.
 const POLISH_STEPS: usize = 8;
+
+/// Seeds whose `F` is within this fraction of the best seed's are refined.
+const REFINE_BAND: f64 = 1e-3;
+
+/// At most this many distinct seeds are refined.
+const MAX_REFINED: usize = 4;
+
+/// Steps of [`Best::refine`] per seed.
+const REFINE_STEPS: usize = 30;
+
+/// The Riemannian gradient of `log F`, relative to its terms, below which a
+/// direction is stationary to rounding.
+const STATIONARY: f64 = 1e-13;
+
+type Mat<const M: usize> = SMatrix<f64, M, M>;
+type Vector<const M: usize> = SVector<f64, M>;
 
 /// The global minimiser of `1/2 y^T A y - b^T y` over the upper nappe
 /// `||y[0..M-1]|| = y[M-1] >= 0` (Mourya 2017 eq. 12-13 in shifted
-/// coordinates `y = theta~ - r~_v`), for `M >= 2`. `a` must be symmetric
-/// positive definite.
+/// coordinates `y = theta~ - r~_v`), for `3 <= M <= 6` (a 2-D to 5-D
+/// position). `a` must be symmetric positive definite.
 ///
 /// Errors: [`ProxError::NonFinite`] for non-finite input,
-/// [`ProxError::Degenerate`] if `a` is not positive definite or the
-/// decomposition fails.
+/// [`ProxError::Degenerate`] if `a` is not positive definite, `M` is out of
+/// range or the decomposition fails.
 pub fn min_quadratic_on_upper_nappe_n<const M: usize>(
-    a: &SMatrix<f64, M, M>,
-    b: &SVector<f64, M>,
-) -> Result<SVector<f64, M>, ProxError> {
-    let y = min_on_nappe(
-        DMatrix::from_column_slice(M, M, a.as_slice()),
-        DVector::from_column_slice(b.as_slice()),
-    )?;
-    Ok(SVector::<f64, M>::from_column_slice(y.as_slice()))
-}
-
-/// [`min_quadratic_on_upper_nappe_n`] on dynamic matrices (`M = a.nrows()`).
-fn min_on_nappe(a: DMatrix<f64>, b: DVector<f64>) -> Result<DVector<f64>, ProxError> {
-    let m = a.nrows();
-    if m < 2 || a.ncols() != m || b.len() != m {
-        return Err(ProxError::Degenerate("the nappe needs M >= 2".into()));
+    a: &Mat<M>,
+    b: &Vector<M>,
+) -> Result<Vector<M>, ProxError> {
+    if !(3..=MAX_M).contains(&M) {
+        return Err(ProxError::Degenerate(format!(
+            "the nappe solver takes 3 <= M <= {MAX_M}, got {M}"
+        )));
     }
     if !a.iter().chain(b.iter()).all(|x| x.is_finite()) {
         return Err(ProxError::NonFinite("GTRS quadratic data"));
     }
     // The minimiser is invariant under (A, b) -> (A, b) / alpha.
-    let alpha = (0..m).map(|i| a[(i, i)]).fold(0.0, f64::max);
+    let alpha = (0..M).map(|i| a[(i, i)]).fold(0.0, f64::max);
     if alpha.is_nan() || alpha <= 0.0 {
         return Err(ProxError::Degenerate(
             "A = H + I/gamma has a non-positive diagonal".into(),
@@ -96,31 +119,28 @@ fn min_on_nappe(a: DMatrix<f64>, b: DVector<f64>) -> Result<DVector<f64>, ProxEr
     let a = a / alpha;
     let b = b / alpha;
     let not_pd = || ProxError::Degenerate("A = H + I/gamma is not positive definite".into());
-    let chol = a.clone().cholesky().ok_or_else(not_pd)?;
+    let chol = a.cholesky().ok_or_else(not_pd)?;
     let l_inv = chol
         .l()
-        .solve_lower_triangular(&DMatrix::identity(m, m))
+        .solve_lower_triangular(&Mat::<M>::identity())
         .ok_or_else(not_pd)?;
-    let mut s = DMatrix::identity(m, m);
-    s[(m - 1, m - 1)] = -1.0;
-    let ms = &l_inv * s * l_inv.transpose();
-    let eig = nalgebra::SymmetricEigen::try_new(ms, f64::EPSILON, 1000).ok_or_else(not_pd)?;
-    let d = eig.eigenvalues;
+    let mut s = Mat::<M>::identity();
+    s[(M - 1, M - 1)] = -1.0;
+    let (d, q) = jacobi_eigen(l_inv * s * l_inv.transpose()).ok_or_else(not_pd)?;
     // V = L^{-T} Q: y = V z.
-    let v = l_inv.transpose() * eig.eigenvectors;
-    let beta = v.transpose() * &b;
+    let v = l_inv.transpose() * q;
+    let beta = v.transpose() * b;
 
     let mut best = Best::new(&a, &b);
-    let mut consider_z = |z: &DVector<f64>| best.consider(&(&v * z));
     // lambda = 0 (the unconstrained minimiser) and lambda -> infinity.
-    consider_z(&beta);
-    consider_z(&beta.component_div(&d));
+    best.consider(&(v * beta));
+    best.consider(&(v * beta.component_div(&d)));
     // Hard cases: a pole -1/d_i, z_i fixed by the constraint.
-    for i in 0..m {
+    for i in 0..M {
         let lambda = -1.0 / d[i];
-        let mut z = DVector::zeros(m);
+        let mut z = Vector::<M>::zeros();
         let mut rest = 0.0;
-        for j in 0..m {
+        for j in 0..M {
             let den = 1.0 + lambda * d[j];
             if j != i && den.abs() > 1e-12 * (1.0 + (lambda * d[j]).abs()) {
                 z[j] = beta[j] / den;
@@ -131,51 +151,115 @@ fn min_on_nappe(a: DMatrix<f64>, b: DVector<f64>) -> Result<DVector<f64>, ProxEr
         if zi2 >= 0.0 {
             for sign in [1.0, -1.0] {
                 z[i] = sign * zi2.sqrt();
-                consider_z(&z);
+                best.consider(&(v * z));
             }
         }
     }
     // Roots of the secular polynomial.
-    for lambda in secular_roots(&d, &beta) {
+    let (roots, nr) = secular_roots(&d, &beta);
+    for &lambda in &roots[..nr] {
         let lambda = polish(&d, &beta, lambda);
-        let z = DVector::from_fn(m, |i, _| beta[i] / (1.0 + lambda * d[i]));
+        let z = Vector::<M>::from_fn(|i, _| beta[i] / (1.0 + lambda * d[i]));
         if z.iter().all(|x| x.is_finite()) {
-            consider_z(&z);
+            best.consider(&(v * z));
         }
     }
     Ok(best.point())
 }
 
-/// The candidate directions with `F > 0` and, once refined, the best:
-/// `F(w) = max(b^T w, 0)^2 / (w^T A w)`, `w = [e, 1]`, the apex (`F = 0`)
-/// to begin with.
-struct Best<'a> {
-    a: &'a DMatrix<f64>,
-    b: &'a DVector<f64>,
-    /// Unit position directions `e` of the candidates.
-    seeds: Vec<DVector<f64>>,
+/// Eigenvalues and eigenvectors (columns) of the symmetric `m` by cyclic
+/// Jacobi rotations (accurate to rounding relative to `||m||`); `None` if
+/// the sweeps do not converge.
+fn jacobi_eigen<const M: usize>(mut m: Mat<M>) -> Option<(Vector<M>, Mat<M>)> {
+    let mut v = Mat::<M>::identity();
+    let norm = m.norm();
+    if !(norm.is_finite() && norm > 0.0) {
+        return None;
+    }
+    let off = |m: &Mat<M>| -> f64 {
+        (0..M)
+            .flat_map(|i| (0..M).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| m[(i, j)] * m[(i, j)])
+            .sum::<f64>()
+            .sqrt()
+    };
+    for _ in 0..JACOBI_SWEEPS {
+        if off(&m) <= 2.0 * f64::EPSILON * norm {
+            return Some((m.diagonal(), v));
+        }
+        for p in 0..M {
+            for q in p + 1..M {
+                let apq = m[(p, q)];
+                if apq.abs() <= 1e-300 {
+                    continue;
+                }
+                let theta = (m[(q, q)] - m[(p, p)]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..M {
+                    let (mkp, mkq) = (m[(k, p)], m[(k, q)]);
+                    m[(k, p)] = c * mkp - s * mkq;
+                    m[(k, q)] = s * mkp + c * mkq;
+                }
+                for k in 0..M {
+                    let (mpk, mqk) = (m[(p, k)], m[(q, k)]);
+                    m[(p, k)] = c * mpk - s * mqk;
+                    m[(q, k)] = s * mpk + c * mqk;
+                }
+                for k in 0..M {
+                    let (vkp, vkq) = (v[(k, p)], v[(k, q)]);
+                    v[(k, p)] = c * vkp - s * vkq;
+                    v[(k, q)] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    // Rounding can stall the last sweeps just above the threshold.
+    (off(&m) <= 1e-12 * norm).then(|| (m.diagonal(), v))
 }
 
-impl<'a> Best<'a> {
-    fn new(a: &'a DMatrix<f64>, b: &'a DVector<f64>) -> Self {
+/// The candidate directions with `F > 0` and, once refined, the best:
+/// `F(w) = max(b^T w, 0)^2 / (w^T A w)`, `w = [e, 1]`. A direction `e` is
+/// kept as an `M`-vector whose last entry is 0.
+struct Best<'a, const M: usize> {
+    a: &'a Mat<M>,
+    b: &'a Vector<M>,
+    seeds: [(f64, Vector<M>); CAP + 2 * MAX_M + 2],
+    n: usize,
+}
+
+/// What [`Best::derivatives`] gives: an orthonormal basis `t` of the tangent
+/// space in its first `M - 2` columns (then `e` and the last axis), the
+/// Riemannian gradient `rg` and Hessian `rh` of `log F` in that basis (their
+/// last two entries are 0 and `-I`), and the size of the gradient's terms.
+struct Derivatives<const M: usize> {
+    t: Mat<M>,
+    rg: Vector<M>,
+    rh: Mat<M>,
+    scale: f64,
+}
+
+impl<'a, const M: usize> Best<'a, M> {
+    fn new(a: &'a Mat<M>, b: &'a Vector<M>) -> Self {
         Best {
             a,
             b,
-            seeds: Vec::new(),
+            seeds: [(0.0, Vector::<M>::zeros()); CAP + 2 * MAX_M + 2],
+            n: 0,
         }
     }
 
-    /// `w = [e, 1]`, `b^T w` and `w^T A w`.
-    fn eval(&self, e: &DVector<f64>) -> (DVector<f64>, f64, f64) {
-        let m = self.b.len();
-        let w = DVector::from_fn(m, |i, _| if i + 1 < m { e[i] } else { 1.0 });
-        let bw = self.b.dot(&w);
-        let aw = w.dot(&(self.a * &w));
-        (w, bw, aw)
+    /// `b^T w` and `w^T A w` for `w = [e, 1]`.
+    fn eval(&self, e: &Vector<M>) -> (Vector<M>, f64, f64) {
+        let mut w = *e;
+        w[M - 1] = 1.0;
+        (w, self.b.dot(&w), w.dot(&(self.a * w)))
     }
 
     /// The value `F` at direction `e` (0 where `b^T w <= 0`).
-    fn f(&self, e: &DVector<f64>) -> f64 {
+    fn f(&self, e: &Vector<M>) -> f64 {
         let (_, bw, aw) = self.eval(e);
         if bw > 0.0 && aw > 0.0 {
             bw * bw / aw
@@ -185,43 +269,56 @@ impl<'a> Best<'a> {
     }
 
     /// Take the feasible direction through `y`'s position part as a seed.
-    fn consider(&mut self, y: &DVector<f64>) {
-        let m = y.len();
-        let norm = y.rows(0, m - 1).norm();
-        if !(norm.is_finite() && norm > 0.0) {
+    fn consider(&mut self, y: &Vector<M>) {
+        let mut e = *y;
+        e[M - 1] = 0.0;
+        let norm = e.norm();
+        if !(norm.is_finite() && norm > 0.0) || self.n == self.seeds.len() {
             return;
         }
-        let e = y.rows(0, m - 1) / norm;
-        if self.f(&e) > 0.0 {
-            self.seeds.push(e);
+        e /= norm;
+        let f = self.f(&e);
+        if f > 0.0 {
+            self.seeds[self.n] = (f, e);
+            self.n += 1;
         }
     }
 
-    /// The Riemannian gradient and Hessian of `log F` at `e` (where
-    /// `b^T w > 0`) in the orthonormal tangent basis `t`, and the size of
-    /// the gradient's terms (what rounding leaves of it is relative to that).
-    fn derivatives(&self, e: &DVector<f64>) -> Derivatives {
-        let n = e.len();
+    fn derivatives(&self, e: &Vector<M>) -> Derivatives<M> {
         let (w, bw, aw) = self.eval(e);
-        let aw_vec = self.a * &w;
-        let bp = self.b.rows(0, n);
-        let awp = aw_vec.rows(0, n);
+        let mut bp = *self.b;
+        bp[M - 1] = 0.0;
+        let mut awp = self.a * w;
+        awp[M - 1] = 0.0;
         // log F = 2 log(b^T w) - log(w^T A w), as a function of e.
         let g1 = bp * (2.0 / bw);
         let g2 = awp * (2.0 / aw);
         let scale = g1.norm() + g2.norm();
         let g = g1 - g2;
-        let h = -(bp * bp.transpose()) * (2.0 / (bw * bw))
-            - self.a.view((0, 0), (n, n)) * (2.0 / aw)
+        let mut app = *self.a;
+        for k in 0..M {
+            app[(M - 1, k)] = 0.0;
+            app[(k, M - 1)] = 0.0;
+        }
+        let h = -(bp * bp.transpose()) * (2.0 / (bw * bw)) - app * (2.0 / aw)
             + (awp * awp.transpose()) * (4.0 / (aw * aw));
         let t = tangent_basis(e);
-        let rg = t.transpose() * &g;
-        let rh = t.transpose() * (h - DMatrix::identity(n, n) * e.dot(&g)) * &t;
+        let mut rg = t.transpose() * g;
+        let mut shift = Mat::<M>::identity() * e.dot(&g);
+        shift[(M - 1, M - 1)] = 0.0;
+        let mut rh = t.transpose() * (h - shift) * t;
+        for k in M - 2..M {
+            rg[k] = 0.0;
+            for j in 0..M {
+                rh[(k, j)] = 0.0;
+                rh[(j, k)] = 0.0;
+            }
+            rh[(k, k)] = -1.0;
+        }
         Derivatives { t, rg, rh, scale }
     }
 
-    /// Whether `e` is a stationary direction to rounding.
-    fn stationary(&self, d: &Derivatives) -> bool {
+    fn stationary(&self, d: &Derivatives<M>) -> bool {
         d.rg.norm() <= STATIONARY * d.scale
     }
 
@@ -230,7 +327,7 @@ impl<'a> Best<'a> {
     /// the step is taken if `F` does not fall beyond rounding: `F` is flat
     /// there, and the step moves the direction to the stationary point.
     /// Farther away a step is halved until `F` grows.
-    fn refine(&self, mut e: DVector<f64>) -> (f64, DVector<f64>) {
+    fn refine(&self, mut e: Vector<M>) -> (f64, Vector<M>) {
         let mut f = self.f(&e);
         for _ in 0..REFINE_STEPS {
             if f <= 0.0 {
@@ -240,12 +337,12 @@ impl<'a> Best<'a> {
             if self.stationary(&d) {
                 break;
             }
-            let newton = (-&d.rh).cholesky().map(|ch| ch.solve(&d.rg));
+            let newton = (-d.rh).cholesky().map(|ch| ch.solve(&d.rg));
             if let Some(step) = &newton
                 && step.norm() <= 1e-6
             {
-                let cand = &e + &d.t * step;
-                let cand = &cand / cand.norm();
+                let cand = e + d.t * step;
+                let cand = cand / cand.norm();
                 let fc = self.f(&cand);
                 if fc >= f * (1.0 - 8.0 * f64::EPSILON) {
                     (e, f) = (cand, fc.max(f));
@@ -253,12 +350,12 @@ impl<'a> Best<'a> {
                 }
                 break;
             }
-            let step = newton.unwrap_or_else(|| d.rg.clone() / d.rh.norm().max(d.rg.norm()));
+            let step = newton.unwrap_or_else(|| d.rg / d.rh.norm().max(d.rg.norm()));
             let mut scale = 1.0;
             let mut moved = false;
             for _ in 0..24 {
-                let cand = &e + &d.t * &step * scale;
-                let cand = &cand / cand.norm();
+                let cand = e + d.t * step * scale;
+                let cand = cand / cand.norm();
                 let fc = self.f(&cand);
                 if fc > f {
                     (e, f, moved) = (cand, fc, true);
@@ -277,30 +374,30 @@ impl<'a> Best<'a> {
     /// `F > 0`). Only seeds within [`REFINE_BAND`] of the best seed's value
     /// are refined: a KKT point from a root is exact to rounding except
     /// near the hard case, where its value is still within that band.
-    fn point(&self) -> DVector<f64> {
-        let m = self.b.len();
-        let mut scored: Vec<(f64, &DVector<f64>)> =
-            self.seeds.iter().map(|e| (self.f(e), e)).collect();
-        scored.sort_by(|x, y| y.0.total_cmp(&x.0));
-        let Some(&(top, _)) = scored.first() else {
-            return DVector::zeros(m);
+    fn point(&mut self) -> Vector<M> {
+        let seeds = &mut self.seeds[..self.n];
+        seeds.sort_by(|x, y| y.0.total_cmp(&x.0));
+        let Some(&(top, _)) = seeds.first() else {
+            return Vector::<M>::zeros();
         };
-        let mut best: Option<(f64, DVector<f64>)> = None;
-        let mut refined: Vec<&DVector<f64>> = Vec::new();
-        for &(f, e) in &scored {
-            if f < top * (1.0 - REFINE_BAND) || refined.len() == MAX_REFINED {
+        let mut best: Option<(f64, Vector<M>)> = None;
+        let mut refined: [Vector<M>; MAX_REFINED] = [Vector::<M>::zeros(); MAX_REFINED];
+        let mut nref = 0;
+        for &(f, e) in self.seeds[..self.n].iter() {
+            if f < top * (1.0 - REFINE_BAND) || nref == MAX_REFINED {
                 break;
             }
-            if refined.iter().any(|r| (*r - e).norm() <= 1e-9) {
+            if refined[..nref].iter().any(|r| (r - e).norm() <= 1e-9) {
                 continue;
             }
-            refined.push(e);
+            refined[nref] = e;
+            nref += 1;
             // A seed that is already stationary (a well-polished root) is
             // taken as it is; refining it could only move it by rounding.
-            let (f, e) = if self.stationary(&self.derivatives(e)) {
-                (f, e.clone())
+            let (f, e) = if self.stationary(&self.derivatives(&e)) {
+                (f, e)
             } else {
-                self.refine(e.clone())
+                self.refine(e)
             };
             if best.as_ref().is_none_or(|(fb, _)| f > *fb) {
                 best = Some((f, e));
@@ -311,121 +408,161 @@ impl<'a> Best<'a> {
                 let (w, bw, aw) = self.eval(&e);
                 w * (bw.max(0.0) / aw)
             }
-            None => DVector::zeros(m),
+            None => Vector::<M>::zeros(),
         }
     }
 }
 
-/// Seeds whose `F` is within this fraction of the best seed's are refined.
-const REFINE_BAND: f64 = 1e-3;
-
-/// The Riemannian gradient of `log F`, relative to its terms, below which a
-/// direction is stationary to rounding.
-const STATIONARY: f64 = 1e-13;
-
-/// At most this many distinct seeds are refined.
-const MAX_REFINED: usize = 4;
-
-/// What [`Best::derivatives`] gives.
-struct Derivatives {
-    /// Orthonormal basis of the tangent space (columns).
-    t: DMatrix<f64>,
-    /// Riemannian gradient of `log F` in that basis.
-    rg: DVector<f64>,
-    /// Riemannian Hessian of `log F` in that basis.
-    rh: DMatrix<f64>,
-    /// Size of the gradient's terms.
-    scale: f64,
-}
-
-/// Steps of [`Best::refine`] per seed.
-const REFINE_STEPS: usize = 30;
-
-/// An orthonormal basis (columns) of the complement of the unit vector `e`:
-/// Gram-Schmidt on the coordinate axes, the axis closest to `e` left out.
-fn tangent_basis(e: &DVector<f64>) -> DMatrix<f64> {
-    let n = e.len();
-    let skip = e.iamax();
-    let mut cols: Vec<DVector<f64>> = Vec::with_capacity(n - 1);
-    for k in (0..n).filter(|&k| k != skip) {
-        let mut v = DVector::zeros(n);
+/// An orthonormal basis of the complement of the unit `e` (last entry 0)
+/// within the position space, in the first `M - 2` columns (Gram-Schmidt on
+/// the axes, the one closest to `e` left out), then `e` and the last axis.
+fn tangent_basis<const M: usize>(e: &Vector<M>) -> Mat<M> {
+    let mut t = Mat::<M>::zeros();
+    let skip = e.rows(0, M - 1).iamax();
+    for (col, k) in (0..M - 1).filter(|&k| k != skip).enumerate() {
+        let mut v = Vector::<M>::zeros();
         v[k] = 1.0;
         v -= e * e[k];
-        for c in &cols {
-            let proj = c.dot(&v);
-            v -= c * proj;
+        for j in 0..col {
+            let c = t.column(j).into_owned();
+            v -= c * c.dot(&v);
         }
         let norm = v.norm();
-        cols.push(v / norm);
+        t.set_column(col, &(v / norm));
     }
-    DMatrix::from_columns(&cols)
+    t.set_column(M - 2, e);
+    t[(M - 1, M - 1)] = 1.0;
+    t
 }
 
-/// The real roots of `p(lambda) = sum_i d_i beta_i^2 prod_{j != i} (1 +
-/// lambda d_j)^2` and the real parts of its complex pairs: the eigenvalues of
-/// its companion matrix (leading coefficients negligible against the
-/// largest are dropped: those roots went to infinity, the `lambda ->
-/// infinity` candidate).
-fn secular_roots(d: &DVector<f64>, beta: &DVector<f64>) -> Vec<f64> {
-    let m = d.len();
+/// The roots of `p(lambda) = sum_i d_i beta_i^2 prod_{j != i} (1 + lambda
+/// d_j)^2` as real numbers: the real roots and the real parts of the
+/// complex pairs (leading coefficients negligible against the largest are
+/// dropped: those roots went to infinity, the `lambda -> infinity`
+/// candidate).
+fn secular_roots<const M: usize>(d: &Vector<M>, beta: &Vector<M>) -> ([f64; CAP], usize) {
     // Coefficients, lowest degree first.
-    let mut p = vec![0.0; 2 * m - 1];
-    for i in 0..m {
-        let mut term = vec![d[i] * beta[i] * beta[i]];
-        for j in (0..m).filter(|&j| j != i) {
+    let mut p = [0.0; CAP];
+    for i in 0..M {
+        let mut term = [0.0; CAP];
+        term[0] = d[i] * beta[i] * beta[i];
+        let mut deg = 0;
+        for j in (0..M).filter(|&j| j != i) {
             // Multiply by (1 + lambda d_j)^2 = 1 + 2 d_j lambda + d_j^2 lambda^2.
             let f = [1.0, 2.0 * d[j], d[j] * d[j]];
-            let mut next = vec![0.0; term.len() + 2];
-            for (k, t) in term.iter().enumerate() {
+            let mut next = [0.0; CAP];
+            for (k, t) in term[..=deg].iter().enumerate() {
                 for (l, g) in f.iter().enumerate() {
                     next[k + l] += t * g;
                 }
             }
             term = next;
+            deg += 2;
         }
-        for (k, t) in term.iter().enumerate() {
-            p[k] += t;
+        for k in 0..=deg {
+            p[k] += term[k];
         }
     }
-    let scale = p.iter().fold(0.0, |m: f64, c| m.max(c.abs()));
+    let mut n = 2 * (M - 1);
+    let scale = p[..=n].iter().fold(0.0, |m: f64, c| m.max(c.abs()));
+    let mut out = [0.0; CAP];
     if !(scale.is_finite() && scale > 0.0) {
-        return Vec::new();
+        return (out, 0);
     }
-    while p.len() > 1 && p[p.len() - 1].abs() <= 1e-14 * scale {
-        p.pop();
+    while n > 0 && p[n].abs() <= 1e-14 * scale {
+        n -= 1;
     }
-    let n = p.len() - 1;
     if n == 0 {
-        return Vec::new();
+        return (out, 0);
     }
-    let lead = p[n];
-    let companion = DMatrix::from_fn(n, n, |i, j| {
-        if j == n - 1 {
-            -p[i] / lead
-        } else if i == j + 1 {
-            1.0
-        } else {
-            0.0
+    let poles: [f64; MAX_M] = std::array::from_fn(|i| if i < M { -1.0 / d[i] } else { f64::NAN });
+    let roots = aberth(&p[..=n], &poles[..M]);
+    let mut k = 0;
+    for z in &roots[..n] {
+        if z.re.is_finite() {
+            out[k] = z.re;
+            k += 1;
         }
-    });
-    match nalgebra::Schur::try_new(companion, f64::EPSILON, SCHUR_ITERATIONS) {
-        Some(schur) => schur
-            .complex_eigenvalues()
-            .iter()
-            .map(|c| c.re)
-            .filter(|x| x.is_finite())
-            .collect(),
-        None => Vec::new(),
     }
+    (out, k)
+}
+
+/// Every complex root of the real polynomial `p` (lowest degree first,
+/// `p.len() - 1 <= CAP` its degree, leading coefficient non-zero) by the
+/// Aberth-Ehrlich iteration, started near the given real points `near`
+/// (the secular equation's poles, which its real roots surround), off the
+/// real axis so that complex pairs can form; further starts go on a circle
+/// of the Cauchy bound's radius.
+fn aberth(p: &[f64], near: &[f64]) -> [Complex<f64>; CAP] {
+    let n = p.len() - 1;
+    let lead = p[n];
+    let radius = 1.0 + p[..n].iter().fold(0.0, |m: f64, c| m.max((c / lead).abs()));
+    let mut z = [Complex::new(0.0, 0.0); CAP];
+    for (k, zk) in z[..n].iter_mut().enumerate() {
+        *zk = match near
+            .get(k / 2)
+            .filter(|x| x.is_finite() && x.abs() < radius)
+        {
+            Some(&x) => {
+                let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+                Complex::new(x * (1.0 + 0.05 * side), 0.07 * side * x.abs().max(1e-3))
+            }
+            None => {
+                let angle = std::f64::consts::TAU * (k as f64 + 0.25) / n as f64 + 0.4;
+                Complex::from_polar(radius, angle)
+            }
+        };
+    }
+    // p, p' and the size of p's terms at x (Horner on |x| and |c|): a root
+    // is converged when |p| is at the rounding level of its terms.
+    let eval = |x: Complex<f64>| {
+        let (mut v, mut dv) = (Complex::new(0.0, 0.0), Complex::new(0.0, 0.0));
+        let (ax, mut size) = (x.norm(), 0.0);
+        for &c in p.iter().rev() {
+            dv = dv * x + v;
+            v = v * x + c;
+            size = size * ax + c.abs();
+        }
+        (v, dv, size)
+    };
+    let mut converged = [false; CAP];
+    for _ in 0..ABERTH_ITERATIONS {
+        let mut done = true;
+        for k in 0..n {
+            if converged[k] {
+                continue;
+            }
+            let (v, dv, size) = eval(z[k]);
+            let tol = 8.0 * f64::EPSILON * size;
+            if v.norm_sqr() <= tol * tol {
+                converged[k] = true;
+                continue;
+            }
+            done = false;
+            let ratio = v / dv;
+            let mut sum = Complex::new(0.0, 0.0);
+            for j in (0..n).filter(|&j| j != k) {
+                sum += (z[k] - z[j]).inv();
+            }
+            let w = ratio / (Complex::new(1.0, 0.0) - ratio * sum);
+            if w.is_finite() {
+                z[k] -= w;
+            }
+        }
+        if done {
+            break;
+        }
+    }
+    z
 }
 
 /// Newton steps on `phi(lambda) = sum_i d_i beta_i^2 / (1 + lambda d_i)^2`
 /// from `lambda`, keeping the iterate with the smallest `|phi|` relative to
 /// its terms.
-fn polish(d: &DVector<f64>, beta: &DVector<f64>, lambda: f64) -> f64 {
+fn polish<const M: usize>(d: &Vector<M>, beta: &Vector<M>, lambda: f64) -> f64 {
     let eval = |l: f64| {
         let (mut phi, mut dphi, mut mag) = (0.0, 0.0, 0.0);
-        for i in 0..d.len() {
+        for i in 0..M {
             let den = 1.0 + l * d[i];
             let t = d[i] * beta[i] * beta[i] / (den * den);
             phi += t;
