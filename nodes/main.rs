@@ -72,12 +72,7 @@ where
         // shell does (128 + SIGTERM), so the coordinator can name the cause.
         Ok(Ended::Signalled) => ExitCode::from(SIGNALLED),
         Err(e) => {
-            eprintln!("sonarnet-node: error: {e}");
-            let mut cause = std::error::Error::source(&e);
-            while let Some(c) = cause {
-                eprintln!("  caused by: {c}");
-                cause = c.source();
-            }
+            eprint!("sonarnet-node: {}", sonarnet::cli::error_report(&e));
             ExitCode::from(1)
         }
     }

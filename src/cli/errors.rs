@@ -100,6 +100,18 @@ pub fn error_report(e: &dyn std::error::Error) -> String {
     out
 }
 
+/// An error and its causes on one line (`cannot create x: permission
+/// denied`), for a reason shown beside a key or flag.
+pub fn one_line(e: &dyn std::error::Error) -> String {
+    let mut out = e.to_string();
+    let mut src = e.source();
+    while let Some(s) = src {
+        out.push_str(&format!(": {s}"));
+        src = s.source();
+    }
+    out
+}
+
 impl From<crate::pipeline::bench::BenchError> for CliError {
     fn from(e: crate::pipeline::bench::BenchError) -> Self {
         match e {

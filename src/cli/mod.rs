@@ -18,7 +18,7 @@ pub use args::{
     AgentArgs, BenchArgs, Cli, Command, NewArgs, ReplayArgs, ReportArgs, RunArgs, SweepArgs,
     parse_seed,
 };
-pub use errors::{CliError, error_report};
+pub use errors::{CliError, error_report, one_line};
 pub use print::eng;
 use print::{print_mc_summary, print_summary, progress_bar};
 
@@ -297,7 +297,7 @@ fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
         crate::model::error::InputError::at(
             std::path::Path::new("<command line>"),
             "--out",
-            e.one_line(),
+            one_line(&e),
         )
         .into()
     })

@@ -76,10 +76,8 @@ pub(super) fn replay_command(args: &ReplayArgs) -> Result<(), CliError> {
         Err(CliError::RunFailed { .. }) if rj.status == Some(RunStatus::Failed) => {}
         Err(e) => return Err(e),
     }
-    let diff = crate::pipeline::replay::compare_results(dir, &out).map_err(|e| {
-        let cause = std::error::Error::source(&e).map(|c| format!(": {c}"));
-        bad(format!("cannot compare: {e}{}", cause.unwrap_or_default()))
-    })?;
+    let diff = crate::pipeline::replay::compare_results(dir, &out)
+        .map_err(|e| bad(format!("cannot compare: {}", super::one_line(&e))))?;
     match diff {
         Some(diff) => Err(CliError::ReplayDiffers {
             original: dir.clone(),

@@ -36,21 +36,10 @@ pub enum OutDirError {
 }
 
 impl OutDirError {
-    fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Self {
+    /// The [`OutDirError::Io`] of doing `what` to `path`.
+    pub(crate) fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Self {
         let path = path.to_path_buf();
         move |source| OutDirError::Io { what, path, source }
-    }
-
-    /// The error and its causes on one line (`cannot create x: permission
-    /// denied`), for a reason shown beside a key.
-    pub fn one_line(&self) -> String {
-        let mut s = self.to_string();
-        let mut src = std::error::Error::source(self);
-        while let Some(e) = src {
-            s.push_str(&format!(": {e}"));
-            src = e.source();
-        }
-        s
     }
 }
 

@@ -393,14 +393,10 @@ pub fn check_out_dir(dir: &Path) -> Result<(), OutDirError> {
     if dir.exists() && !dir.is_dir() {
         return Err(OutDirError::NotADirectory(dir.to_path_buf()));
     }
-    let io = |what, path: &Path| {
-        let path = path.to_path_buf();
-        move |source| OutDirError::Io { what, path, source }
-    };
-    std::fs::create_dir_all(dir).map_err(io("create", dir))?;
+    std::fs::create_dir_all(dir).map_err(OutDirError::io("create", dir))?;
     let probe = dir.join(".sonarnet-write-check");
-    std::fs::write(&probe, b"").map_err(io("write in", dir))?;
-    std::fs::remove_file(&probe).map_err(io("remove", &probe))
+    std::fs::write(&probe, b"").map_err(OutDirError::io("write in", dir))?;
+    std::fs::remove_file(&probe).map_err(OutDirError::io("remove", &probe))
 }
 
 /// Write a CSV file with a header and string rows.

@@ -392,13 +392,9 @@ impl<'a, const M: usize> Best<'a, M> {
             }
             refined[nref] = e;
             nref += 1;
-            // A seed that is already stationary (a well-polished root) is
-            // taken as it is; refining it could only move it by rounding.
-            let (f, e) = if self.stationary(&self.derivatives(&e)) {
-                (f, e)
-            } else {
-                self.refine(e)
-            };
+            // A seed that is already stationary (a well-polished root) comes
+            // back from its first step unmoved.
+            let (f, e) = self.refine(e);
             if best.as_ref().is_none_or(|(fb, _)| f > *fb) {
                 best = Some((f, e));
             }
