@@ -35,6 +35,7 @@ fn instances() -> Vec<(LocalProblem, Vec3)> {
         let target = Vec2::new(500.0 + 2.5 * k as f64, 500.0 - 1.5 * k as f64);
         for &r in rx {
             let meas = NodeMeasurements {
+                elevation: None,
                 bistatic: tx
                     .iter()
                     .enumerate()

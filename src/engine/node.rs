@@ -578,11 +578,13 @@ mod tests {
             Command::Sample {
                 sample: 4,
                 meas: NodeMeasurements {
+                    elevation: None,
                     bistatic: vec![(0, 10.0)],
                     doa: Some(0.3),
                     range: None,
                 },
                 sigmas: Sigmas {
+                    elevation: 0.0,
                     range: 1.0,
                     doa: 0.1,
                 },

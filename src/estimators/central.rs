@@ -258,6 +258,7 @@ mod tests {
         let g = geom();
         let x = Vec2::new(512.0, 433.0);
         let s = Sigmas {
+            elevation: 0.0,
             range: 5.0,
             doa: 0.5,
         };
@@ -279,6 +280,7 @@ mod tests {
             },
         ];
         let s = Sigmas {
+            elevation: 0.0,
             range: 2.0,
             doa: 1.0,
         };
@@ -296,6 +298,7 @@ mod tests {
             z: 0.0,
         }];
         let s = Sigmas {
+            elevation: 0.0,
             range: 2.0,
             doa: 1.0,
         };

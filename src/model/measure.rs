@@ -9,8 +9,13 @@ pub struct NodeMeasurements {
     /// Bistatic ranges `rho_{m,n} = ||theta - t_m|| + ||theta - r_n|| + noise`
     /// as `(transmitter index m, rho)`.
     pub bistatic: Vec<(usize, f64)>,
-    /// Direction of arrival `phi_n = atan2(theta_y - r_ny, theta_x - r_nx) + noise` (radians).
+    /// Direction of arrival `phi_n = atan2(theta_y - r_ny, theta_x - r_nx) + noise` (radians):
+    /// the azimuth in 3-D.
     pub doa: Option<f64>,
+    /// The DOA's elevation in 3-D, `atan2(theta_z - r_nz, ||(theta - r_n)_xy||) + noise`
+    /// (radians, positive toward `+z`); `None` in 2-D.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elevation: Option<f64>,
     /// One-way range `||theta - r_n|| + noise` (TOA), if measured.
     pub range: Option<f64>,
 }
@@ -18,23 +23,61 @@ pub struct NodeMeasurements {
 impl NodeMeasurements {
     /// True when the receiver measured nothing at this sample.
     pub fn is_empty(&self) -> bool {
-        self.bistatic.is_empty() && self.doa.is_none() && self.range.is_none()
+        self.bistatic.is_empty()
+            && self.doa.is_none()
+            && self.elevation.is_none()
+            && self.range.is_none()
     }
 }
 
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
 
 /// Fixed positions of the network: transmitters `t_m` and receivers `r_n`
-/// (the receivers are the nodes of the gossip graph).
+/// (the receivers are the nodes of the gossip graph), in `D` = 2 or 3
+/// dimensions.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Geometry {
+pub struct Geometry<const D: usize = 2> {
     /// Transmitter positions `t_m` (may be empty for a pure TOA network).
-    pub transmitters: Vec<Vec2>,
+    pub transmitters: Vec<Point<D>>,
     /// Receiver positions `r_n`.
-    pub receivers: Vec<Vec2>,
+    pub receivers: Vec<Point<D>>,
 }
 
-impl Geometry {
+impl<const D: usize> Geometry<D> {
+    /// The centroid of every sensor, receivers and transmitters alike (the
+    /// origin for an empty geometry): POCS's first starting point.
+    pub fn centroid(&self) -> Point<D> {
+        let n = self.receivers.len() + self.transmitters.len();
+        self.receivers
+            .iter()
+            .chain(&self.transmitters)
+            .fold(Point::<D>::zeros(), |s, p| s + *p)
+            / n.max(1) as f64
+    }
+
+    /// The body of a scenario's `[geometry]` table:
+    /// `transmitters = [[x, y], ...]` and `receivers = [[x, y], ...]`
+    /// (`[x, y, z]` in 3-D).
+    pub fn toml_table(&self) -> String {
+        let list = |ps: &[Point<D>]| {
+            let items: Vec<String> = ps
+                .iter()
+                .map(|p| {
+                    let cs: Vec<String> = p.iter().map(|c| format!("{c:?}")).collect();
+                    format!("[{}]", cs.join(", "))
+                })
+                .collect();
+            format!("[{}]", items.join(", "))
+        };
+        format!(
+            "transmitters = {}\nreceivers = {}",
+            list(&self.transmitters),
+            list(&self.receivers)
+        )
+    }
+}
+
+impl Geometry<2> {
     /// The network of Mourya 2017 Sec. III-C (Fig. 1): transmitters at `(0, 0)`
     /// and `(2000, 2000)` m, six receivers around them. The one copy of it for
     /// tests and benches (`scenarios/mourya2017-spiral.toml` states it too).
@@ -51,34 +94,6 @@ impl Geometry {
             ],
         }
     }
-
-    /// The centroid of every sensor, receivers and transmitters alike (the
-    /// origin for an empty geometry): POCS's first starting point.
-    pub fn centroid(&self) -> Vec2 {
-        let n = self.receivers.len() + self.transmitters.len();
-        self.receivers
-            .iter()
-            .chain(&self.transmitters)
-            .fold(Vec2::zeros(), |s, p| s + *p)
-            / n.max(1) as f64
-    }
-
-    /// The body of a scenario's `[geometry]` table:
-    /// `transmitters = [[x, y], ...]` and `receivers = [[x, y], ...]`.
-    pub fn toml_table(&self) -> String {
-        let list = |ps: &[Vec2]| {
-            let items: Vec<String> = ps
-                .iter()
-                .map(|p| format!("[{:?}, {:?}]", p.x, p.y))
-                .collect();
-            format!("[{}]", items.join(", "))
-        };
-        format!(
-            "transmitters = {}\nreceivers = {}",
-            list(&self.transmitters),
-            list(&self.receivers)
-        )
-    }
 }
 
 /// Every receiver's measurements at one sample; `nodes[n]` belongs to receiver `n`.
@@ -93,7 +108,13 @@ impl SampleMeasurements {
     /// bistatic range from each transmitter (Mourya 2017 eq. 1), and the DOA
     /// (eq. 2) and one-way range where asked for. For tests and examples
     /// that need exact data.
-    pub fn noise_free(geometry: &Geometry, x: &Vec2, with_doa: bool, with_range: bool) -> Self {
+    /// In 3-D the DOA is an azimuth and an elevation.
+    pub fn noise_free<const D: usize>(
+        geometry: &Geometry<D>,
+        x: &Point<D>,
+        with_doa: bool,
+        with_range: bool,
+    ) -> Self {
         SampleMeasurements {
             nodes: geometry
                 .receivers
@@ -106,6 +127,7 @@ impl SampleMeasurements {
                         .map(|(m, t)| (m, bistatic_range(x, t, r)))
                         .collect(),
                     doa: with_doa.then(|| doa(x, r)),
+                    elevation: (with_doa && D == 3).then(|| elevation(x, r)),
                     range: with_range.then(|| one_way_range(x, r)),
                 })
                 .collect(),
@@ -119,23 +141,51 @@ impl SampleMeasurements {
 pub struct Sigmas {
     /// Bistatic and one-way range noise (metres).
     pub range: f64,
-    /// DOA noise (radians).
+    /// DOA noise (radians; the azimuth's in 3-D).
     pub doa: f64,
+    /// Elevation noise in 3-D (radians); 0 in 2-D.
+    #[serde(default)]
+    pub elevation: f64,
 }
 
 /// Noise-free bistatic range `||x - t|| + ||x - r||`.
-pub fn bistatic_range(x: &Vec2, t: &Vec2, r: &Vec2) -> f64 {
+pub fn bistatic_range<const D: usize>(x: &Point<D>, t: &Point<D>, r: &Point<D>) -> f64 {
     (x - t).norm() + (x - r).norm()
 }
 
 /// Noise-free one-way range `||x - a||`.
-pub fn one_way_range(x: &Vec2, a: &Vec2) -> f64 {
+pub fn one_way_range<const D: usize>(x: &Point<D>, a: &Point<D>) -> f64 {
     (x - a).norm()
 }
 
-/// Noise-free DOA `atan2(x_y - r_y, x_x - r_x)` at receiver `r`.
-pub fn doa(x: &Vec2, r: &Vec2) -> f64 {
-    (x.y - r.y).atan2(x.x - r.x)
+/// Noise-free DOA `atan2(x_y - r_y, x_x - r_x)` at receiver `r` (the azimuth in 3-D).
+pub fn doa<const D: usize>(x: &Point<D>, r: &Point<D>) -> f64 {
+    (x[1] - r[1]).atan2(x[0] - r[0])
+}
+
+/// Noise-free elevation `atan2(x_z - r_z, ||(x - r)_xy||)` at receiver `r`
+/// (radians in `[-pi/2, pi/2]`, positive toward `+z`); 0 in 2-D.
+pub fn elevation<const D: usize>(x: &Point<D>, r: &Point<D>) -> f64 {
+    if D < 3 {
+        return 0.0;
+    }
+    let (dx, dy) = (x[0] - r[0], x[1] - r[1]);
+    (x[2] - r[2]).atan2(dx.hypot(dy))
+}
+
+/// The unit direction of azimuth `az` and elevation `el` (`el` ignored in
+/// 2-D): `[cos el cos az, cos el sin az, sin el]`, `[cos az, sin az]` in 2-D.
+pub fn direction<const D: usize>(az: f64, el: f64) -> Point<D> {
+    let (sa, ca) = az.sin_cos();
+    if D < 3 {
+        return Point::<D>::from_fn(|i, _| if i == 0 { ca } else { sa });
+    }
+    let (se, ce) = el.sin_cos();
+    Point::<D>::from_fn(|i, _| match i {
+        0 => ce * ca,
+        1 => ce * sa,
+        _ => se,
+    })
 }
 
 /// Wrap an angle to `(-pi, pi]`.

@@ -6,7 +6,7 @@
 //! Whether a link is NLOS comes from the run's [`NlosMask`] (drawn from the
 //! run seed, stream `Links`).
 
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
 use crate::model::measure::{self, Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
 use crate::model::noise::{NlosMask, NoiseModel};
 use crate::model::rng::{Stream, stream_rng};
@@ -15,10 +15,12 @@ use serde::{Deserialize, Serialize};
 /// Synthesize every receiver's measurements along `truth` (Mourya 2017 Sec. III-A:
 /// `rho_{m,n} = ||theta - t_m|| + ||theta - r_n|| + noise`,
 /// `phi_n = atan2(theta_y - r_ny, theta_x - r_nx) + noise`; Pun-So 2022: one-way
-/// `||theta - r_n|| + noise`).
-pub fn synthesize(
-    geometry: &Geometry,
-    truth: &[Vec2],
+/// `||theta - r_n|| + noise`). In 3-D the DOA is an azimuth (as `phi_n`) and an
+/// elevation [`measure::elevation`], drawn after the azimuth with its own
+/// noise model (`elevation_noise`, the DOA's when not given).
+pub fn synthesize<const D: usize>(
+    geometry: &Geometry<D>,
+    truth: &[Point<D>],
     cfg: &MeasurementsCfg,
     nlos: &NlosMask,
     seed: u64,
@@ -26,6 +28,7 @@ pub fn synthesize(
     let zero = NoiseModel::gaussian(0.0);
     let range_noise = cfg.range_noise.as_ref().unwrap_or(&zero);
     let doa_noise = cfg.doa_noise.as_ref().unwrap_or(&zero);
+    let elevation_noise = cfg.elevation_noise.as_ref().unwrap_or(doa_noise);
     let mut rngs: Vec<_> = (0..geometry.receivers.len())
         .map(|n| stream_rng(seed, Stream::Measurement, n as u64))
         .collect();
@@ -49,6 +52,11 @@ pub fn synthesize(
                     }
                     if cfg.doa {
                         nm.doa = Some(measure::doa(x, r) + doa_noise.sample(k, false, rng));
+                        if D == 3 {
+                            nm.elevation = Some(
+                                measure::elevation(x, r) + elevation_noise.sample(k, false, rng),
+                            );
+                        }
                     }
                     if cfg.range {
                         nm.range = Some(
@@ -82,9 +90,13 @@ pub struct MeasurementsCfg {
     /// Noise of bistatic and one-way ranges (metres).
     #[serde(default)]
     pub range_noise: Option<NoiseModel>,
-    /// Noise of DOAs (radians).
+    /// Noise of DOAs (radians; the azimuth's in 3-D).
     #[serde(default)]
     pub doa_noise: Option<NoiseModel>,
+    /// Noise of the DOA's elevation in 3-D (radians); `doa_noise` when not
+    /// given. Refused in 2-D.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elevation_noise: Option<NoiseModel>,
     /// Which links are NLOS (redrawn per run from the seed); the noise
     /// models' `is_nlos` argument.
     #[serde(default)]

@@ -226,7 +226,11 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
                 n += 1;
             }
             if let Some(v) = meas.doa {
-                out.push(frame(kind::MEAS_DOA, co, s, 0, 0, &[v]));
+                // aux = 1: an elevation follows the azimuth (3-D).
+                match meas.elevation {
+                    None => out.push(frame(kind::MEAS_DOA, co, s, 0, 0, &[v])),
+                    Some(el) => out.push(frame(kind::MEAS_DOA, co, s, 1, 0, &[v, el])),
+                }
                 n += 1;
             }
             if let Some(v) = meas.range {
@@ -239,7 +243,7 @@ pub fn encode_control(c: &Control, out: &mut Vec<Frame>) {
                 s,
                 n,
                 0,
-                &[sigmas.range, sigmas.doa],
+                &[sigmas.range, sigmas.doa, sigmas.elevation],
             ));
         }
         Control::Command(Command::SyncRounds {
@@ -460,6 +464,7 @@ impl NodeDecoder {
             }
             MEAS_DOA => {
                 self.meas.doa = Some(f.data[0]);
+                self.meas.elevation = (f.aux == 1).then_some(f.data[1]);
                 self.meas_n += 1;
                 Ok(None)
             }
@@ -484,6 +489,7 @@ impl NodeDecoder {
                     sigmas: Sigmas {
                         range: f.data[0],
                         doa: f.data[1],
+                        elevation: f.data[2],
                     },
                 })
             }
@@ -641,13 +647,29 @@ mod tests {
             Control::Command(Command::Sample {
                 sample: 3,
                 sigmas: Sigmas {
+                    elevation: 0.0,
                     range: 5.0,
                     doa: 0.25,
                 },
                 meas: NodeMeasurements {
+                    elevation: None,
                     bistatic: vec![(0, 1234.5), (1, 0.1 + 0.2)],
                     doa: Some(-2.5),
                     range: Some(7.0),
+                },
+            }),
+            Control::Command(Command::Sample {
+                sample: 4,
+                sigmas: Sigmas {
+                    elevation: 0.0625,
+                    range: 5.0,
+                    doa: 0.25,
+                },
+                meas: NodeMeasurements {
+                    elevation: Some(-0.125),
+                    bistatic: vec![(1, 99.0)],
+                    doa: Some(1.5),
+                    range: None,
                 },
             }),
             Control::Command(Command::SyncRounds {
@@ -897,10 +919,12 @@ mod tests {
             &Control::Command(Command::Sample {
                 sample: 0,
                 sigmas: Sigmas {
+                    elevation: 0.0,
                     range: 1.0,
                     doa: 0.1,
                 },
                 meas: NodeMeasurements {
+                    elevation: None,
                     bistatic: vec![(0, 1.0), (1, 2.0)],
                     doa: None,
                     range: None,

@@ -743,6 +743,7 @@ mod tests {
 
     fn meas(rho: f64) -> NodeMeasurements {
         NodeMeasurements {
+            elevation: None,
             bistatic: vec![(0, rho)],
             doa: Some(0.3),
             range: None,
@@ -755,6 +756,7 @@ mod tests {
             sample: k,
             meas: meas(10.0 + k as f64),
             sigmas: Sigmas {
+                elevation: 0.0,
                 range: 5.0,
                 doa: 0.5,
             },
@@ -866,8 +868,9 @@ mod tests {
         assert_eq!(node.u(), cfg.init_u);
         let mut out = Vec::new();
         node.handle(sample(0), &mut out);
-        let want = LocalProblem::build(cfg.anchor, &cfg.transmitters, cfg.omega, &meas(10.0))
-            .first_fix(&cfg.transmitters);
+        let want =
+            LocalProblem::<2, 3>::build(cfg.anchor, &cfg.transmitters, cfg.omega, &meas(10.0))
+                .first_fix(&cfg.transmitters);
         assert_eq!(node.u(), want);
         assert_eq!(node.theta(), want);
         node.handle(sample(1), &mut out);
@@ -894,6 +897,7 @@ mod tests {
                     sample: 0,
                     meas: meas(10.0 + i as f64),
                     sigmas: Sigmas {
+                        elevation: 0.0,
                         range: 5.0,
                         doa: 0.5,
                     },

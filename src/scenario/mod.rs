@@ -383,6 +383,8 @@ impl Scenario {
         Sigmas {
             range: m.range_noise.as_ref().map_or(1.0, |n| n.sigma_at(k)),
             doa: m.doa_noise.as_ref().map_or(0.1, |n| n.sigma_at(k)),
+            // Every scenario is 2-D: no elevation is measured.
+            elevation: 0.0,
         }
     }
 

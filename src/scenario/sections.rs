@@ -129,6 +129,14 @@ pub(super) fn measurements(
         n.validate()
             .map_err(|e| e.under("measurements.doa_noise").in_file(path))?;
     }
+    if m.elevation_noise.is_some() {
+        // Every scenario is 2-D until 3-D positions are read.
+        return Err(InputError::at(
+            path,
+            "measurements.elevation_noise",
+            "an elevation is measured only in 3-D (positions [x, y, z]); this scenario is 2-D",
+        ));
+    }
     m.nlos_links
         .validate()
         .map_err(|e| e.under("measurements.nlos_links").in_file(path))?;

@@ -571,6 +571,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(n, r)| NodeMeasurements {
+                    elevation: None,
                     bistatic: g
                         .transmitters
                         .iter()

@@ -1,17 +1,20 @@
-//! Proximal operators of the local cost (Mourya 2017 eq. 11 and eq. 13).
+//! Proximal operators of the local cost (Mourya 2017 eq. 11 and eq. 13), in 2-D
+//! and 3-D.
 //!
-//! For node `v` with lifted variable `theta~ = [x, y, d]`, local cost
+//! For node `v` with lifted variable `theta~ = [theta, d]`, local cost
 //! `f_v(theta~) = 1/2 ||B_v theta~ - g_v||^2` (Mourya 2017 eq. 9-10), step `gamma > 0`
 //! and input `u`:
 //!
 //! * [`prox_relaxed`] solves eq. (11) without the quadratic relation (12): the
-//!   3x3 SPD system `(H + I/gamma) theta~ = c + u/gamma` with `H = B^T B`,
-//!   `c = B^T g`;
+//!   `L x L` SPD system `(H + I/gamma) theta~ = c + u/gamma` with `H = B^T B`,
+//!   `c = B^T g` (`L = 3` in 2-D, 4 in 3-D);
 //! * [`prox_gtrs`] solves the GTRS (13) exactly, on the upper nappe of the cone (12):
-//!   `||theta~[0:2] - r_v|| = theta~[2]`, `theta~[2] >= 0`. It returns the **global**
-//!   minimiser over that set.
+//!   `||theta~[0:D] - r_v|| = theta~[D]`, `theta~[D] >= 0`. It returns the **global**
+//!   minimiser over that set: in 2-D by the one-angle method below
+//!   ([`min_quadratic_on_upper_nappe`]), in 3-D by the secular equation of
+//!   [`crate::estimators::prox::nappe`] (whose docs show why it keeps its form).
 //!
-//! # Method of [`prox_gtrs`]
+//! # Method of [`prox_gtrs`] in 2-D
 //!
 //! Shift `y = theta~ - r~_v` (`r~_v = [r_v, 0]`, eq. 12). Up to a constant the
 //! objective of (13) is `q(y) = 1/2 y^T A y - b^T y` with `A = H + I/gamma` (positive
@@ -55,7 +58,8 @@
 //! is computed without the FMA-dispatching library routine.
 
 use crate::estimators::local::LocalProblem;
-use crate::model::geometry::{Mat3, Vec3};
+use crate::estimators::prox::nappe::min_quadratic_on_upper_nappe_n;
+use crate::model::geometry::{LMat, Lifted, Mat3, Vec3, lift};
 
 /// Why a prox could not be computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -133,7 +137,11 @@ impl ProxFailure {
 /// Check `gamma`, `u` and the local problem data (`H`, `c`, anchor) for the prox of
 /// Mourya 2017 eq. (11)/(13). Non-finite rows or `g` show up as non-finite `H` or `c`.
 /// The one input check of every prox; [`crate::estimators::prox::l0`] adds its per-row check.
-pub(crate) fn validate(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<(), ProxError> {
+pub(crate) fn validate<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+) -> Result<(), ProxError> {
     if !(gamma.is_finite() && gamma > 0.0) {
         return Err(ProxError::BadGamma(gamma));
     }
@@ -159,16 +167,20 @@ fn all_finite<'a>(xs: impl Iterator<Item = &'a f64>) -> bool {
 
 /// The relaxed prox: `argmin_theta f_v(theta) + 1/(2 gamma) ||theta - u||^2` with no
 /// constraint (Mourya 2017 eq. 11 without eq. 12), i.e. the solution of the SPD system
-/// `(H + I/gamma) theta = c + u/gamma`.
+/// `(H + I/gamma) theta = c + u/gamma`, in 2-D or 3-D.
 ///
 /// Errors: [`ProxError::BadGamma`] if `gamma` is not finite and positive,
 /// [`ProxError::NonFinite`] for NaN/infinite `u` or problem data,
 /// [`ProxError::Degenerate`] if the system is not numerically positive definite or the
 /// solution overflows.
-pub fn prox_relaxed(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxError> {
+pub fn prox_relaxed<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+) -> Result<Lifted<L>, ProxError> {
     validate(p, u, gamma)?;
     let inv_g = 1.0 / gamma;
-    let a = p.h + Mat3::identity() * inv_g;
+    let a = p.h + LMat::<L>::identity() * inv_g;
     let b = p.c + u * inv_g;
     let x = a
         .cholesky()
@@ -183,31 +195,53 @@ pub fn prox_relaxed(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, Prox
 
 /// The exact GTRS prox of Mourya 2017 eq. (13): the **global** minimiser of
 /// `f_v(theta~) + 1/(2 gamma) ||theta~ - u||^2` over the upper nappe of the cone (12),
-/// `||theta~[0:2] - r_v|| = theta~[2] >= 0` (apex `[r_v, 0]` included).
+/// `||theta~[0:D] - r_v|| = theta~[D] >= 0` (apex `[r_v, 0]` included), in 2-D or 3-D.
 ///
-/// See the module documentation for the method (exact reduction to one angle and a
-/// quartic). The returned point satisfies the constraint to rounding: its `d` is
-/// recomputed as `||theta~[0:2] - r_v||`. An empty problem (no rows) is valid and gives
-/// the Euclidean projection of `u` onto the upper nappe.
+/// See the module documentation for the method (in 2-D an exact reduction to one angle
+/// and a quartic; in 3-D the secular equation of
+/// [`crate::estimators::prox::nappe`]). The returned point satisfies the constraint to
+/// rounding: its `d` is recomputed as `||theta~[0:D] - r_v||`. An empty problem (no
+/// rows) is valid and gives the Euclidean projection of `u` onto the upper nappe.
 ///
 /// Errors: as [`prox_relaxed`].
-pub fn prox_gtrs(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxError> {
+pub fn prox_gtrs<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+) -> Result<Lifted<L>, ProxError> {
     validate(p, u, gamma)?;
     let inv_g = 1.0 / gamma;
-    let r = Vec3::new(p.anchor.x, p.anchor.y, 0.0);
-    let a = p.h + Mat3::identity() * inv_g;
+    let r: Lifted<L> = lift(&p.anchor, 0.0);
+    let a = p.h + LMat::<L>::identity() * inv_g;
     // b = c + u/gamma - A r~ = (c - H r~) + (u - r~)/gamma, less cancellation.
     let b = (p.c - p.h * r) + (u - r) * inv_g;
-    let y = min_quadratic_on_upper_nappe(&a, &b)?;
-    let x0 = p.anchor.x + y[0];
-    let x1 = p.anchor.y + y[1];
-    let (dx, dy) = (x0 - p.anchor.x, x1 - p.anchor.y);
-    let d = (dx * dx + dy * dy).sqrt();
-    let theta = Vec3::new(x0, x1, d);
+    let y = min_on_upper_nappe(&a, &b)?;
+    let mut theta = Lifted::<L>::zeros();
+    let mut d_sq = 0.0;
+    for i in 0..D {
+        theta[i] = p.anchor[i] + y[i];
+        let di = theta[i] - p.anchor[i];
+        d_sq += di * di;
+    }
+    theta[D] = d_sq.sqrt();
     if theta.iter().all(|v| v.is_finite()) {
         Ok(theta)
     } else {
         Err(ProxError::Degenerate("GTRS prox overflowed".into()))
+    }
+}
+
+/// The global minimiser of `1/2 y^T A y - b^T y` on the upper nappe in `L`
+/// dimensions: [`min_quadratic_on_upper_nappe`] (one angle) for a 2-D
+/// position (`L = 3`), [`min_quadratic_on_upper_nappe_n`] otherwise.
+fn min_on_upper_nappe<const L: usize>(a: &LMat<L>, b: &Lifted<L>) -> Result<Lifted<L>, ProxError> {
+    if L == 3 {
+        let a3 = Mat3::from_fn(|i, j| a[(i, j)]);
+        let b3 = Vec3::from_fn(|i, _| b[i]);
+        let y = min_quadratic_on_upper_nappe(&a3, &b3)?;
+        Ok(Lifted::<L>::from_fn(|i, _| y[i]))
+    } else {
+        min_quadratic_on_upper_nappe_n::<L>(a, b)
     }
 }
 
@@ -1008,6 +1042,7 @@ pub(crate) mod tests {
         let sig_r = if small { 0.05 } else { 5.0 };
         let sig_doa = 0.5;
         let meas = NodeMeasurements {
+            elevation: None,
             bistatic: (0..m)
                 .map(|k| {
                     let rho = (target - txs[k]).norm() + (target - anchor).norm();
@@ -1076,6 +1111,7 @@ pub(crate) mod tests {
         let target = Vec2::new(520.0, 480.0);
         let r = geometry.receivers[v];
         let meas = NodeMeasurements {
+            elevation: None,
             bistatic: tx
                 .iter()
                 .enumerate()
@@ -1324,8 +1360,9 @@ pub(crate) mod tests {
             let tx = &geometry.transmitters;
             let x = Vec2::new(target.0, target.1);
             let r = geometry.receivers[v];
-            let sig = crate::model::measure::Sigmas { range: 5.0, doa: 0.05 };
+            let sig = crate::model::measure::Sigmas { range: 5.0, doa: 0.05, elevation: 0.0 };
             let meas = NodeMeasurements {
+                elevation: None,
                 bistatic: tx
                     .iter()
                     .enumerate()

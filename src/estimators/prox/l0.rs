@@ -62,7 +62,7 @@
 use crate::estimators::local::LocalProblem;
 use crate::estimators::prox::gtrs::{ProxError, prox_gtrs};
 use crate::estimators::robust::hard_threshold;
-use crate::model::geometry::Vec3;
+use crate::model::geometry::{LMat, Lifted};
 
 /// Default outlier budget `kappa` per node (`algorithm.kappa`).
 pub const DEFAULT_KAPPA: usize = 1;
@@ -88,9 +88,9 @@ pub enum L0Method {
 
 /// The result of a robust prox, with diagnostics.
 #[derive(Debug, Clone, PartialEq)]
-pub struct L0Prox {
+pub struct L0Prox<const L: usize = 3> {
     /// The minimiser `theta~` (on the upper nappe).
-    pub theta: Vec3,
+    pub theta: Lifted<L>,
     /// The outlier rows `S` (sorted row indices; `o_i = residual_i` there, 0 elsewhere).
     pub support: Vec<usize>,
     /// `J(theta~, o)` at the answer.
@@ -133,12 +133,12 @@ pub fn binomial(n: usize, k: usize) -> usize {
 ///
 /// Errors: [`ProxError::BadGamma`], [`ProxError::NonFinite`] (any row, `g`, `u` or the
 /// anchor), [`ProxError::Degenerate`] (as [`prox_gtrs`], or an overflowing objective).
-pub fn prox_gtrs_l0(
-    p: &LocalProblem,
-    u: &Vec3,
+pub fn prox_gtrs_l0<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
     gamma: f64,
     kappa: usize,
-) -> Result<Vec3, ProxError> {
+) -> Result<Lifted<L>, ProxError> {
     let n = p.rows.len();
     let k = effective_kappa(n, kappa);
     if k == 0 {
@@ -152,21 +152,41 @@ pub fn prox_gtrs_l0(
     Ok(prox_gtrs_l0_alternate(p, u, gamma, kappa, MAX_ALTERNATIONS)?.theta)
 }
 
+/// One dimension's scratch of [`enumerate_theta`].
+type Scratch<const D: usize, const L: usize> = (LocalProblem<D, L>, Vec<usize>);
+
 thread_local! {
-    /// Per-thread scratch of [`enumerate_theta`]: the problem with rows deleted and the
-    /// support, reused so that the engine's prox calls do not allocate.
-    static SCRATCH: std::cell::RefCell<Option<(LocalProblem, Vec<usize>)>> =
-        const { std::cell::RefCell::new(None) };
+    /// Per-thread scratch of [`enumerate_theta`], one slot per dimension (2-D,
+    /// 3-D): the problem with rows deleted and the support, reused so that the
+    /// engine's prox calls do not allocate.
+    static SCRATCH: std::cell::RefCell<[Option<Box<dyn std::any::Any>>; 2]> =
+        const { std::cell::RefCell::new([None, None]) };
 }
 
 /// [`prox_gtrs_l0_enumerate`]'s minimiser only (same supports, same order, same tie
 /// rule, so bit-identical), without the trace, the support or allocations: the hot
 /// path of the gossip engines. `k >= 1`; the input must be validated.
-fn enumerate_theta(p: &LocalProblem, u: &Vec3, gamma: f64, k: usize) -> Result<Vec3, ProxError> {
+fn enumerate_theta<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+    k: usize,
+) -> Result<Lifted<L>, ProxError> {
     SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
-        let (scratch, idx) =
-            guard.get_or_insert_with(|| (LocalProblem::empty(p.anchor), Vec::new()));
+        let slot = &mut guard[usize::from(D == 3)];
+        let fresh = || -> Box<dyn std::any::Any> {
+            Box::new((LocalProblem::<D, L>::empty(p.anchor), Vec::<usize>::new()))
+        };
+        if !slot.as_ref().is_some_and(|b| b.is::<Scratch<D, L>>()) {
+            *slot = Some(fresh());
+        }
+        let Some((scratch, idx)) = slot
+            .as_mut()
+            .and_then(|b| b.downcast_mut::<Scratch<D, L>>())
+        else {
+            return Err(ProxError::Degenerate("gtrs_l0 scratch".into()));
+        };
         let best = enumerate_supports(p, u, gamma, k, scratch, idx, |_, _, _| {})?;
         // Empty support and trace: no allocation.
         let r = finish(
@@ -185,12 +205,12 @@ fn enumerate_theta(p: &LocalProblem, u: &Vec3, gamma: f64, k: usize) -> Result<V
 /// support in lexicographic order. Cost `C(rows, k)` GTRS solves, whatever its size.
 ///
 /// Errors: as [`prox_gtrs_l0`].
-pub fn prox_gtrs_l0_enumerate(
-    p: &LocalProblem,
-    u: &Vec3,
+pub fn prox_gtrs_l0_enumerate<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
     gamma: f64,
     kappa: usize,
-) -> Result<L0Prox, ProxError> {
+) -> Result<L0Prox<L>, ProxError> {
     validate(p, u, gamma)?;
     let n = p.rows.len();
     let k = effective_kappa(n, kappa);
@@ -219,19 +239,19 @@ pub fn prox_gtrs_l0_enumerate(
 /// size `k >= 1` in lexicographic order (`idx` is the support buffer), ties to the
 /// first. `visit(support, J, better)` sees every support; returns the best point and
 /// its `J`.
-fn enumerate_supports(
-    p: &LocalProblem,
-    u: &Vec3,
+fn enumerate_supports<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
     gamma: f64,
     k: usize,
-    scratch: &mut LocalProblem,
+    scratch: &mut LocalProblem<D, L>,
     idx: &mut Vec<usize>,
     mut visit: impl FnMut(&[usize], f64, bool),
-) -> Result<Option<(Vec3, f64)>, ProxError> {
+) -> Result<Option<(Lifted<L>, f64)>, ProxError> {
     let n = p.rows.len();
     idx.clear();
     idx.extend(0..k);
-    let mut best: Option<(Vec3, f64)> = None;
+    let mut best: Option<(Lifted<L>, f64)> = None;
     loop {
         let (theta, j) = solve_without(p, idx, u, gamma, scratch)?;
         let better = best.is_none_or(|b| j < b.1);
@@ -255,13 +275,13 @@ fn enumerate_supports(
 /// non-increasing up to rounding.
 ///
 /// Errors: as [`prox_gtrs_l0`].
-pub fn prox_gtrs_l0_alternate(
-    p: &LocalProblem,
-    u: &Vec3,
+pub fn prox_gtrs_l0_alternate<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
     gamma: f64,
     kappa: usize,
     max_iter: usize,
-) -> Result<L0Prox, ProxError> {
+) -> Result<L0Prox<L>, ProxError> {
     validate(p, u, gamma)?;
     let n = p.rows.len();
     let k = effective_kappa(n, kappa);
@@ -273,7 +293,7 @@ pub fn prox_gtrs_l0_alternate(
     let mut support: Vec<usize> = Vec::new();
     let (mut theta, j0) = solve_without(p, &support, u, gamma, &mut scratch)?;
     let mut trace = vec![j0];
-    let mut best: Option<(Vec3, Vec<usize>, f64)> = Some((theta, support.clone(), j0));
+    let mut best: Option<(Lifted<L>, Vec<usize>, f64)> = Some((theta, support.clone(), j0));
     let mut visited: Vec<Vec<usize>> = vec![support.clone()];
     let mut order = Vec::with_capacity(n);
     for _ in 0..max_iter {
@@ -295,7 +315,13 @@ pub fn prox_gtrs_l0_alternate(
 /// The `l0` prox objective at `theta~` with the best `kappa`-sparse `o`:
 /// `1/2` (sum of all squared residuals minus the `kappa` largest) `+ ||theta~ - u||^2 /
 /// (2 gamma)`. Non-finite values come out as `+inf`, never NaN.
-pub fn l0_objective(p: &LocalProblem, theta: &Vec3, u: &Vec3, gamma: f64, kappa: usize) -> f64 {
+pub fn l0_objective<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    theta: &Lifted<L>,
+    u: &Lifted<L>,
+    gamma: f64,
+    kappa: usize,
+) -> f64 {
     let mut sq: Vec<f64> = p.residuals(theta).iter().map(|e| e * e).collect();
     sq.sort_by(|a, b| b.total_cmp(a));
     let kept: f64 = sq.iter().skip(kappa).sum();
@@ -323,13 +349,13 @@ fn next_combination(idx: &mut [usize], n: usize) -> bool {
 /// Rebuild `scratch` as `p` without the rows in `drop` (sorted), the same way as
 /// [`LocalProblem::from_rows`], and solve its GTRS prox. Returns the point and the
 /// objective `J` (the kept rows only).
-fn solve_without(
-    p: &LocalProblem,
+fn solve_without<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
     drop: &[usize],
-    u: &Vec3,
+    u: &Lifted<L>,
     gamma: f64,
-    scratch: &mut LocalProblem,
-) -> Result<(Vec3, f64), ProxError> {
+    scratch: &mut LocalProblem<D, L>,
+) -> Result<(Lifted<L>, f64), ProxError> {
     scratch.anchor = p.anchor;
     scratch.rows.clear();
     scratch.g.clear();
@@ -346,11 +372,11 @@ fn solve_without(
             scratch.kinds.push(k);
         }
     }
-    scratch.h = crate::model::geometry::Mat3::zeros();
-    scratch.c = Vec3::zeros();
+    scratch.h = LMat::<L>::zeros();
+    scratch.c = Lifted::<L>::zeros();
     scratch.g_sq = 0.0;
     for (row, &gi) in scratch.rows.iter().zip(&scratch.g) {
-        let b = Vec3::new(row[0], row[1], row[2]);
+        let b = Lifted::<L>::from_column_slice(row);
         scratch.h += b * b.transpose();
         scratch.c += b * gi;
         scratch.g_sq += gi * gi;
@@ -360,18 +386,22 @@ fn solve_without(
     Ok((theta, j))
 }
 
-fn plain(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<L0Prox, ProxError> {
+fn plain<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+) -> Result<L0Prox<L>, ProxError> {
     let theta = prox_gtrs(p, u, gamma)?;
     let j = nan_to_inf(p.prox_objective(&theta, u, gamma));
     finish(Some((theta, Vec::new(), j)), 0, L0Method::Plain, vec![j])
 }
 
-fn finish(
-    best: Option<(Vec3, Vec<usize>, f64)>,
+fn finish<const L: usize>(
+    best: Option<(Lifted<L>, Vec<usize>, f64)>,
     kappa: usize,
     method: L0Method,
     trace: Vec<f64>,
-) -> Result<L0Prox, ProxError> {
+) -> Result<L0Prox<L>, ProxError> {
     match best {
         Some((theta, support, objective)) if objective.is_finite() => Ok(L0Prox {
             theta,
@@ -395,7 +425,11 @@ fn nan_to_inf(x: f64) -> f64 {
 /// The checks of every prox ([`crate::estimators::prox::gtrs::validate`]: `gamma`, `u`, `H`, `c`,
 /// the anchor), then every row and `g` entry on its own: a deleted row must
 /// not hide a NaN.
-fn validate(p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<(), ProxError> {
+fn validate<const D: usize, const L: usize>(
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+) -> Result<(), ProxError> {
     crate::estimators::prox::gtrs::validate(p, u, gamma)?;
     if !p.rows.iter().flatten().chain(&p.g).all(|x| x.is_finite()) {
         return Err(ProxError::NonFinite(
@@ -420,6 +454,7 @@ mod tests {
         Case, brute_force, case, eval_error, paper_problem,
     };
     use crate::model::geometry::Vec2;
+    use crate::model::geometry::Vec3;
     use crate::model::measure::NodeMeasurements;
     use proptest::prelude::*;
 
@@ -570,6 +605,7 @@ mod tests {
         corrupt: &[(usize, f64)],
     ) -> LocalProblem {
         let meas = NodeMeasurements {
+            elevation: None,
             bistatic: txs
                 .iter()
                 .enumerate()

@@ -11,7 +11,7 @@ pub mod nappe;
 use crate::estimators::local::LocalProblem;
 use crate::estimators::prox::gtrs::{ProxError, prox_gtrs, prox_relaxed};
 use crate::estimators::prox::l0::prox_gtrs_l0;
-use crate::model::geometry::Vec3;
+use crate::model::geometry::Lifted;
 
 crate::named_enum! {
     /// Which local prox the Douglas-Rachford engine uses
@@ -68,8 +68,13 @@ impl LocalProx {
     }
 }
 
-/// The local prox step `prox_{gamma f_v}(u)` of `solver` on `p`.
-pub fn prox(solver: LocalProx, p: &LocalProblem, u: &Vec3, gamma: f64) -> Result<Vec3, ProxError> {
+/// The local prox step `prox_{gamma f_v}(u)` of `solver` on `p`, in 2-D or 3-D.
+pub fn prox<const D: usize, const L: usize>(
+    solver: LocalProx,
+    p: &LocalProblem<D, L>,
+    u: &Lifted<L>,
+    gamma: f64,
+) -> Result<Lifted<L>, ProxError> {
     match solver {
         LocalProx::Gtrs => prox_gtrs(p, u, gamma),
         LocalProx::Relaxed => prox_relaxed(p, u, gamma),
@@ -82,7 +87,7 @@ mod tests {
     use super::*;
     use crate::estimators::local::RowKind;
     use crate::estimators::prox::gtrs::tests::paper_problem;
-    use crate::model::geometry::Vec2;
+    use crate::model::geometry::{Vec2, Vec3};
 
     #[test]
     fn only_gtrs_l0_carries_kappa_and_every_prox_knows_its_name() {
@@ -201,3 +206,6 @@ mod tests {
         approx::assert_relative_eq!(th, Vec3::new(4.0, 6.0, 5.0), max_relative = 1e-12);
     }
 }
+
+#[cfg(test)]
+mod tests_3d;

@@ -654,12 +654,14 @@ mod tests {
         let s = SampleMeasurements {
             nodes: vec![
                 NodeMeasurements {
+                    elevation: None,
                     bistatic: vec![(1, 10.0), (0, 11.0)],
                     doa: Some(0.3),
                     range: None,
                 },
                 NodeMeasurements::default(),
                 NodeMeasurements {
+                    elevation: None,
                     bistatic: vec![(2, 12.0)],
                     doa: None,
                     range: Some(4.0),
