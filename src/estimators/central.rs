@@ -1,40 +1,52 @@
 //! Centralised references: the per-sample maximum-likelihood estimate and the
-//! Cramér-Rao lower bound, computed from all receivers' measurements.
+//! Cramér-Rao lower bound, computed from all receivers' measurements, in 2-D
+//! or 3-D.
 //!
 //! Measurement model (Mourya 2017 Sec. III-A, Pun-So 2022 eq. 1): bistatic ranges
-//! `||x - t_m|| + ||x - r_n||`, DOAs `atan2(y - r_ny, x - r_nx)` and one-way
+//! `||x - t_m|| + ||x - r_n||`, DOAs `atan2(y - r_ny, x - r_nx)` (the azimuth
+//! in 3-D, with the elevation `atan2(z - r_nz, ||(x - r_n)_xy||)`) and one-way
 //! ranges `||x - r_n||`, with independent Gaussian errors of standard
-//! deviations `sigma_range`, `sigma_doa`. The ML estimate minimises the
-//! weighted squared residuals `sum (z - h(x))^2 / sigma^2` (DOA residuals
-//! wrapped to `(-pi, pi]`) by Levenberg-Marquardt.
+//! deviations `sigma_range`, `sigma_doa` (and `sigma_elevation`). The ML
+//! estimate minimises the weighted squared residuals `sum (z - h(x))^2 /
+//! sigma^2` (angle residuals wrapped to `(-pi, pi]`) by Levenberg-Marquardt;
+//! the CRLB is `sqrt(trace(J^{-1}))` with the Fisher information
+//! `J = sum grad h grad h^T / sigma^2` (Kay 1993 eq. 3.31 for independent
+//! Gaussian errors).
 
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, lu_solve};
 use crate::model::measure::{self, Geometry, SampleMeasurements, Sigmas};
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::SMatrix;
 
 /// One scalar measurement with its model, for the centralised estimators.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Obs {
+pub enum Obs<const D: usize = 2> {
     /// Bistatic range via transmitter `t` to receiver `r`.
     Bistatic {
         /// Transmitter.
-        t: Vec2,
+        t: Point<D>,
         /// Receiver.
-        r: Vec2,
+        r: Point<D>,
         /// Measured value.
         z: f64,
     },
-    /// DOA at receiver `r`.
+    /// DOA (the azimuth in 3-D) at receiver `r`.
     Doa {
         /// Receiver.
-        r: Vec2,
+        r: Point<D>,
+        /// Measured angle.
+        z: f64,
+    },
+    /// The DOA's elevation at receiver `r` (3-D only).
+    Elevation {
+        /// Receiver.
+        r: Point<D>,
         /// Measured angle.
         z: f64,
     },
     /// One-way range to receiver `r`.
     Range {
         /// Receiver.
-        r: Vec2,
+        r: Point<D>,
         /// Measured value.
         z: f64,
     },
@@ -42,12 +54,16 @@ pub enum Obs {
 
 const MIN_DIST: f64 = 1e-9;
 
-impl Obs {
-    /// Residual `z - h(x)` (wrapped for DOA) and the gradient of `h` at `x`.
-    pub fn residual_and_gradient(&self, x: &Vec2) -> (f64, Vec2) {
-        let unit = |d: Vec2| {
+impl<const D: usize> Obs<D> {
+    /// Residual `z - h(x)` (wrapped for angles) and the gradient of `h` at `x`.
+    pub fn residual_and_gradient(&self, x: &Point<D>) -> (f64, Point<D>) {
+        let unit = |d: Point<D>| {
             let n = d.norm();
-            if n > MIN_DIST { d / n } else { Vec2::zeros() }
+            if n > MIN_DIST {
+                d / n
+            } else {
+                Point::<D>::zeros()
+            }
         };
         match *self {
             Obs::Bistatic { t, r, z } => (
@@ -57,11 +73,26 @@ impl Obs {
             Obs::Range { r, z } => (z - measure::one_way_range(x, &r), unit(x - r)),
             Obs::Doa { r, z } => {
                 let d = x - r;
+                // The horizontal distance squared (all of it in 2-D).
+                let q = (d[0] * d[0] + d[1] * d[1]).max(MIN_DIST);
+                let g = Point::<D>::from_fn(|i, _| match i {
+                    0 => -d[1] / q,
+                    1 => d[0] / q,
+                    _ => 0.0,
+                });
+                (measure::wrap_angle(z - measure::doa(x, &r)), g)
+            }
+            Obs::Elevation { r, z } => {
+                let d = x - r;
+                let h = d[0].hypot(d[1]);
                 let q = d.norm_squared().max(MIN_DIST);
-                (
-                    measure::wrap_angle(z - measure::doa(x, &r)),
-                    Vec2::new(-d.y / q, d.x / q),
-                )
+                let hz = if D > 2 { d[D - 1] } else { 0.0 };
+                let g = Point::<D>::from_fn(|i, _| match i {
+                    0 | 1 if h > MIN_DIST => -hz * d[i] / (q * h),
+                    0 | 1 => 0.0,
+                    _ => h / q,
+                });
+                (measure::wrap_angle(z - measure::elevation(x, &r)), g)
             }
         }
     }
@@ -70,13 +101,17 @@ impl Obs {
     pub fn sigma(&self, s: &Sigmas) -> f64 {
         match self {
             Obs::Doa { .. } => s.doa,
+            Obs::Elevation { .. } => s.elevation,
             _ => s.range,
         }
     }
 }
 
 /// Flatten one sample's measurements into observations.
-pub fn observations(geometry: &Geometry, sample: &SampleMeasurements) -> Vec<Obs> {
+pub fn observations<const D: usize>(
+    geometry: &Geometry<D>,
+    sample: &SampleMeasurements,
+) -> Vec<Obs<D>> {
     let mut out = Vec::new();
     for (n, nm) in sample.nodes.iter().enumerate() {
         let r = geometry.receivers[n];
@@ -90,6 +125,9 @@ pub fn observations(geometry: &Geometry, sample: &SampleMeasurements) -> Vec<Obs
         if let Some(z) = nm.doa {
             out.push(Obs::Doa { r, z });
         }
+        if let Some(z) = nm.elevation.filter(|_| D == 3) {
+            out.push(Obs::Elevation { r, z });
+        }
         if let Some(z) = nm.range {
             out.push(Obs::Range { r, z });
         }
@@ -102,7 +140,7 @@ fn weight(sigma: f64) -> f64 {
 }
 
 /// The weighted least-squares cost `sum ((z - h(x)) / sigma)^2`.
-pub fn ml_cost(obs: &[Obs], sigmas: &Sigmas, x: &Vec2) -> f64 {
+pub fn ml_cost<const D: usize>(obs: &[Obs<D>], sigmas: &Sigmas, x: &Point<D>) -> f64 {
     obs.iter()
         .map(|o| {
             let (e, _) = o.residual_and_gradient(x);
@@ -113,7 +151,7 @@ pub fn ml_cost(obs: &[Obs], sigmas: &Sigmas, x: &Vec2) -> f64 {
 
 /// Levenberg-Marquardt on the weighted ML cost from `x0`. Always returns a
 /// finite point (the best iterate found).
-pub fn ml_estimate(obs: &[Obs], sigmas: &Sigmas, x0: Vec2) -> Vec2 {
+pub fn ml_estimate<const D: usize>(obs: &[Obs<D>], sigmas: &Sigmas, x0: Point<D>) -> Point<D> {
     if obs.is_empty() || !x0.iter().all(|v| v.is_finite()) {
         return x0;
     }
@@ -121,8 +159,8 @@ pub fn ml_estimate(obs: &[Obs], sigmas: &Sigmas, x0: Vec2) -> Vec2 {
     let mut cost = ml_cost(obs, sigmas, &x);
     let mut lambda = 1e-3;
     for _ in 0..100 {
-        let mut jtj = Matrix2::zeros();
-        let mut jte = Vector2::zeros();
+        let mut jtj = SMatrix::<f64, D, D>::zeros();
+        let mut jte = Point::<D>::zeros();
         for o in obs {
             let (e, g) = o.residual_and_gradient(&x);
             let w = weight(o.sigma(sigmas));
@@ -132,9 +170,9 @@ pub fn ml_estimate(obs: &[Obs], sigmas: &Sigmas, x0: Vec2) -> Vec2 {
         let mut improved = false;
         for _ in 0..20 {
             let a = jtj
-                + Matrix2::from_diagonal(&jtj.diagonal()) * lambda
-                + Matrix2::identity() * 1e-12;
-            let Some(step) = a.lu().solve(&jte) else {
+                + SMatrix::<f64, D, D>::from_diagonal(&jtj.diagonal()) * lambda
+                + SMatrix::<f64, D, D>::identity() * 1e-12;
+            let Some(step) = lu_solve(&a, &jte) else {
                 lambda *= 10.0;
                 continue;
             };
@@ -158,33 +196,41 @@ pub fn ml_estimate(obs: &[Obs], sigmas: &Sigmas, x0: Vec2) -> Vec2 {
 }
 
 /// A starting point for the first sample: the best point of a coarse grid
-/// over the box spanned by all transmitters and receivers (enlarged by half
-/// its size), refined by [`ml_estimate`].
-pub fn ml_initial(geometry: &Geometry, obs: &[Obs], sigmas: &Sigmas) -> Vec2 {
-    let pts: Vec<&Vec2> = geometry
+/// (41 points a side in 2-D, 21 in 3-D) over the box spanned by all
+/// transmitters and receivers (enlarged by half its size), refined by
+/// [`ml_estimate`].
+pub fn ml_initial<const D: usize>(
+    geometry: &Geometry<D>,
+    obs: &[Obs<D>],
+    sigmas: &Sigmas,
+) -> Point<D> {
+    let pts: Vec<&Point<D>> = geometry
         .transmitters
         .iter()
         .chain(&geometry.receivers)
         .collect();
-    let (mut lo, mut hi) = (Vec2::repeat(f64::INFINITY), Vec2::repeat(f64::NEG_INFINITY));
+    let (mut lo, mut hi) = (
+        Point::<D>::repeat(f64::INFINITY),
+        Point::<D>::repeat(f64::NEG_INFINITY),
+    );
     for p in &pts {
         lo = lo.inf(p);
         hi = hi.sup(p);
     }
     let span = (hi - lo).map(|v| v.max(1.0));
     let (lo, hi) = (lo - span * 0.5, hi + span * 0.5);
-    let g = 40;
+    let g: usize = if D == 2 { 40 } else { 20 };
     let mut best = (f64::INFINITY, (lo + hi) / 2.0);
-    for i in 0..=g {
-        for j in 0..=g {
-            let x = Vec2::new(
-                lo.x + (hi.x - lo.x) * i as f64 / g as f64,
-                lo.y + (hi.y - lo.y) * j as f64 / g as f64,
-            );
-            let c = ml_cost(obs, sigmas, &x);
-            if c < best.0 {
-                best = (c, x);
-            }
+    // Grid points in lexicographic order of their indices (x outermost).
+    let count = (g + 1).pow(D as u32);
+    for flat in 0..count {
+        let x = Point::<D>::from_fn(|i, _| {
+            let k = flat / (g + 1).pow((D - 1 - i) as u32) % (g + 1);
+            lo[i] + (hi[i] - lo[i]) * k as f64 / g as f64
+        });
+        let c = ml_cost(obs, sigmas, &x);
+        if c < best.0 {
+            best = (c, x);
         }
     }
     ml_estimate(obs, sigmas, best.1)
@@ -192,12 +238,12 @@ pub fn ml_initial(geometry: &Geometry, obs: &[Obs], sigmas: &Sigmas) -> Vec2 {
 
 /// The ML track: sample 0 from [`ml_initial`], then each sample started
 /// from the previous estimate.
-pub fn ml_track(
-    geometry: &Geometry,
+pub fn ml_track<const D: usize>(
+    geometry: &Geometry<D>,
     samples: &[SampleMeasurements],
     sigmas: &[Sigmas],
-) -> Vec<Vec2> {
-    let mut out: Vec<Vec2> = Vec::with_capacity(samples.len());
+) -> Vec<Point<D>> {
+    let mut out: Vec<Point<D>> = Vec::with_capacity(samples.len());
     for (k, s) in samples.iter().enumerate() {
         let obs = observations(geometry, s);
         let x = match out.last() {
@@ -224,10 +270,11 @@ pub fn ml_track(
 
 /// The CRLB at `x`: `sqrt(trace(J^{-1}))` with the Fisher information
 /// `J = sum grad h grad h^T / sigma^2` of the observation set (the
-/// measurements' structure, evaluated at the true position). `None` when
-/// `J` is singular.
-pub fn crlb(obs: &[Obs], sigmas: &Sigmas, x: &Vec2) -> Option<f64> {
-    let mut j = Matrix2::zeros();
+/// measurements' structure, evaluated at the true position; in 3-D the
+/// azimuth and the elevation contribute one term each). `None` when `J` is
+/// singular.
+pub fn crlb<const D: usize>(obs: &[Obs<D>], sigmas: &Sigmas, x: &Point<D>) -> Option<f64> {
+    let mut j = SMatrix::<f64, D, D>::zeros();
     for o in obs {
         let (_, g) = o.residual_and_gradient(x);
         j += g * g.transpose() * weight(o.sigma(sigmas));
@@ -240,6 +287,7 @@ pub fn crlb(obs: &[Obs], sigmas: &Sigmas, x: &Vec2) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::geometry::Vec2;
     use approx::assert_relative_eq;
 
     /// The first four receivers of the Mourya 2017 network.
@@ -331,6 +379,120 @@ mod tests {
                 xp[k] += h;
                 let (e1, _) = o.residual_and_gradient(&xp);
                 // residual = z - h(x) so d(residual) = -grad h
+                assert_relative_eq!(-(e1 - e0) / h, g[k], epsilon = 1e-5);
+            }
+        }
+    }
+
+    fn ocean() -> Geometry<3> {
+        let p = |x: f64, y: f64, z: f64| Point::<3>::new(x, y, z);
+        Geometry {
+            transmitters: vec![p(0.0, 0.0, 10.0), p(2000.0, 2000.0, 5.0)],
+            receivers: vec![
+                p(-1000.0, -1000.0, 100.0),
+                p(1500.0, -1000.0, 300.0),
+                p(-1000.0, 1000.0, 50.0),
+                p(1500.0, 1000.0, 500.0),
+            ],
+        }
+    }
+
+    #[test]
+    fn ml_recovers_a_3d_target_from_noise_free_ranges_azimuths_and_elevations() {
+        let g = ocean();
+        let x = Point::<3>::new(512.0, 433.0, 250.0);
+        let s = Sigmas {
+            elevation: 0.02,
+            range: 5.0,
+            doa: 0.05,
+        };
+        let meas = SampleMeasurements::noise_free(&g, &x, true, false);
+        assert!(meas.nodes.iter().all(|n| n.elevation.is_some()));
+        let obs = observations(&g, &meas);
+        // Two bistatic ranges, an azimuth and an elevation per receiver.
+        assert_eq!(obs.len(), 4 * 4);
+        let track = ml_track(&g, &[meas], &[s]);
+        assert_relative_eq!(track[0], x, epsilon = 1e-6);
+    }
+
+    #[test]
+    fn the_3d_crlb_of_three_orthogonal_ranges_is_the_closed_form() {
+        // J = I / sigma^2: CRLB = sigma * sqrt(3).
+        let obs = [
+            Point::<3>::new(10.0, 0.0, 0.0),
+            Point::<3>::new(0.0, 10.0, 0.0),
+            Point::<3>::new(0.0, 0.0, 10.0),
+        ]
+        .map(|r| Obs::Range { r, z: 0.0 });
+        let s = Sigmas {
+            elevation: 1.0,
+            range: 2.0,
+            doa: 1.0,
+        };
+        let c = crlb(&obs, &s, &Point::<3>::zeros()).expect("regular");
+        assert_relative_eq!(c, 2.0 * 3f64.sqrt(), epsilon = 1e-12);
+        // Two ranges leave the third axis unobserved.
+        assert!(crlb(&obs[..2], &s, &Point::<3>::zeros()).is_none());
+    }
+
+    #[test]
+    fn the_3d_crlb_of_one_receivers_range_and_angles_is_the_closed_form() {
+        // A range and both angles at distance d: the information is
+        // 1/s_r^2 along the ray, 1/(d s_el)^2 in elevation and
+        // 1/(d cos(el) s_az)^2 in azimuth, so trace J^-1 is their sum.
+        let r = Point::<3>::new(1.0, -2.0, 3.0);
+        let x = Point::<3>::new(41.0, 28.0, 23.0);
+        let d = (x - r).norm();
+        let el = measure::elevation(&x, &r);
+        let s = Sigmas {
+            elevation: 0.03,
+            range: 0.5,
+            doa: 0.02,
+        };
+        let obs = [
+            Obs::Range { r, z: 0.0 },
+            Obs::Doa { r, z: 0.0 },
+            Obs::Elevation { r, z: 0.0 },
+        ];
+        let want =
+            (s.range.powi(2) + (d * s.elevation).powi(2) + (d * el.cos() * s.doa).powi(2)).sqrt();
+        assert_relative_eq!(
+            crlb(&obs, &s, &x).expect("regular"),
+            want,
+            max_relative = 1e-12
+        );
+    }
+
+    #[test]
+    fn the_3d_gradients_match_finite_differences() {
+        let x = Point::<3>::new(3.0, -2.0, 1.5);
+        let p = |a: f64, b: f64, c: f64| Point::<3>::new(a, b, c);
+        let obs = [
+            Obs::Bistatic {
+                t: p(0.0, 0.0, 4.0),
+                r: p(7.0, 1.0, -1.0),
+                z: 3.0,
+            },
+            Obs::Doa {
+                r: p(-1.0, 4.0, 2.0),
+                z: 0.3,
+            },
+            Obs::Elevation {
+                r: p(-1.0, 4.0, 2.0),
+                z: 0.1,
+            },
+            Obs::Range {
+                r: p(1.0, 1.0, 1.0),
+                z: 2.0,
+            },
+        ];
+        for o in obs {
+            let (e0, g) = o.residual_and_gradient(&x);
+            let h = 1e-6;
+            for k in 0..3 {
+                let mut xp = x;
+                xp[k] += h;
+                let (e1, _) = o.residual_and_gradient(&xp);
                 assert_relative_eq!(-(e1 - e0) / h, g[k], epsilon = 1e-5);
             }
         }

@@ -197,3 +197,51 @@ pub fn wrap_angle(a: f64) -> f64 {
     }
     w
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn the_measured_direction_and_range_give_back_the_target_in_2d_and_3d() {
+        let r3 = Point::<3>::new(-100.0, 50.0, 300.0);
+        for x3 in [
+            Point::<3>::new(400.0, -250.0, 120.0),
+            Point::<3>::new(-300.0, 60.0, 900.0),
+            Point::<3>::new(-100.0, 50.0, 10.0),
+        ] {
+            let e = direction::<3>(doa(&x3, &r3), elevation(&x3, &r3));
+            assert_relative_eq!(e.norm(), 1.0, max_relative = 1e-15);
+            assert_relative_eq!(r3 + e * one_way_range(&x3, &r3), x3, max_relative = 1e-12);
+        }
+        let (r2, x2) = (Vec2::new(1.0, 2.0), Vec2::new(-3.0, 7.0));
+        let e = direction::<2>(doa(&x2, &r2), 0.3);
+        assert_relative_eq!(r2 + e * one_way_range(&x2, &r2), x2, max_relative = 1e-12);
+        assert_eq!(elevation(&x2, &r2).to_bits(), 0.0f64.to_bits());
+    }
+
+    #[test]
+    fn a_3d_receiver_measures_an_elevation_only_with_a_doa() {
+        let g = Geometry::<3> {
+            transmitters: vec![Point::<3>::new(0.0, 0.0, 0.0)],
+            receivers: vec![Point::<3>::new(10.0, 0.0, 20.0)],
+        };
+        let x = Point::<3>::new(10.0, 10.0, 30.0);
+        let with = SampleMeasurements::noise_free(&g, &x, true, false);
+        // 45 degrees below the receiver's horizontal plane toward +z.
+        assert_relative_eq!(
+            with.nodes[0].elevation.expect("3-D DOA"),
+            std::f64::consts::FRAC_PI_4,
+            max_relative = 1e-15
+        );
+        let without = SampleMeasurements::noise_free(&g, &x, false, true);
+        assert!(without.nodes[0].doa.is_none() && without.nodes[0].elevation.is_none());
+        assert!(
+            SampleMeasurements::noise_free(&Geometry::mourya2017(), &Vec2::zeros(), true, false)
+                .nodes
+                .iter()
+                .all(|n| n.elevation.is_none())
+        );
+    }
+}
