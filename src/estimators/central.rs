@@ -13,7 +13,8 @@
 //! `J = sum grad h grad h^T / sigma^2` (Kay 1993 eq. 3.31 for independent
 //! Gaussian errors).
 
-use crate::model::geometry::{Point, lu_solve};
+use crate::model::geometry::Point;
+use crate::model::linalg::lu_solve;
 use crate::model::measure::{self, Geometry, SampleMeasurements, Sigmas};
 use nalgebra::SMatrix;
 

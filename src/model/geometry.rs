@@ -46,34 +46,3 @@ pub fn lift<const D: usize, const L: usize>(x: &Point<D>, d: f64) -> Lifted<L> {
     const { check_dims::<D, L>() };
     Lifted::<L>::from_fn(|i, _| if i < D { x[i] } else { d })
 }
-
-/// Solve `a x = b` by LU with partial pivoting (nalgebra's `lu().solve`) for
-/// a `D` by `D` system, `D` = 2 or 3 (nalgebra's LU needs a dimension known
-/// to its type-level arithmetic, so each size is spelled out). `None` if `a`
-/// is singular or `D` is another size.
-pub fn lu_solve<const D: usize>(
-    a: &nalgebra::SMatrix<f64, D, D>,
-    b: &Point<D>,
-) -> Option<Point<D>> {
-    fn sized<const N: usize, const D: usize>(
-        a: &nalgebra::SMatrix<f64, D, D>,
-        b: &Point<D>,
-    ) -> (nalgebra::SMatrix<f64, N, N>, Point<N>) {
-        (
-            nalgebra::SMatrix::<f64, N, N>::from_fn(|i, j| a[(i, j)]),
-            Point::<N>::from_fn(|i, _| b[i]),
-        )
-    }
-    let back = |x: &[f64]| Point::<D>::from_fn(|i, _| x[i]);
-    match D {
-        2 => {
-            let (a, b) = sized::<2, D>(a, b);
-            a.lu().solve(&b).map(|x| back(x.as_slice()))
-        }
-        3 => {
-            let (a, b) = sized::<3, D>(a, b);
-            a.lu().solve(&b).map(|x| back(x.as_slice()))
-        }
-        _ => None,
-    }
-}

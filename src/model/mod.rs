@@ -10,6 +10,7 @@ pub mod error;
 pub mod fault;
 pub mod geometry;
 pub mod graph;
+pub mod linalg;
 pub mod measure;
 pub mod metrics;
 pub mod motion;

@@ -1,10 +1,10 @@
 //! Initial estimates: exact or OLS (Pun-So 2022 eq. (15)-(17)), and the closed-form linear
 //! LS of one-way and bistatic ranges.
 
-use crate::estimators::online::Mat2;
 use crate::estimators::online::TrackError;
 use crate::estimators::online::check_x0;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
+use crate::model::linalg::{MatD, determinant, lu_solve};
 use crate::model::measure::Geometry;
 use crate::model::measure::SampleMeasurements;
 use serde::Deserialize;
@@ -23,12 +23,12 @@ pub enum Init {
 
 impl Init {
     /// `x_0` from the first sample and the true first position `x_true_first`.
-    pub fn initial_estimate(
+    pub fn initial_estimate<const D: usize>(
         self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         first: &SampleMeasurements,
-        x_true_first: Vec2,
-    ) -> Result<Vec2, TrackError> {
+        x_true_first: Point<D>,
+    ) -> Result<Point<D>, TrackError> {
         match self {
             Init::Exact => {
                 check_x0(&x_true_first)?;
@@ -44,7 +44,8 @@ pub(super) const OLS_RANK_REL: f64 = 1e-10;
 
 /// OLS position estimate from one sample.
 ///
-/// * With at least 3 one-way ranges whose anchors are not collinear: Pun-So 2022
+/// * With at least `D + 1` one-way ranges whose anchors are not collinear (not
+///   coplanar in 3-D): Pun-So 2022
 ///   eq. (15)-(17), `x_0 = (A^T A)^{-1} A^T b` with rows
 ///   `a_{i+1} - a_i` and `b_i = (||a_{i+1}||^2 - ||a_i||^2 + r_i^2 - r_{i+1}^2)/2`
 ///   over the anchors in node order (eq. (17) as printed has an index typo;
@@ -59,14 +60,17 @@ pub(super) const OLS_RANK_REL: f64 = 1e-10;
 ///   is returned (the lifted distances are discarded).
 ///
 /// Errors ([`TrackError::OlsDegenerate`]) when neither system has full column rank.
-pub fn ols_position(geometry: &Geometry, sample: &SampleMeasurements) -> Result<Vec2, TrackError> {
+pub fn ols_position<const D: usize>(
+    geometry: &Geometry<D>,
+    sample: &SampleMeasurements,
+) -> Result<Point<D>, TrackError> {
     if sample.nodes.len() > geometry.receivers.len() {
         return Err(TrackError::TooManyNodes {
             nodes: sample.nodes.len(),
             receivers: geometry.receivers.len(),
         });
     }
-    let mut anchors: Vec<(Vec2, f64)> = Vec::new();
+    let mut anchors: Vec<(Point<D>, f64)> = Vec::new();
     let mut bistatic: Vec<(usize, usize, f64)> = Vec::new();
     for (n, node) in sample.nodes.iter().enumerate() {
         if let Some(r) = node.range {
@@ -135,20 +139,27 @@ pub fn ols_position(geometry: &Geometry, sample: &SampleMeasurements) -> Result<
 /// so the trackers' OLS initialisation and the `lls` baseline) and the Gholami 2015
 /// bound tests use it.
 ///
-/// Errors (as text, for [`TrackError::OlsDegenerate`]): fewer than 3 pairs,
-/// non-finite input, or collinear anchors (`A^T A` singular to `1e-10` relative).
-pub fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
-    if anchors.len() < 3 {
-        return Err(format!("{} one-way ranges (need >= 3)", anchors.len()));
+/// In 3-D the same rows have three columns and `D + 1 = 4` pairs are needed.
+///
+/// Errors (as text, for [`TrackError::OlsDegenerate`]): fewer than `D + 1`
+/// pairs, non-finite input, or collinear (coplanar) anchors (`det(A^T A) <=
+/// 1e-10 tr(A^T A)^D`).
+pub fn ols_toa<const D: usize>(anchors: &[(Point<D>, f64)]) -> Result<Point<D>, String> {
+    if anchors.len() < D + 1 {
+        return Err(format!(
+            "{} one-way ranges (need >= {})",
+            anchors.len(),
+            D + 1
+        ));
     }
     if anchors
         .iter()
-        .any(|(a, r)| !(a.x.is_finite() && a.y.is_finite() && r.is_finite()))
+        .any(|(a, r)| !(a.iter().all(|v| v.is_finite()) && r.is_finite()))
     {
         return Err("non-finite anchor or one-way range".into());
     }
-    let mut ata = Mat2::zeros();
-    let mut atb = Vec2::zeros();
+    let mut ata = MatD::<D>::zeros();
+    let mut atb = Point::<D>::zeros();
     for w in anchors.windows(2) {
         let (a0, r0) = w[0];
         let (a1, r1) = w[1];
@@ -157,16 +168,28 @@ pub fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
         ata += row * row.transpose();
         atb += row * b;
     }
-    let det = ata.determinant();
+    let degenerate = if D == 2 {
+        "one-way anchors are collinear (A^T A singular)"
+    } else {
+        "one-way anchors are coplanar (A^T A singular)"
+    };
+    let det = determinant(&ata).ok_or("unsupported dimension")?;
     let tr = ata.trace();
-    if det.is_nan() || det <= OLS_RANK_REL * tr * tr {
-        return Err("one-way anchors are collinear (A^T A singular)".into());
+    if det.is_nan() || det <= OLS_RANK_REL * (0..D).fold(1.0, |p, _| p * tr) {
+        return Err(degenerate.into());
     }
-    let x = Vec2::new(
-        (ata[(1, 1)] * atb.x - ata[(0, 1)] * atb.y) / det,
-        (ata[(0, 0)] * atb.y - ata[(1, 0)] * atb.x) / det,
-    );
-    if x.x.is_finite() && x.y.is_finite() {
+    let x = if D == 2 {
+        Point::<D>::from_fn(|i, _| {
+            if i == 0 {
+                (ata[(1, 1)] * atb[0] - ata[(0, 1)] * atb[1]) / det
+            } else {
+                (ata[(0, 0)] * atb[1] - ata[(1, 0)] * atb[0]) / det
+            }
+        })
+    } else {
+        lu_solve(&ata, &atb).ok_or(degenerate)?
+    };
+    if x.iter().all(|v| v.is_finite()) {
         Ok(x)
     } else {
         Err("non-finite OLS solution".into())
@@ -177,13 +200,13 @@ pub fn ols_toa(anchors: &[(Vec2, f64)]) -> Result<Vec2, String> {
 /// focus `lift` (whose distance to the target is lifted into an unknown of
 /// its own, one per `key`) and the focus `other`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LiftedRow {
+pub struct LiftedRow<const D: usize = 2> {
     /// Which lifted distance this row's `lift` focus has (`0..n_keys`).
     pub key: usize,
     /// The focus whose distance `d_key = ||x - lift||` is an unknown.
-    pub lift: Vec2,
+    pub lift: Point<D>,
     /// The other focus.
-    pub other: Vec2,
+    pub other: Point<D>,
     /// The bistatic range `||x - lift|| + ||x - other||`.
     pub rho: f64,
 }
@@ -199,65 +222,100 @@ pub struct LiftedRow {
 /// is eliminated in closed form (the Schur complement of its column), which
 /// leaves a 2x2 system in `x`. `None` when that system is singular
 /// (`det <= 1e-10 tr^2`) or the solution is not finite.
-pub fn lifted_bistatic_ls(
-    rows: impl IntoIterator<Item = LiftedRow>,
+pub fn lifted_bistatic_ls<const D: usize>(
+    rows: impl IntoIterator<Item = LiftedRow<D>>,
     n_keys: usize,
-    centre: Vec2,
-) -> Option<Vec2> {
-    // Per key: S_aa (3 entries), s_ac (2), S_cc, s_ag (2), s_cg.
-    let mut acc = vec![[0.0f64; 9]; n_keys];
+    centre: Point<D>,
+) -> Option<Point<D>> {
+    /// Per key: `S_aa` (upper triangle), `s_ac`, `S_cc`, `s_ag`, `s_cg`.
+    #[derive(Clone)]
+    struct Key<const D: usize> {
+        aa: MatD<D>,
+        ac: Point<D>,
+        cc: f64,
+        ag: Point<D>,
+        cg: f64,
+    }
+    let zero = Key::<D> {
+        aa: MatD::<D>::zeros(),
+        ac: Point::<D>::zeros(),
+        cc: 0.0,
+        ag: Point::<D>::zeros(),
+        cg: 0.0,
+    };
+    let mut acc = vec![zero; n_keys];
     for row in rows {
         let (t, r) = (row.other - centre, row.lift - centre);
         let a = 2.0 * (t - r);
         let c = -2.0 * row.rho;
         let g = t.norm_squared() - row.rho * row.rho - r.norm_squared();
         let k = acc.get_mut(row.key)?;
-        k[0] += a.x * a.x;
-        k[1] += a.x * a.y;
-        k[2] += a.y * a.y;
-        k[3] += a.x * c;
-        k[4] += a.y * c;
-        k[5] += c * c;
-        k[6] += a.x * g;
-        k[7] += a.y * g;
-        k[8] += c * g;
+        for i in 0..D {
+            for j in i..D {
+                k.aa[(i, j)] += a[i] * a[j];
+            }
+            k.ac[i] += a[i] * c;
+            k.ag[i] += a[i] * g;
+        }
+        k.cc += c * c;
+        k.cg += c * g;
     }
-    let (mut m00, mut m01, mut m11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    // The Schur complement of every lifted column: M x = b (upper triangle of M).
+    let mut m = MatD::<D>::zeros();
+    let mut b = Point::<D>::zeros();
     for k in &acc {
-        m00 += k[0];
-        m01 += k[1];
-        m11 += k[2];
-        b0 += k[6];
-        b1 += k[7];
-        if k[5] > 0.0 {
-            m00 -= k[3] * k[3] / k[5];
-            m01 -= k[3] * k[4] / k[5];
-            m11 -= k[4] * k[4] / k[5];
-            b0 -= k[3] * k[8] / k[5];
-            b1 -= k[4] * k[8] / k[5];
+        for i in 0..D {
+            for j in i..D {
+                m[(i, j)] += k.aa[(i, j)];
+            }
+            b[i] += k.ag[i];
+        }
+        if k.cc > 0.0 {
+            for i in 0..D {
+                for j in i..D {
+                    m[(i, j)] -= k.ac[i] * k.ac[j] / k.cc;
+                }
+                b[i] -= k.ac[i] * k.cg / k.cc;
+            }
         }
     }
-    let det = m00 * m11 - m01 * m01;
-    let tr = m00 + m11;
-    if !(det.is_finite() && tr > 0.0 && det > OLS_RANK_REL * tr * tr) {
+    if D == 2 {
+        let (m00, m01, m11, b0, b1) = (m[(0, 0)], m[(0, 1)], m[(1, 1)], b[0], b[1]);
+        let det = m00 * m11 - m01 * m01;
+        let tr = m00 + m11;
+        if !(det.is_finite() && tr > 0.0 && det > OLS_RANK_REL * tr * tr) {
+            return None;
+        }
+        let e = Vec2::new((m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det);
+        let e = Point::<D>::from_fn(|i, _| e[i]) + centre;
+        return e.iter().all(|v| v.is_finite()).then_some(e);
+    }
+    for i in 0..D {
+        for j in 0..i {
+            m[(i, j)] = m[(j, i)];
+        }
+    }
+    let det = determinant(&m)?;
+    let tr = m.trace();
+    if !(det.is_finite() && tr > 0.0 && det > OLS_RANK_REL * tr * tr * tr) {
         return None;
     }
-    let e = Vec2::new((m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det) + centre;
-    (e.x.is_finite() && e.y.is_finite()).then_some(e)
+    let e = lu_solve(&m, &b)? + centre;
+    e.iter().all(|v| v.is_finite()).then_some(e)
 }
 
 /// [`lifted_bistatic_ls`] of `(m, n, rho)` triples, lifting the transmitter
 /// distances (`lift_tx`) or the receiver distances, centred on the foci's mean.
-pub(super) fn ols_bistatic(
-    geometry: &Geometry,
+pub(super) fn ols_bistatic<const D: usize>(
+    geometry: &Geometry<D>,
     bistatic: &[(usize, usize, f64)],
     lift_tx: bool,
-) -> Result<Vec2, String> {
+) -> Result<Point<D>, String> {
     let key = |b: &(usize, usize, f64)| if lift_tx { b.0 } else { b.1 };
     let mut lifted: Vec<usize> = bistatic.iter().map(key).collect();
     lifted.sort_unstable();
     lifted.dedup();
-    let cols = 2 + lifted.len();
+    let cols = D + lifted.len();
     let rows = bistatic.len();
     let label = if lift_tx { "transmitter" } else { "receiver" };
     if rows < cols {
@@ -283,14 +341,14 @@ pub(super) fn ols_bistatic(
             }
         }
     };
-    let sum: Vec2 = bistatic
+    let sum: Point<D> = bistatic
         .iter()
         .map(|b| geometry.transmitters[b.0])
-        .sum::<Vec2>()
+        .sum::<Point<D>>()
         + bistatic
             .iter()
             .map(|b| geometry.receivers[b.1])
-            .sum::<Vec2>();
+            .sum::<Point<D>>();
     let centre = sum / (2.0 * rows as f64);
     let n_keys = if lift_tx {
         geometry.transmitters.len()

@@ -2,21 +2,21 @@
 //! as Pun-So 2020), with its gradient and Hessian.
 
 use crate::estimators::online::COINCIDENT_REL;
-use crate::estimators::online::Mat2;
 use crate::estimators::online::TrackError;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
+use crate::model::linalg::MatD;
 use crate::model::measure::Geometry;
 use crate::model::measure::SampleMeasurements;
 
 /// Value, gradient and (optionally) Hessian of `f_t` at one point.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LossEval {
+pub struct LossEval<const D: usize = 2> {
     /// `f_t(x)`.
     pub value: f64,
     /// `grad f_t(x)`.
-    pub grad: Vec2,
+    pub grad: Point<D>,
     /// `hess f_t(x)` (zero when only the gradient was requested).
-    pub hess: Mat2,
+    pub hess: MatD<D>,
     /// Number of squared residuals in `f_t` (the `m` of Pun-So 2022 for TOA).
     pub terms: usize,
     /// Sum of the per-term gradient-Lipschitz weights: 1 per one-way range,
@@ -26,11 +26,11 @@ pub struct LossEval {
 
 /// Distance to `p` and the unit vector `(x - p)/||x - p||` (zero on the focus).
 #[inline(always)]
-pub(super) fn dist_unit(x: &Vec2, p: &Vec2) -> (f64, Vec2, bool) {
+pub(super) fn dist_unit<const D: usize>(x: &Point<D>, p: &Point<D>) -> (f64, Point<D>, bool) {
     let diff = x - p;
     let d = diff.norm();
-    if d <= COINCIDENT_REL * (1.0 + p.x.abs().max(p.y.abs())) {
-        (d, Vec2::zeros(), false)
+    if d <= COINCIDENT_REL * (1.0 + p.amax()) {
+        (d, Point::<D>::zeros(), false)
     } else {
         (d, diff / d, true)
     }
@@ -38,31 +38,41 @@ pub(super) fn dist_unit(x: &Vec2, p: &Vec2) -> (f64, Vec2, bool) {
 
 /// Curvature of `||x - p||`: `(I - u u^T) / d`, added with weight `w`.
 #[inline(always)]
-pub(super) fn add_proj(h: &mut Mat2, u: &Vec2, d: f64, w: f64) {
+pub(super) fn add_proj<const D: usize>(h: &mut MatD<D>, u: &Point<D>, d: f64, w: f64) {
     let s = w / d;
-    h[(0, 0)] += s * (1.0 - u.x * u.x);
-    h[(1, 1)] += s * (1.0 - u.y * u.y);
-    let off = -s * u.x * u.y;
-    h[(0, 1)] += off;
-    h[(1, 0)] += off;
+    for i in 0..D {
+        h[(i, i)] += s * (1.0 - u[i] * u[i]);
+    }
+    for i in 0..D {
+        for j in i + 1..D {
+            let off = -s * u[i] * u[j];
+            h[(i, j)] += off;
+            h[(j, i)] += off;
+        }
+    }
 }
 
 #[inline(always)]
-pub(super) fn add_outer(h: &mut Mat2, u: &Vec2, w: f64) {
-    h[(0, 0)] += w * u.x * u.x;
-    h[(1, 1)] += w * u.y * u.y;
-    let off = w * u.x * u.y;
-    h[(0, 1)] += off;
-    h[(1, 0)] += off;
+pub(super) fn add_outer<const D: usize>(h: &mut MatD<D>, u: &Point<D>, w: f64) {
+    for i in 0..D {
+        h[(i, i)] += w * u[i] * u[i];
+    }
+    for i in 0..D {
+        for j in i + 1..D {
+            let off = w * u[i] * u[j];
+            h[(i, j)] += off;
+            h[(j, i)] += off;
+        }
+    }
 }
 
 #[inline(always)]
-pub(super) fn accumulate<const GRAD: bool, const HESS: bool>(
-    geometry: &Geometry,
+pub(super) fn accumulate<const GRAD: bool, const HESS: bool, const D: usize>(
+    geometry: &Geometry<D>,
     sample: &SampleMeasurements,
-    x: &Vec2,
-) -> Result<LossEval, TrackError> {
-    if !(x.x.is_finite() && x.y.is_finite()) {
+    x: &Point<D>,
+) -> Result<LossEval<D>, TrackError> {
+    if !x.iter().all(|v| v.is_finite()) {
         return Err(TrackError::NonFinite("position x"));
     }
     if sample.nodes.len() > geometry.receivers.len() {
@@ -72,8 +82,8 @@ pub(super) fn accumulate<const GRAD: bool, const HESS: bool>(
         });
     }
     let mut value = 0.0;
-    let mut grad = Vec2::zeros();
-    let mut hess = Mat2::zeros();
+    let mut grad = Point::<D>::zeros();
+    let mut hess = MatD::<D>::zeros();
     let mut terms = 0usize;
     let mut weight = 0.0;
     for (n, node) in sample.nodes.iter().enumerate() {
@@ -148,30 +158,34 @@ pub(super) fn accumulate<const GRAD: bool, const HESS: bool>(
 
 /// `f_t(x)`: Pun-So 2022 eq. (2) over the one-way ranges plus the bistatic
 /// least-squares terms (see the module docs). Errors on non-finite input.
-pub fn loss(geometry: &Geometry, sample: &SampleMeasurements, x: &Vec2) -> Result<f64, TrackError> {
-    accumulate::<false, false>(geometry, sample, x).map(|e| e.value)
+pub fn loss<const D: usize>(
+    geometry: &Geometry<D>,
+    sample: &SampleMeasurements,
+    x: &Point<D>,
+) -> Result<f64, TrackError> {
+    accumulate::<false, false, D>(geometry, sample, x).map(|e| e.value)
 }
 
 /// `f_t(x)` and `grad f_t(x) = sum 2 e_i u_i` (Pun-So 2022 eq. (3)); for a
 /// bistatic term `u_i = u_t + u_r`, the sum of the unit vectors from both foci.
 #[inline]
-pub fn loss_grad(
-    geometry: &Geometry,
+pub fn loss_grad<const D: usize>(
+    geometry: &Geometry<D>,
     sample: &SampleMeasurements,
-    x: &Vec2,
-) -> Result<LossEval, TrackError> {
-    accumulate::<true, false>(geometry, sample, x)
+    x: &Point<D>,
+) -> Result<LossEval<D>, TrackError> {
+    accumulate::<true, false, D>(geometry, sample, x)
 }
 
 /// `f_t`, its gradient and Hessian. One-way term (Pun-So 2020, proof of Thm. 1):
 /// `2 u u^T + 2 e (I - u u^T)/d`; bistatic term:
 /// `2 s s^T + 2 e [(I - u_t u_t^T)/d_t + (I - u_r u_r^T)/d_r]`, `s = u_t + u_r`.
-pub fn loss_grad_hess(
-    geometry: &Geometry,
+pub fn loss_grad_hess<const D: usize>(
+    geometry: &Geometry<D>,
     sample: &SampleMeasurements,
-    x: &Vec2,
-) -> Result<LossEval, TrackError> {
-    accumulate::<true, true>(geometry, sample, x)
+    x: &Point<D>,
+) -> Result<LossEval<D>, TrackError> {
+    accumulate::<true, true, D>(geometry, sample, x)
 }
 
 /// Number of squared residuals in `f_t` (one per one-way and per bistatic range).

@@ -49,11 +49,12 @@ pub use loss::{LossEval, loss, loss_grad, loss_grad_hess, term_count};
 pub use regret::{Ctte, DynamicRegret, XHat, XHatOptions, regret_term, x_hat};
 pub use walks::{trajectory_eq19, walk_trajectory};
 
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
+use crate::model::linalg::{MatD, lu_solve, sym_eigen};
 use crate::model::measure::{Geometry, SampleMeasurements};
 use serde::{Deserialize, Serialize};
 
-/// A 2x2 matrix (Hessians of `f_t`).
+/// A 2x2 matrix (Hessians of `f_t` in 2-D).
 pub type Mat2 = nalgebra::Matrix2<f64>;
 
 /// Distance below which `x` counts as sitting on a focus, relative to `1 + ||p||_inf`.
@@ -139,9 +140,13 @@ fn one() -> f64 {
     1.0
 }
 
-/// The spectral norm of a symmetric 2 x 2 matrix: its largest eigenvalue in
-/// absolute value, in closed form.
-pub fn sym_norm(h: &Mat2) -> f64 {
+/// The spectral norm of a symmetric `D x D` matrix: its largest eigenvalue in
+/// absolute value (in closed form in 2-D, by [`sym_eigen`] in 3-D).
+pub fn sym_norm<const D: usize>(h: &MatD<D>) -> f64 {
+    if D != 2 {
+        let sym = (h + h.transpose()) * 0.5;
+        return sym_eigen(&sym).map_or(f64::NAN, |(l, _)| l.amax());
+    }
     let (a, b, d) = (h[(0, 0)], 0.5 * (h[(0, 1)] + h[(1, 0)]), h[(1, 1)]);
     let m = 0.5 * (a + d);
     let r = (0.25 * (a - d) * (a - d) + b * b).sqrt();
@@ -268,7 +273,77 @@ impl NewtonDamping {
 /// The Newton displacement `d` (the update is `x - d`) under `damping`, and
 /// whether the Hessian had to be modified; [`TrackError::SingularHessian`] for a
 /// singular Hessian under [`NewtonDamping::Plain`].
-fn newton_displacement(
+fn newton_displacement<const D: usize>(
+    h: &MatD<D>,
+    g: &Point<D>,
+    damping: &NewtonDamping,
+) -> Result<(Point<D>, bool), TrackError> {
+    if D != 2 {
+        return newton_displacement_eigen(h, g, damping);
+    }
+    let h = Mat2::from_fn(|i, j| h[(i, j)]);
+    let g = Vec2::new(g[0], g[1]);
+    let to_d = |v: Vec2| Point::<D>::from_fn(|i, _| v[i]);
+    newton_displacement_2d(&h, &g, damping).map(|(d, damped)| (to_d(d), damped))
+}
+
+/// The floors of `damping`: `(rel_floor, abs_floor)`.
+fn floors(damping: &NewtonDamping) -> (f64, f64) {
+    match *damping {
+        NewtonDamping::AbsEigen {
+            rel_floor,
+            abs_floor,
+        }
+        | NewtonDamping::Plain {
+            rel_floor,
+            abs_floor,
+        }
+        | NewtonDamping::GradientFallback {
+            rel_floor,
+            abs_floor,
+            ..
+        } => (rel_floor, abs_floor),
+    }
+}
+
+/// [`newton_displacement`] in any dimension from the symmetric
+/// eigendecomposition `H = V diag(l) V^T` (the 2-D closed form below is the
+/// same rule).
+fn newton_displacement_eigen<const D: usize>(
+    h: &MatD<D>,
+    g: &Point<D>,
+    damping: &NewtonDamping,
+) -> Result<(Point<D>, bool), TrackError> {
+    let sym = (h + h.transpose()) * 0.5;
+    let (l, v) = sym_eigen(&sym).ok_or(TrackError::NonFiniteResult("Hessian eigenvalues"))?;
+    let (lo, hi) = (l[0], l[D - 1]);
+    let (rel, abs) = floors(damping);
+    let floor = (rel * l.amax()).max(abs);
+    let solve = || lu_solve(&sym, g).ok_or(TrackError::SingularHessian(hi, lo));
+    if lo >= floor {
+        return Ok((solve()?, false));
+    }
+    Ok(match *damping {
+        NewtonDamping::Plain { .. } => {
+            if l.iter().any(|x| x.abs() < floor) {
+                return Err(TrackError::SingularHessian(hi, lo));
+            }
+            (solve()?, false)
+        }
+        NewtonDamping::AbsEigen { .. } => {
+            let mut d = Point::<D>::zeros();
+            for k in 0..D {
+                let vk = v.column(k);
+                d += vk * (vk.dot(g) / l[k].abs().max(floor));
+            }
+            (d, true)
+        }
+        NewtonDamping::GradientFallback { eta, .. } => (g * eta, true),
+    })
+}
+
+/// [`newton_displacement`] for a 2x2 Hessian, in closed form.
+fn newton_displacement_2d(
     h: &Mat2,
     g: &Vec2,
     damping: &NewtonDamping,
@@ -337,33 +412,33 @@ fn newton_displacement(
 
 /// A centralised online tracker: one update per sample. Object safe, so a
 /// coordinator can run a `Vec<Box<dyn Tracker>>` side by side.
-pub trait Tracker: Send {
+pub trait Tracker<const D: usize = 2>: Send {
     /// Short label for logs and CSV columns (e.g. `"ogd"`, `"onm"`).
     fn name(&self) -> &str;
     /// The current estimate `x_t` (`x_0` before the first step).
-    fn estimate(&self) -> Vec2;
+    fn estimate(&self) -> Point<D>;
     /// Restart from `x0`. Errors if `x0` is not finite.
-    fn reset(&mut self, x0: Vec2) -> Result<(), TrackError>;
+    fn reset(&mut self, x0: Point<D>) -> Result<(), TrackError>;
     /// Process sample `t` (1-based): `x_t = update(x_{t-1}, f_t)`, return `x_t`.
     /// On error the estimate is left unchanged.
     fn step(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         t: usize,
-    ) -> Result<Vec2, TrackError>;
+    ) -> Result<Point<D>, TrackError>;
 }
 
-fn check_x0(x0: &Vec2) -> Result<(), TrackError> {
-    if x0.x.is_finite() && x0.y.is_finite() {
+fn check_x0<const D: usize>(x0: &Point<D>) -> Result<(), TrackError> {
+    if x0.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
         Err(TrackError::NonFinite("initial estimate x0"))
     }
 }
 
-fn commit(x: Vec2, what: &'static str) -> Result<Vec2, TrackError> {
-    if x.x.is_finite() && x.y.is_finite() {
+fn commit<const D: usize>(x: Point<D>, what: &'static str) -> Result<Point<D>, TrackError> {
+    if x.iter().all(|v| v.is_finite()) {
         Ok(x)
     } else {
         Err(TrackError::NonFiniteResult(what))
@@ -373,15 +448,15 @@ fn commit(x: Vec2, what: &'static str) -> Result<Vec2, TrackError> {
 /// Online gradient descent, Pun-So 2022 eq. (3):
 /// `x_t = x_{t-1} - eta_t grad f_t(x_{t-1})`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct OgdTracker {
+pub struct OgdTracker<const D: usize = 2> {
     name: String,
-    x: Vec2,
+    x: Point<D>,
     step: StepSize,
 }
 
-impl OgdTracker {
+impl<const D: usize> OgdTracker<D> {
     /// A tracker starting at `x0` (named `"ogd"`).
-    pub fn new(x0: Vec2, step: StepSize) -> Result<Self, TrackError> {
+    pub fn new(x0: Point<D>, step: StepSize) -> Result<Self, TrackError> {
         check_x0(&x0)?;
         step.validate()?;
         Ok(OgdTracker {
@@ -398,16 +473,16 @@ impl OgdTracker {
     }
 }
 
-impl Tracker for OgdTracker {
+impl<const D: usize> Tracker<D> for OgdTracker<D> {
     fn name(&self) -> &str {
         &self.name
     }
 
-    fn estimate(&self) -> Vec2 {
+    fn estimate(&self) -> Point<D> {
         self.x
     }
 
-    fn reset(&mut self, x0: Vec2) -> Result<(), TrackError> {
+    fn reset(&mut self, x0: Point<D>) -> Result<(), TrackError> {
         check_x0(&x0)?;
         self.x = x0;
         Ok(())
@@ -415,10 +490,10 @@ impl Tracker for OgdTracker {
 
     fn step(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         t: usize,
-    ) -> Result<Vec2, TrackError> {
+    ) -> Result<Point<D>, TrackError> {
         if t == 0 {
             return Err(TrackError::ZeroTime);
         }
@@ -442,16 +517,16 @@ impl Tracker for OgdTracker {
 /// [`NewtonDamping`] modification when the Hessian is not safely positive
 /// definite. Never returns a non-finite estimate.
 #[derive(Debug, Clone, PartialEq)]
-pub struct OnmTracker {
+pub struct OnmTracker<const D: usize = 2> {
     name: String,
-    x: Vec2,
+    x: Point<D>,
     damping: NewtonDamping,
     damped_steps: usize,
 }
 
-impl OnmTracker {
+impl<const D: usize> OnmTracker<D> {
     /// A tracker starting at `x0` (named `"onm"`).
-    pub fn new(x0: Vec2, damping: NewtonDamping) -> Result<Self, TrackError> {
+    pub fn new(x0: Point<D>, damping: NewtonDamping) -> Result<Self, TrackError> {
         check_x0(&x0)?;
         damping.validate()?;
         Ok(OnmTracker {
@@ -475,16 +550,16 @@ impl OnmTracker {
     }
 }
 
-impl Tracker for OnmTracker {
+impl<const D: usize> Tracker<D> for OnmTracker<D> {
     fn name(&self) -> &str {
         &self.name
     }
 
-    fn estimate(&self) -> Vec2 {
+    fn estimate(&self) -> Point<D> {
         self.x
     }
 
-    fn reset(&mut self, x0: Vec2) -> Result<(), TrackError> {
+    fn reset(&mut self, x0: Point<D>) -> Result<(), TrackError> {
         check_x0(&x0)?;
         self.x = x0;
         self.damped_steps = 0;
@@ -493,10 +568,10 @@ impl Tracker for OnmTracker {
 
     fn step(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         t: usize,
-    ) -> Result<Vec2, TrackError> {
+    ) -> Result<Point<D>, TrackError> {
         if t == 0 {
             return Err(TrackError::ZeroTime);
         }
@@ -1535,3 +1610,6 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod tests_3d;
