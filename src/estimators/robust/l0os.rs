@@ -6,7 +6,7 @@ use crate::estimators::robust::Estimate;
 use crate::estimators::robust::RobustError;
 use crate::estimators::robust::problem::Problem;
 use crate::estimators::robust::problem::hard_threshold;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::measure::Geometry;
 
 /// Shi 2024 Algorithm 1 (`l0`-norm outlier separation, `l0-OS`): minimise
@@ -29,11 +29,11 @@ use crate::model::measure::Geometry;
 /// which adds `|gamma| / ||e^k - t||` to the weights of `t` in eq. (14) and
 /// drops `p`. With every `gamma >= 0` the update is exactly eq. (14); in all
 /// cases the objective trace is non-increasing (Shi 2024 Sec. III).
-pub fn l0os(
-    geom: &Geometry,
+pub fn l0os<const D: usize>(
+    geom: &Geometry<D>,
     links: &[BistaticLink],
     cfg: &L0osConfig,
-) -> Result<Estimate, RobustError> {
+) -> Result<Estimate<D>, RobustError> {
     let pb = Problem::new(geom, links)?;
     let n = pb.len();
     if cfg.kappa >= n {
@@ -66,7 +66,7 @@ pub fn l0os(
     for k in 0..cfg.max_iter {
         iterations = k + 1;
         // Location update, eq. (14).
-        let mut num = Vec2::zeros();
+        let mut num = Point::<D>::zeros();
         let mut den = 0.0;
         for l in 0..n {
             let (t, r) = (pb.t[l], pb.r[l]);
@@ -85,7 +85,7 @@ pub fn l0os(
             den += wt + wr;
         }
         let e_new = num / den;
-        if !(e_new.x.is_finite() && e_new.y.is_finite()) {
+        if !e_new.iter().all(|v| v.is_finite()) {
             return Err(RobustError::NonFinite {
                 estimator: "l0os",
                 iter: k,

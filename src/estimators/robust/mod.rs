@@ -33,7 +33,7 @@ pub use smooth::{lad, lq_irls, ls};
 
 use serde::{Deserialize, Serialize};
 
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
 use crate::model::measure::{Geometry, SampleMeasurements};
 
 /// One bistatic range `s_{i,j}` through transmitter `tx` and receiver `rx`.
@@ -135,9 +135,9 @@ pub enum RobustError {
 
 /// A position estimate and its diagnostics.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Estimate {
+pub struct Estimate<const D: usize = 2> {
     /// The estimated target position `e`.
-    pub position: Vec2,
+    pub position: Point<D>,
     /// Iterations performed.
     pub iterations: usize,
     /// True if the stopping rule fired before the iteration cap.
@@ -727,3 +727,6 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod tests_3d;

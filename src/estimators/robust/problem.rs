@@ -5,25 +5,28 @@
 use super::Init;
 use crate::estimators::robust::BistaticLink;
 use crate::estimators::robust::RobustError;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::measure::Geometry;
 
 /// The links resolved to sensor positions, validated.
-pub(super) struct Problem {
-    pub(super) t: Vec<Vec2>,
-    pub(super) r: Vec<Vec2>,
+pub(super) struct Problem<const D: usize = 2> {
+    pub(super) t: Vec<Point<D>>,
+    pub(super) r: Vec<Point<D>>,
     pub(super) s: Vec<f64>,
     pub(super) rx: Vec<usize>,
     pub(super) n_rx: usize,
-    pub(super) centroid: Vec2,
+    pub(super) centroid: Point<D>,
     /// RMS distance of the sensors from their centroid (floored).
     pub(super) spread: f64,
     /// Distances below this are clamped (Lemma 1/2 of Shi 2024 divide by them).
     pub(super) dist_floor: f64,
 }
 
-impl Problem {
-    pub(super) fn new(geom: &Geometry, links: &[BistaticLink]) -> Result<Problem, RobustError> {
+impl<const D: usize> Problem<D> {
+    pub(super) fn new(
+        geom: &Geometry<D>,
+        links: &[BistaticLink],
+    ) -> Result<Problem<D>, RobustError> {
         if links.is_empty() {
             return Err(RobustError::NoLinks);
         }
@@ -49,13 +52,13 @@ impl Problem {
                     rx: l.rx,
                     n_rx,
                 })?;
-            if !(tp.x.is_finite() && tp.y.is_finite()) {
+            if !tp.iter().all(|v| v.is_finite()) {
                 return Err(RobustError::NonFiniteSensor {
                     kind: "transmitter",
                     index: l.tx,
                 });
             }
-            if !(rp.x.is_finite() && rp.y.is_finite()) {
+            if !rp.iter().all(|v| v.is_finite()) {
                 return Err(RobustError::NonFiniteSensor {
                     kind: "receiver",
                     index: l.rx,
@@ -70,7 +73,7 @@ impl Problem {
             rx.push(l.rx);
         }
         let n = links.len() as f64;
-        let centroid = (t.iter().sum::<Vec2>() + r.iter().sum::<Vec2>()) / (2.0 * n);
+        let centroid = (t.iter().sum::<Point<D>>() + r.iter().sum::<Point<D>>()) / (2.0 * n);
         let ms = t
             .iter()
             .chain(r.iter())
@@ -105,11 +108,17 @@ impl Problem {
         1e-3 * self.spread
     }
 
-    pub(super) fn init(&self, init: Init) -> Result<Vec2, RobustError> {
+    pub(super) fn init(&self, init: Init) -> Result<Point<D>, RobustError> {
         match init {
+            Init::Point(_) if D != 2 => Err(RobustError::InvalidConfig {
+                key: "init",
+                reason:
+                    "a given point is [x, y]: a 3-D problem starts from \"linear\" or \"centroid\""
+                        .into(),
+            }),
             Init::Point([x, y]) => {
                 if x.is_finite() && y.is_finite() {
-                    Ok(Vec2::new(x, y))
+                    Ok(Point::<D>::from_fn(|i, _| if i == 0 { x } else { y }))
                 } else {
                     Err(RobustError::NonFiniteInit(x, y))
                 }
@@ -123,7 +132,7 @@ impl Problem {
     /// of Mourya 2017 eq. (9), each receiver's `d_j` lifted
     /// ([`crate::estimators::online::lifted_bistatic_ls`], centred on the sensor
     /// centroid). `None` if singular.
-    pub(super) fn linear_init(&self) -> Option<Vec2> {
+    pub(super) fn linear_init(&self) -> Option<Point<D>> {
         let rows = (0..self.len()).map(|l| crate::estimators::online::LiftedRow {
             key: self.rx[l],
             lift: self.r[l],

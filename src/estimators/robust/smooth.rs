@@ -9,7 +9,8 @@ use crate::estimators::robust::BistaticLink;
 use crate::estimators::robust::Estimate;
 use crate::estimators::robust::RobustError;
 use crate::estimators::robust::problem::Problem;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
+use crate::model::linalg::{MatD, sym_eigen};
 use crate::model::measure::Geometry;
 
 /// The loss `phi(r)` of the smooth estimators.
@@ -84,34 +85,72 @@ pub(super) const NEWTON_HALVINGS: usize = 8;
 /// `J_l = -(u_t + u_r)` (unit vectors from the sensors to `e`),
 /// `grad = sum_l phi'(r_l) J_l` and
 /// `H = sum_l phi''(r_l) J_l J_l^T - phi'(r_l) ((I - u_t u_t^T)/d_t + (I - u_r u_r^T)/d_r)`.
-fn newton_step(pb: &Problem, loss: Loss, e: &Vec2, cur: &Dists) -> Option<Vec2> {
+fn newton_step<const D: usize>(
+    pb: &Problem<D>,
+    loss: Loss,
+    e: &Point<D>,
+    cur: &Dists,
+) -> Option<Point<D>> {
     let floor = pb.dist_floor;
-    let (mut h00, mut h01, mut h11, mut g0, mut g1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    // Upper triangle of H, and the gradient.
+    let mut h = MatD::<D>::zeros();
+    let mut g = Point::<D>::zeros();
     for l in 0..pb.len() {
         let (dt, dr) = (cur.t[l], cur.r[l]);
         let (d1, d2) = loss.derivs(pb.s[l] - dt - dr);
-        let mut j = Vec2::zeros();
+        let mut j = Point::<D>::zeros();
         for (p, d) in [(pb.t[l], dt), (pb.r[l], dr)] {
             if d > floor {
                 let u = (e - p) / d;
                 j -= u;
                 // -phi' (I - u u^T) / d: the curvature of the range itself.
                 let c = -d1 / d;
-                h00 += c * (1.0 - u.x * u.x);
-                h01 -= c * u.x * u.y;
-                h11 += c * (1.0 - u.y * u.y);
+                for a in 0..D {
+                    h[(a, a)] += c * (1.0 - u[a] * u[a]);
+                    for b in a + 1..D {
+                        h[(a, b)] -= c * u[a] * u[b];
+                    }
+                }
             }
         }
-        h00 += d2 * j.x * j.x;
-        h01 += d2 * j.x * j.y;
-        h11 += d2 * j.y * j.y;
-        g0 += d1 * j.x;
-        g1 += d1 * j.y;
+        for a in 0..D {
+            for b in a..D {
+                h[(a, b)] += d2 * j[a] * j[b];
+            }
+        }
+        for a in 0..D {
+            g[a] += d1 * j[a];
+        }
     }
-    if !(h00.is_finite() && h01.is_finite() && h11.is_finite() && g0.is_finite() && g1.is_finite())
-    {
+    if !(h.iter().all(|v| v.is_finite()) && g.iter().all(|v| v.is_finite())) {
         return None;
     }
+    if D == 2 {
+        let to_d = |v: Vec2| Point::<D>::from_fn(|i, _| v[i]);
+        return newton_step_2d(h[(0, 0)], h[(0, 1)], h[(1, 1)], g[0], g[1]).map(to_d);
+    }
+    // The saddle-free step from the eigendecomposition of the symmetric H.
+    for a in 0..D {
+        for b in 0..a {
+            h[(a, b)] = h[(b, a)];
+        }
+    }
+    let (l, v) = sym_eigen(&h)?;
+    let floor = 1e-12 * l.amax();
+    if floor.is_nan() || floor <= 0.0 {
+        return None;
+    }
+    let mut step = Point::<D>::zeros();
+    for k in 0..D {
+        let vk = v.column(k);
+        step -= vk * (g.dot(&vk) / l[k].abs().max(floor));
+    }
+    step.iter().all(|c| c.is_finite()).then_some(step)
+}
+
+/// [`newton_step`] in 2-D from `H = [[h00, h01], [h01, h11]]` and `g`, with
+/// the eigendecomposition in closed form.
+fn newton_step_2d(h00: f64, h01: f64, h11: f64, g0: f64, g1: f64) -> Option<Vec2> {
     // Eigen-decomposition of the symmetric 2x2 H; each eigen-direction is
     // scaled by 1/|lambda| (the saddle-free Newton step), so a direction of
     // negative curvature is followed downhill instead of uphill.
@@ -161,7 +200,12 @@ impl Dists {
     }
 
     /// Fill the distances at `e` and return the objective `sum_l phi(r_l(e))`.
-    pub(super) fn eval(&mut self, pb: &Problem, loss: Loss, e: &Vec2) -> f64 {
+    pub(super) fn eval<const D: usize>(
+        &mut self,
+        pb: &Problem<D>,
+        loss: Loss,
+        e: &Point<D>,
+    ) -> f64 {
         let mut f = 0.0;
         for l in 0..pb.len() {
             self.t[l] = (e - pb.t[l]).norm();
@@ -185,14 +229,14 @@ impl Dists {
 /// along which both of those steps shrink to ~`eps` (a `lad` instance took
 /// 1625 iterations), so the exact saddle-free Newton step of
 /// `newton_step` is tried as well and taken where it is lower still.
-pub(super) fn smooth_solve(
-    pb: &Problem,
+pub(super) fn smooth_solve<const D: usize>(
+    pb: &Problem<D>,
     loss: Loss,
     init: Init,
     max_iter: usize,
     tol: f64,
     name: &'static str,
-) -> Result<Estimate, RobustError> {
+) -> Result<Estimate<D>, RobustError> {
     check_tol("tol", tol)?;
     let n = pb.len();
     let mut e = pb.init(init)?;
@@ -216,9 +260,14 @@ pub(super) fn smooth_solve(
     let mut iterations = 0;
     for k in 0..max_iter {
         iterations = k + 1;
-        let [h00, h01, h11, g0, g1] = weighted_normal_equations(pb, loss, &e, &cur);
-        let scale = 0.5 * (h00 + h11);
-        if !(scale.is_finite() && g0.is_finite() && g1.is_finite()) {
+        let (h, g) = weighted_normal_equations(pb, loss, &e, &cur);
+        // The mean eigenvalue of H.
+        let mut tr = h[(0, 0)];
+        for i in 1..D {
+            tr += h[(i, i)];
+        }
+        let scale = tr / D as f64;
+        if !(scale.is_finite() && g.iter().all(|v| v.is_finite())) {
             return Err(RobustError::NonFinite {
                 estimator: name,
                 iter: k,
@@ -228,11 +277,7 @@ pub(super) fn smooth_solve(
             converged = true;
             break;
         }
-        let damped = Damped {
-            h: [h00, h01, h11],
-            g: [g0, g1],
-            scale,
-        };
+        let damped = Damped { h, g, scale };
         let accepted = damped.step(pb, loss, (&e, f), &mut lambda, [&mut cand, &mut scratch]);
         let Some((mut e_new, mut f_new, mut step)) = accepted else {
             // No decrease possible at this precision: a stationary point.
@@ -298,15 +343,21 @@ pub(super) fn smooth_solve(
     })
 }
 
-/// The IRLS normal equations at `e` (distances `cur`): `[H00, H01, H11,
-/// g0, g1]`, the sums over the links of `w J J^T` and `w J r` with `J` the
+/// The IRLS normal equations at `e` (distances `cur`): the upper triangle of
+/// `H` and `g`, the sums over the links of `w J J^T` and `w J r` with `J` the
 /// gradient of the link's range and `w` the loss's weight of its residual.
-fn weighted_normal_equations(pb: &Problem, loss: Loss, e: &Vec2, cur: &Dists) -> [f64; 5] {
+fn weighted_normal_equations<const D: usize>(
+    pb: &Problem<D>,
+    loss: Loss,
+    e: &Point<D>,
+    cur: &Dists,
+) -> (MatD<D>, Point<D>) {
     let floor = pb.dist_floor;
-    let (mut h00, mut h01, mut h11, mut g0, mut g1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let mut h = MatD::<D>::zeros();
+    let mut g = Point::<D>::zeros();
     for l in 0..pb.len() {
         let (dt, dr) = (cur.t[l], cur.r[l]);
-        let mut j = Vec2::zeros();
+        let mut j = Point::<D>::zeros();
         if dt > floor {
             j -= (e - pb.t[l]) / dt;
         }
@@ -315,24 +366,48 @@ fn weighted_normal_equations(pb: &Problem, loss: Loss, e: &Vec2, cur: &Dists) ->
         }
         let r = pb.s[l] - dt - dr;
         let w = loss.eval(r).1;
-        h00 += w * j.x * j.x;
-        h01 += w * j.x * j.y;
-        h11 += w * j.y * j.y;
-        g0 += w * j.x * r;
-        g1 += w * j.y * r;
+        for a in 0..D {
+            for b in a..D {
+                h[(a, b)] += w * j[a] * j[b];
+            }
+        }
+        for a in 0..D {
+            g[a] += w * j[a] * r;
+        }
     }
-    [h00, h01, h11, g0, g1]
+    (h, g)
 }
 
 /// The Levenberg-Marquardt step of one IRLS iteration: the normal equations
-/// `h` (`H00, H01, H11`) and `g`, damped by `lambda` times `scale`.
-struct Damped {
-    h: [f64; 3],
-    g: [f64; 2],
+/// `h` (upper triangle) and `g`, damped by `lambda` times `scale`.
+struct Damped<const D: usize> {
+    h: MatD<D>,
+    g: Point<D>,
     scale: f64,
 }
 
-impl Damped {
+impl<const D: usize> Damped<D> {
+    /// The step `-(H + d I)^{-1} g`, `None` unless `H + d I` is positive
+    /// definite (in closed form in 2-D, by Cholesky otherwise).
+    fn solve(&self, d: f64) -> Option<Point<D>> {
+        if D == 2 {
+            let (h00, h01, h11) = (self.h[(0, 0)], self.h[(0, 1)], self.h[(1, 1)]);
+            let (g0, g1) = (self.g[0], self.g[1]);
+            let (a00, a11) = (h00 + d, h11 + d);
+            let det = a00 * a11 - h01 * h01;
+            if det > 0.0 {
+                let step = [-(a11 * g0 - h01 * g1) / det, -(a00 * g1 - h01 * g0) / det];
+                return Some(Point::<D>::from_fn(|i, _| step[i]));
+            }
+            return None;
+        }
+        let a = MatD::<D>::from_fn(|i, j| {
+            let v = self.h[(i.min(j), i.max(j))];
+            if i == j { v + d } else { v }
+        });
+        a.cholesky().map(|c| -c.solve(&self.g))
+    }
+
     /// The first damped step from `e` (objective `f`) that lowers the
     /// objective, raising `lambda` eightfold after each one that does not
     /// (at most 60 tries, `lambda` up to 1e16): the new point, its objective
@@ -340,20 +415,16 @@ impl Damped {
     /// scratch). `None`: no decrease at this precision.
     fn step(
         &self,
-        pb: &Problem,
+        pb: &Problem<D>,
         loss: Loss,
-        (e, f): (&Vec2, f64),
+        (e, f): (&Point<D>, f64),
         lambda: &mut f64,
         dists: [&mut Dists; 2],
-    ) -> Option<(Vec2, f64, Vec2)> {
+    ) -> Option<(Point<D>, f64, Point<D>)> {
         let [cand, scratch] = dists;
-        let ([h00, h01, h11], [g0, g1]) = (self.h, self.g);
         for _ in 0..60 {
             let d = *lambda * self.scale;
-            let (a00, a11) = (h00 + d, h11 + d);
-            let det = a00 * a11 - h01 * h01;
-            if det > 0.0 {
-                let step = Vec2::new(-(a11 * g0 - h01 * g1) / det, -(a00 * g1 - h01 * g0) / det);
+            if let Some(step) = self.solve(d) {
                 let e_try = e + step;
                 let f_try = scratch.eval(pb, loss, &e_try);
                 if f_try < f {
@@ -385,11 +456,11 @@ pub(super) fn check_eps(eps: f64) -> Result<(), RobustError> {
 /// competitor of Sec. IV, `q = 1.5`): minimise
 /// `sum_l (r_l^2 + eps^2)^{q/2}`, `r_l = s_l - ||e - t_l|| - ||e - r_l||`,
 /// by IRLS (see the module docs). `q` must lie in `(1, 2)`.
-pub fn lq_irls(
-    geom: &Geometry,
+pub fn lq_irls<const D: usize>(
+    geom: &Geometry<D>,
     links: &[BistaticLink],
     cfg: &IrlsConfig,
-) -> Result<Estimate, RobustError> {
+) -> Result<Estimate<D>, RobustError> {
     if !(cfg.q > 1.0 && cfg.q < 2.0) {
         return Err(RobustError::InvalidConfig {
             key: "q",
@@ -409,11 +480,11 @@ pub fn lq_irls(
 
 /// Least absolute deviations (Shi 2024 eq. (4), `q = 1`), smoothed as
 /// `sum_l sqrt(r_l^2 + eps^2)` and solved by IRLS. `cfg.q` is ignored.
-pub fn lad(
-    geom: &Geometry,
+pub fn lad<const D: usize>(
+    geom: &Geometry<D>,
     links: &[BistaticLink],
     cfg: &IrlsConfig,
-) -> Result<Estimate, RobustError> {
+) -> Result<Estimate<D>, RobustError> {
     check_eps(cfg.epsilon)?;
     let pb = Problem::new(geom, links)?;
     let loss = Loss::Abs {
@@ -424,11 +495,11 @@ pub fn lad(
 
 /// Nonlinear least squares of the bistatic ranges, Shi 2024 eq. (3), by
 /// Levenberg-damped Gauss-Newton from `cfg.init`. A local minimiser.
-pub fn ls(
-    geom: &Geometry,
+pub fn ls<const D: usize>(
+    geom: &Geometry<D>,
     links: &[BistaticLink],
     cfg: &LsConfig,
-) -> Result<Estimate, RobustError> {
+) -> Result<Estimate<D>, RobustError> {
     let pb = Problem::new(geom, links)?;
     smooth_solve(&pb, Loss::Square, cfg.init, cfg.max_iter, cfg.tol, "ls")
 }
