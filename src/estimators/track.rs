@@ -401,8 +401,12 @@ impl SampleSolver for RobustSolver {
 
 /// One-way and bistatic range sets of a sample as discs and ellipses,
 /// enlarged by `rho` (Gholami 2015 Remark 4): the feasible set of the bounds and
-/// of POCS. DOAs are not used.
-pub fn regions_of(geometry: &Geometry, sample: &SampleMeasurements, rho: f64) -> Vec<Region> {
+/// of POCS (balls and spheroids in 3-D). DOAs are not used.
+pub fn regions_of<const D: usize>(
+    geometry: &Geometry<D>,
+    sample: &SampleMeasurements,
+    rho: f64,
+) -> Vec<Region<D>> {
     let mut out = Vec::new();
     for (n, node) in sample.nodes.iter().enumerate() {
         let Some(&r) = geometry.receivers.get(n) else {

@@ -6,13 +6,13 @@
 
 use super::BoundError;
 use super::region::Region;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 
 /// Result of [`pocs`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PocsResult {
+pub struct PocsResult<const D: usize = 2> {
     /// Last iterate.
-    pub x: Vec2,
+    pub x: Point<D>,
     /// Number of projections performed.
     pub iterations: usize,
     /// True when every region is within `tol` of `x` (Euclidean distance).
@@ -28,16 +28,16 @@ pub struct PocsResult {
 /// Errors: [`BoundError::NonFinite`] for non-finite input or `tol`,
 /// [`BoundError::NoRegions`] for an empty slice. A region that is itself
 /// empty makes the set empty: the result is `x0` with `feasible = false`.
-pub fn pocs(
-    regions: &[Region],
-    x0: Vec2,
+pub fn pocs<const D: usize>(
+    regions: &[Region<D>],
+    x0: Point<D>,
     max_iter: usize,
     tol: f64,
-) -> Result<PocsResult, BoundError> {
+) -> Result<PocsResult<D>, BoundError> {
     if regions.is_empty() {
         return Err(BoundError::NoRegions);
     }
-    if !(x0.x.is_finite() && x0.y.is_finite() && tol.is_finite())
+    if !(x0.iter().all(|v| v.is_finite()) && tol.is_finite())
         || regions.iter().any(|r| !r.is_finite())
     {
         return Err(BoundError::NonFinite);
@@ -53,7 +53,7 @@ pub fn pocs(
     let mut iterations = 0;
     loop {
         // Farthest region and its projection.
-        let mut far: Option<(f64, Vec2)> = None;
+        let mut far: Option<(f64, Point<D>)> = None;
         for r in regions {
             // Nonempty regions always project.
             let Some(p) = r.project(&x) else { continue };
@@ -91,6 +91,7 @@ pub fn pocs(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::geometry::Vec2;
 
     #[test]
     fn pocs_reaches_a_point_of_a_nonempty_intersection() {

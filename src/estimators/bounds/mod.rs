@@ -53,6 +53,8 @@ mod solve;
 mod exact_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_3d;
 
 pub use estimators::{PocsResult, pocs};
 pub use region::{Quadratic, Region};

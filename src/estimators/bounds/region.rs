@@ -1,31 +1,37 @@
 //! Feasible-set pieces: discs (one-way ranges) and ellipses (bistatic ranges),
 //! their exact Euclidean projections, axis-aligned bounding boxes and
-//! standard-form quadratics.
+//! standard-form quadratics; in 3-D balls and prolate spheroids.
+//!
+//! A spheroid is an ellipse turned about its focal axis, so every question
+//! about it is the ellipse's question in the plane through the axis and the
+//! point asked about: its projection is the ellipse's projection in the
+//! coordinates (along the axis, distance from the axis).
 
-use crate::model::geometry::Vec2;
-use nalgebra::Matrix2;
+use crate::model::geometry::Point;
+use crate::model::linalg::MatD;
 
 /// One convex piece of the feasible set of Gholami 2015 eq. (12)-(13), extended to
 /// bistatic ranges. A position `x` that produced a range with a nonnegative error
 /// lies in the piece (Gholami 2015 Sec. 4; Remark 4 for the enlargement `rho`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Region {
-    /// One-way range: `||x - center|| <= radius` (a disc, Gholami 2015 eq. (12)).
-    /// A negative radius is an empty set.
+pub enum Region<const D: usize = 2> {
+    /// One-way range: `||x - center|| <= radius` (a disc, Gholami 2015 eq. (12);
+    /// a ball in 3-D). A negative radius is an empty set.
     Disc {
         /// Anchor (receiver) position.
-        center: Vec2,
+        center: Point<D>,
         /// Enlarged measured range `d^_i + rho_i` (Gholami 2015 eq. (20)).
         radius: f64,
     },
-    /// Bistatic range: `||x - f1|| + ||x - f2|| <= sum`, a filled ellipse with foci
-    /// `f1` (transmitter) and `f2` (receiver). `sum < ||f1 - f2||` is empty and
-    /// `sum == ||f1 - f2||` is the segment `[f1, f2]`.
+    /// Bistatic range: `||x - f1|| + ||x - f2|| <= sum`, a filled ellipse (a
+    /// prolate spheroid in 3-D) with foci `f1` (transmitter) and `f2`
+    /// (receiver). `sum < ||f1 - f2||` is empty and `sum == ||f1 - f2||` is
+    /// the segment `[f1, f2]`.
     Ellipse {
         /// Transmitter position.
-        f1: Vec2,
+        f1: Point<D>,
         /// Receiver position.
-        f2: Vec2,
+        f2: Point<D>,
         /// Enlarged measured bistatic range.
         sum: f64,
     },
@@ -34,18 +40,18 @@ pub enum Region {
 /// A quadratic constraint in the standard form `x^T P x + 2 q^T x + r <= 0`
 /// used by the QCQP (1) and its SDP relaxation (2) of Gholami 2015.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Quadratic {
+pub struct Quadratic<const D: usize = 2> {
     /// Symmetric matrix `P` (here always positive semidefinite).
-    pub p: Matrix2<f64>,
+    pub p: MatD<D>,
     /// Linear part `q` (the constraint has `2 q^T x`).
-    pub q: Vec2,
+    pub q: Point<D>,
     /// Constant `r`.
     pub r: f64,
 }
 
-impl Quadratic {
+impl<const D: usize> Quadratic<D> {
     /// `x^T P x + 2 q^T x + r`.
-    pub fn eval(&self, x: &Vec2) -> f64 {
+    pub fn eval(&self, x: &Point<D>) -> f64 {
         x.dot(&(self.p * x)) + 2.0 * self.q.dot(x) + self.r
     }
 }
@@ -56,16 +62,16 @@ const SEGMENT_RATIO: f64 = 1e-12;
 
 /// Centre, unit major axis and semi-axes of a nonempty ellipse.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct EllipseGeom {
-    pub c: Vec2,
-    pub u: Vec2,
+pub(crate) struct EllipseGeom<const D: usize = 2> {
+    pub c: Point<D>,
+    pub u: Point<D>,
     pub a: f64,
     pub b: f64,
 }
 
-impl EllipseGeom {
+impl<const D: usize> EllipseGeom<D> {
     /// `None` when `sum < ||f1 - f2||` (empty).
-    pub(crate) fn new(f1: &Vec2, f2: &Vec2, sum: f64) -> Option<Self> {
+    pub(crate) fn new(f1: &Point<D>, f2: &Point<D>, sum: f64) -> Option<Self> {
         let d = f2 - f1;
         let dist = d.norm();
         if sum < dist {
@@ -74,7 +80,7 @@ impl EllipseGeom {
         let u = if dist > 0.0 {
             d / dist
         } else {
-            Vec2::new(1.0, 0.0)
+            Point::<D>::from_fn(|i, _| if i == 0 { 1.0 } else { 0.0 })
         };
         let a = 0.5 * sum;
         let e = 0.5 * dist;
@@ -88,8 +94,13 @@ impl EllipseGeom {
         })
     }
 
-    fn perp(&self) -> Vec2 {
-        Vec2::new(-self.u.y, self.u.x)
+    /// The unit normal of the major axis in 2-D (`u` turned a quarter).
+    fn perp(&self) -> Point<D> {
+        Point::<D>::from_fn(|i, _| match i {
+            0 => -self.u[1],
+            1 => self.u[0],
+            _ => 0.0,
+        })
     }
 
     fn is_segment(&self) -> bool {
@@ -97,21 +108,21 @@ impl EllipseGeom {
     }
 }
 
-impl Region {
+impl<const D: usize> Region<D> {
     /// Disc `||x - center|| <= radius`.
-    pub fn disc(center: Vec2, radius: f64) -> Self {
+    pub fn disc(center: Point<D>, radius: f64) -> Self {
         Region::Disc { center, radius }
     }
 
     /// Ellipse `||x - f1|| + ||x - f2|| <= sum`.
-    pub fn ellipse(f1: Vec2, f2: Vec2, sum: f64) -> Self {
+    pub fn ellipse(f1: Point<D>, f2: Point<D>, sum: f64) -> Self {
         Region::Ellipse { f1, f2, sum }
     }
 
     /// Disc from a one-way range measured at `anchor`, enlarged by `rho >= 0`
     /// (Gholami 2015 Remark 4, eq. (19)-(21): `d~ = d^ + rho` bounds the true range
     /// when the error is at least `-rho`).
-    pub fn from_range(anchor: Vec2, measured: f64, rho: f64) -> Self {
+    pub fn from_range(anchor: Point<D>, measured: f64, rho: f64) -> Self {
         Region::Disc {
             center: anchor,
             radius: measured + rho,
@@ -120,7 +131,7 @@ impl Region {
 
     /// Ellipse from a bistatic range `||x - tx|| + ||x - rx||` measured with an
     /// error of at least `-rho` (Gholami 2015 Remark 4 applied to the range sum).
-    pub fn from_bistatic(tx: Vec2, rx: Vec2, measured: f64, rho: f64) -> Self {
+    pub fn from_bistatic(tx: Point<D>, rx: Point<D>, measured: f64, rho: f64) -> Self {
         Region::Ellipse {
             f1: tx,
             f2: rx,
@@ -132,14 +143,10 @@ impl Region {
     pub fn is_finite(&self) -> bool {
         match self {
             Region::Disc { center, radius } => {
-                center.x.is_finite() && center.y.is_finite() && radius.is_finite()
+                center.iter().all(|v| v.is_finite()) && radius.is_finite()
             }
             Region::Ellipse { f1, f2, sum } => {
-                f1.x.is_finite()
-                    && f1.y.is_finite()
-                    && f2.x.is_finite()
-                    && f2.y.is_finite()
-                    && sum.is_finite()
+                f1.iter().chain(f2.iter()).all(|v| v.is_finite()) && sum.is_finite()
             }
         }
     }
@@ -157,7 +164,7 @@ impl Region {
     /// `(||x - f1|| + ||x - f2|| - sum) / 2` for an ellipse. It is `<= 0`
     /// exactly on the region and never exceeds the distance to the region
     /// (both terms are 1-Lipschitz).
-    pub fn violation(&self, x: &Vec2) -> f64 {
+    pub fn violation(&self, x: &Point<D>) -> f64 {
         match self {
             Region::Disc { center, radius } => (x - center).norm() - radius,
             Region::Ellipse { f1, f2, sum } => 0.5 * ((x - f1).norm() + (x - f2).norm() - sum),
@@ -165,14 +172,14 @@ impl Region {
     }
 
     /// `violation(x) <= tol`.
-    pub fn contains(&self, x: &Vec2, tol: f64) -> bool {
+    pub fn contains(&self, x: &Point<D>, tol: f64) -> bool {
         self.violation(x) <= tol
     }
 
     /// Euclidean projection `P_B(x)` of Gholami 2015 eq. (17)-(18); `None` when the
     /// region is empty. For an ellipse outside point the exact nearest boundary
     /// point is found from the 1-D secular equation (safeguarded Newton).
-    pub fn project(&self, x: &Vec2) -> Option<Vec2> {
+    pub fn project(&self, x: &Point<D>) -> Option<Point<D>> {
         match self {
             Region::Disc { center, radius } => {
                 if *radius < 0.0 {
@@ -194,30 +201,36 @@ impl Region {
     }
 
     /// Euclidean distance to the region (`None` when empty).
-    pub fn distance(&self, x: &Vec2) -> Option<f64> {
+    pub fn distance(&self, x: &Point<D>) -> Option<f64> {
         self.project(x).map(|p| (x - p).norm())
     }
 
     /// Axis-aligned bounding box `(lo, hi)` of the region (`None` when empty):
     /// for a disc the l-infinity ball of Gholami 2015 Sec. 5.2.3, for an ellipse
     /// with semi-axes `a` (along unit `u`) and `b` the half-widths
-    /// `sqrt(a^2 u_x^2 + b^2 u_y^2)` and `sqrt(a^2 u_y^2 + b^2 u_x^2)`.
-    pub fn aabb(&self) -> Option<(Vec2, Vec2)> {
+    /// `sqrt(a^2 u_x^2 + b^2 u_y^2)` and `sqrt(a^2 u_y^2 + b^2 u_x^2)`; for a
+    /// spheroid `sqrt(a^2 u_i^2 + b^2 (1 - u_i^2))` along axis `i`.
+    pub fn aabb(&self) -> Option<(Point<D>, Point<D>)> {
         match self {
             Region::Disc { center, radius } => {
                 if *radius < 0.0 {
                     return None;
                 }
-                let h = Vec2::new(*radius, *radius);
+                let h = Point::<D>::repeat(*radius);
                 Some((center - h, center + h))
             }
             Region::Ellipse { f1, f2, sum } => {
                 let g = EllipseGeom::new(f1, f2, *sum)?;
                 let (a2, b2) = (g.a * g.a, g.b * g.b);
-                let h = Vec2::new(
-                    (a2 * g.u.x * g.u.x + b2 * g.u.y * g.u.y).sqrt(),
-                    (a2 * g.u.y * g.u.y + b2 * g.u.x * g.u.x).sqrt(),
-                );
+                let u = g.u;
+                let h = Point::<D>::from_fn(|i, _| {
+                    if D == 2 {
+                        let (ui, uj) = (u[i], u[1 - i]);
+                        (a2 * ui * ui + b2 * uj * uj).sqrt()
+                    } else {
+                        (a2 * u[i] * u[i] + b2 * (1.0 - u[i] * u[i]).max(0.0)).sqrt()
+                    }
+                });
                 Some((g.c - h, g.c + h))
             }
         }
@@ -228,14 +241,15 @@ impl Region {
     /// eq. (25)). An ellipse with centre `c`, unit major axis `u`, `u_perp`,
     /// semi-axes `a = sum/2`, `b = sqrt(a^2 - ||f1 - f2||^2/4)` is
     /// `((x-c).u)^2 / a^2 + ((x-c).u_perp)^2 / b^2 <= 1`; multiplied by `b^2`:
-    /// `P = (b^2/a^2) u u^T + u_perp u_perp^T`, `q = -P c`, `r = c^T P c - b^2`.
+    /// `P = (b^2/a^2) u u^T + u_perp u_perp^T`, `q = -P c`, `r = c^T P c - b^2`
+    /// (in 3-D `u_perp u_perp^T` is `I - u u^T`, a spheroid).
     /// Each ellipse also yields the redundant circumscribed disc
     /// `||x - c|| <= a`, which keeps thin ellipses well conditioned and makes
     /// the segment case (`b = 0`, line `((x-c).u_perp)^2 <= 0` plus that disc)
     /// exact.
-    pub fn quadratics(&self) -> Option<Vec<Quadratic>> {
-        let disc = |c: &Vec2, r: f64| Quadratic {
-            p: Matrix2::identity(),
+    pub fn quadratics(&self) -> Option<Vec<Quadratic<D>>> {
+        let disc = |c: &Point<D>, r: f64| Quadratic {
+            p: MatD::<D>::identity(),
             q: -c,
             r: c.norm_squared() - r * r,
         };
@@ -248,9 +262,15 @@ impl Region {
             }
             Region::Ellipse { f1, f2, sum } => {
                 let g = EllipseGeom::new(f1, f2, *sum)?;
-                let v = g.perp();
                 let ratio = if g.a > 0.0 { (g.b / g.a).powi(2) } else { 1.0 };
-                let p = g.u * g.u.transpose() * ratio + v * v.transpose();
+                let uu = g.u * g.u.transpose();
+                let normal = if D == 2 {
+                    let v = g.perp();
+                    v * v.transpose()
+                } else {
+                    MatD::<D>::identity() - uu
+                };
+                let p = uu * ratio + normal;
                 let pc = p * g.c;
                 let ell = Quadratic {
                     p,
@@ -271,7 +291,7 @@ impl Region {
     }
 
     /// The region in the frame `y = (x - c0) / l`.
-    pub(crate) fn to_frame(self, c0: &Vec2, l: f64) -> Self {
+    pub(crate) fn to_frame(self, c0: &Point<D>, l: f64) -> Self {
         match self {
             Region::Disc { center, radius } => Region::Disc {
                 center: (center - c0) / l,
@@ -287,7 +307,7 @@ impl Region {
 }
 
 /// Projection onto the segment `[p0, p1]`.
-fn project_segment(p0: &Vec2, p1: &Vec2, x: &Vec2) -> Vec2 {
+fn project_segment<const D: usize>(p0: &Point<D>, p1: &Point<D>, x: &Point<D>) -> Point<D> {
     let d = p1 - p0;
     let dd = d.norm_squared();
     if dd <= 0.0 {
@@ -297,13 +317,28 @@ fn project_segment(p0: &Vec2, p1: &Vec2, x: &Vec2) -> Vec2 {
     p0 + d * t
 }
 
-/// Exact projection onto a filled ellipse (nonempty).
-fn project_ellipse(g: &EllipseGeom, f1: &Vec2, f2: &Vec2, x: &Vec2) -> Vec2 {
+/// Exact projection onto a filled ellipse or spheroid (nonempty). In 3-D the
+/// point's plane through the axis holds its nearest point: the ellipse's
+/// projection there, with `v` the unit direction from the axis to the point
+/// (any normal of the axis when the point is on it, where the vertex or the
+/// point itself is the answer).
+fn project_ellipse<const D: usize>(
+    g: &EllipseGeom<D>,
+    f1: &Point<D>,
+    f2: &Point<D>,
+    x: &Point<D>,
+) -> Point<D> {
     if g.is_segment() {
         return project_segment(f1, f2, x);
     }
-    let v = g.perp();
     let d = x - g.c;
+    let v = if D == 2 {
+        g.perp()
+    } else {
+        let w = d - g.u * d.dot(&g.u);
+        let n = w.norm();
+        if n > 0.0 { w / n } else { Point::<D>::zeros() }
+    };
     let (y0, y1) = (d.dot(&g.u), d.dot(&v));
     let (e0, e1) = (g.a, g.b);
     let (z0, z1) = (y0 / e0, y1 / e1);
@@ -369,6 +404,7 @@ fn project_ellipse_quadrant(e0: f64, e1: f64, y0: f64, y1: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::geometry::Vec2;
     use crate::model::rng::SonarRng;
     use rand::{RngExt, SeedableRng};
 
