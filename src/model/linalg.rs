@@ -74,6 +74,20 @@ pub fn sym_eigen<const D: usize>(a: &MatD<D>) -> Option<(Point<D>, MatD<D>)> {
     }
 }
 
+/// The eigenvalues of the symmetric `a` in nalgebra's order (its
+/// `symmetric_eigenvalues`, reading the lower triangle).
+pub fn sym_eigenvalues<const D: usize>(a: &MatD<D>) -> Option<Point<D>> {
+    match D {
+        2 => Some(back_vec(
+            sized::<2, D>(a).symmetric_eigenvalues().as_slice(),
+        )),
+        3 => Some(back_vec(
+            sized::<3, D>(a).symmetric_eigenvalues().as_slice(),
+        )),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -60,7 +60,7 @@ pub use estimators::{PocsResult, pocs};
 pub use region::{Quadratic, Region};
 pub use sdp::{SdpEstimate, sdp_toa};
 
-use crate::model::geometry::Vec2;
+use crate::model::geometry::{Point, Vec2};
 
 /// Result of a bound: a number, or the statement that the feasible set is empty
 /// (no position is consistent with the measurements; no bound is meaningful).
@@ -103,14 +103,14 @@ pub enum BoundError {
 
 /// An axis-aligned box `[lo, hi]` containing the feasible set.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AxisBox {
+pub struct AxisBox<const D: usize = 2> {
     /// Lower corner.
-    pub lo: Vec2,
+    pub lo: Point<D>,
     /// Upper corner.
-    pub hi: Vec2,
+    pub hi: Point<D>,
 }
 
-impl AxisBox {
+impl<const D: usize> AxisBox<D> {
     /// Diagonal length `sqrt(sum_l (hi_l - lo_l)^2)`: the paper's bound on the
     /// maximum length of the set (Gholami 2015 eq. (49) and (54)).
     pub fn diagonal(&self) -> f64 {
@@ -118,38 +118,39 @@ impl AxisBox {
     }
 
     /// `max_{x in box} ||x - p||`, attained at the farthest corner.
-    pub fn farthest_corner(&self, p: &Vec2) -> f64 {
-        let dx = (p.x - self.lo.x).abs().max((self.hi.x - p.x).abs());
-        let dy = (p.y - self.lo.y).abs().max((self.hi.y - p.y).abs());
-        dx.hypot(dy)
+    pub fn farthest_corner(&self, p: &Point<D>) -> f64 {
+        let far =
+            Point::<D>::from_fn(|i, _| (p[i] - self.lo[i]).abs().max((self.hi[i] - p[i]).abs()));
+        if D == 2 {
+            far[0].hypot(far[1])
+        } else {
+            far.norm()
+        }
     }
 
     /// True when `p` is in the box enlarged by `tol`.
-    pub fn contains(&self, p: &Vec2, tol: f64) -> bool {
-        p.x >= self.lo.x - tol
-            && p.x <= self.hi.x + tol
-            && p.y >= self.lo.y - tol
-            && p.y <= self.hi.y + tol
+    pub fn contains(&self, p: &Point<D>, tol: f64) -> bool {
+        (0..D).all(|i| p[i] >= self.lo[i] - tol && p[i] <= self.hi[i] + tol)
     }
 }
 
 /// A disc `||x - center|| <= radius` containing the feasible set.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ball {
+pub struct Ball<const D: usize = 2> {
     /// Centre `x_c` (Gholami 2015 eq. (42) for discs).
-    pub center: Vec2,
+    pub center: Point<D>,
     /// Radius `R` (Gholami 2015 eq. (44)).
     pub radius: f64,
 }
 
-impl Ball {
+impl<const D: usize> Ball<D> {
     /// `2R`, the paper's Upp-MinBall bound on the maximum length (eq. (44)).
     pub fn diameter(&self) -> f64 {
         2.0 * self.radius
     }
 
     /// `R + ||p - x_c||`, a bound on `||x - p||` for every `x` in the ball.
-    pub fn bound(&self, p: &Vec2) -> f64 {
+    pub fn bound(&self, p: &Point<D>) -> f64 {
         self.radius + (p - self.center).norm()
     }
 }
@@ -161,21 +162,21 @@ const FEAS_TOL: f64 = 1e-7;
 /// normalised frame used for every solve. Build it once and query several
 /// bounds to pay for the emptiness check once.
 #[derive(Debug, Clone)]
-pub struct Intersection {
-    regions: Vec<Region>,
+pub struct Intersection<const D: usize = 2> {
+    regions: Vec<Region<D>>,
     /// Regions in the frame `y = (x - origin) / scale`.
-    local: Vec<Region>,
-    origin: Vec2,
+    local: Vec<Region<D>>,
+    origin: Point<D>,
     scale: f64,
-    relaxed: AxisBox,
-    witness: Vec2,
+    relaxed: AxisBox<D>,
+    witness: Point<D>,
 }
 
-impl Intersection {
+impl<const D: usize> Intersection<D> {
     /// Check the regions and decide emptiness. `Ok(None)` when the intersection
     /// is empty: a region is itself empty, the per-region boxes do not meet, or
     /// the min-max-violation SOCP gives `t* > 1e-7` (frame units).
-    pub fn new(regions: &[Region]) -> Result<Option<Self>, BoundError> {
+    pub fn new(regions: &[Region<D>]) -> Result<Option<Self>, BoundError> {
         if regions.is_empty() {
             return Err(BoundError::NoRegions);
         }
@@ -191,7 +192,7 @@ impl Intersection {
         if !scale.is_finite() || scale <= 0.0 {
             scale = 1.0;
         }
-        let local: Vec<Region> = regions.iter().map(|r| r.to_frame(&origin, scale)).collect();
+        let local: Vec<Region<D>> = regions.iter().map(|r| r.to_frame(&origin, scale)).collect();
         let (t, w) = solve::min_max_violation(&local)?;
         if t > FEAS_TOL {
             return Ok(None);
@@ -207,39 +208,39 @@ impl Intersection {
     }
 
     /// The regions.
-    pub fn regions(&self) -> &[Region] {
+    pub fn regions(&self) -> &[Region<D>] {
         &self.regions
     }
 
     /// A point minimising the largest violation (in the set up to ~1e-7 of
     /// the relaxed box half-width).
-    pub fn witness(&self) -> Vec2 {
+    pub fn witness(&self) -> Point<D> {
         self.witness
     }
 
-    fn to_local(&self, x: &Vec2) -> Vec2 {
+    fn to_local(&self, x: &Point<D>) -> Point<D> {
         (x - self.origin) / self.scale
     }
 
-    fn to_world(&self, y: &Vec2) -> Vec2 {
+    fn to_world(&self, y: &Point<D>) -> Point<D> {
         self.origin + y * self.scale
     }
 
     /// Intersection of the per-region bounding boxes, Gholami 2015 eq. (53).
-    pub fn relaxed_box(&self) -> AxisBox {
+    pub fn relaxed_box(&self) -> AxisBox<D> {
         self.relaxed
     }
 
     /// Exact bounding box of the set, Gholami 2015 eq. (48a)-(48b) (`None` if the
     /// solver finds the set empty).
-    pub fn bounding_box(&self) -> Result<Option<AxisBox>, BoundError> {
+    pub fn bounding_box(&self) -> Result<Option<AxisBox<D>>, BoundError> {
         Ok(solve::bounding_box(&self.local)?.map(|(lo, hi)| AxisBox {
             lo: self.to_world(&lo),
             hi: self.to_world(&hi),
         }))
     }
 
-    fn local_quadratics(&self) -> Vec<Quadratic> {
+    fn local_quadratics(&self) -> Vec<Quadratic<D>> {
         // Regions of a nonempty intersection are nonempty.
         self.local
             .iter()
@@ -251,8 +252,8 @@ impl Intersection {
     /// S-lemma enclosing ball (Gholami 2015 eq. (34)-(44)); `None` if the
     /// certificate proves the set empty. Discs only: the simplex QP (43) with
     /// `x_c` from eq. (42); with ellipses: the 5x5 LMI SDP form of eq. (37).
-    pub fn min_ball(&self) -> Result<Option<Ball>, BoundError> {
-        let discs: Option<Vec<(Vec2, f64)>> = self
+    pub fn min_ball(&self) -> Result<Option<Ball<D>>, BoundError> {
+        let discs: Option<Vec<(Point<D>, f64)>> = self
             .local
             .iter()
             .map(|r| match r {
@@ -272,14 +273,14 @@ impl Intersection {
 
     /// The general S-lemma SDP form even for discs (for cross-checking eq. (43)).
     #[cfg(test)]
-    pub(crate) fn min_ball_via_sdp(&self) -> Result<Option<Ball>, BoundError> {
+    pub(crate) fn min_ball_via_sdp(&self) -> Result<Option<Ball<D>>, BoundError> {
         match solve::minball_sdp(&self.local_quadratics())? {
             Some((c, r2)) => self.ball_to_world(c, r2),
             None => Ok(None),
         }
     }
 
-    fn ball_to_world(&self, c: Vec2, r2: f64) -> Result<Option<Ball>, BoundError> {
+    fn ball_to_world(&self, c: Point<D>, r2: f64) -> Result<Option<Ball<D>>, BoundError> {
         if r2 < -FEAS_TOL {
             return Ok(None);
         }
@@ -291,7 +292,7 @@ impl Intersection {
 
     /// `v_sdp` of Gholami 2015 eq. (26) (in m^2): the SDP relaxation value of
     /// `max_{x in B} ||x - x_hat||^2` (`None` if the solver finds `B` empty).
-    pub fn maxdis_sdp_value(&self, x_hat: &Vec2) -> Result<Option<f64>, BoundError> {
+    pub fn maxdis_sdp_value(&self, x_hat: &Point<D>) -> Result<Option<f64>, BoundError> {
         check_point(x_hat)?;
         let y = self.to_local(x_hat);
         Ok(
@@ -301,13 +302,13 @@ impl Intersection {
     }
 
     /// Upp-RBBox (eq. (52)-(54)): farthest corner of the relaxed box from `x_hat`.
-    pub fn upp_rbbox(&self, x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+    pub fn upp_rbbox(&self, x_hat: &Point<D>) -> Result<BoundOutcome, BoundError> {
         check_point(x_hat)?;
         Ok(BoundOutcome::Bound(self.relaxed.farthest_corner(x_hat)))
     }
 
     /// Upp-BBox (eq. (48)-(49)): farthest corner of the exact bounding box.
-    pub fn upp_bbox(&self, x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+    pub fn upp_bbox(&self, x_hat: &Point<D>) -> Result<BoundOutcome, BoundError> {
         check_point(x_hat)?;
         Ok(match self.bounding_box()? {
             Some(b) => BoundOutcome::Bound(b.farthest_corner(x_hat)),
@@ -317,7 +318,7 @@ impl Intersection {
 
     /// Upp-MinBall (eq. (43)-(44)): `R + ||x_hat - x_c||` (`<= 2R` when `x_hat`
     /// is in the ball).
-    pub fn upp_minball(&self, x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+    pub fn upp_minball(&self, x_hat: &Point<D>) -> Result<BoundOutcome, BoundError> {
         check_point(x_hat)?;
         Ok(match self.min_ball()? {
             Some(b) => BoundOutcome::Bound(b.bound(x_hat)),
@@ -326,7 +327,7 @@ impl Intersection {
     }
 
     /// Upp-MaxDis (eq. (26)): `sqrt(v_sdp)`.
-    pub fn upp_maxdis(&self, x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+    pub fn upp_maxdis(&self, x_hat: &Point<D>) -> Result<BoundOutcome, BoundError> {
         Ok(match self.maxdis_sdp_value(x_hat)? {
             Some(v) => BoundOutcome::Bound(v.sqrt()),
             None => BoundOutcome::Empty,
@@ -334,8 +335,8 @@ impl Intersection {
     }
 }
 
-fn check_point(x: &Vec2) -> Result<(), BoundError> {
-    if x.x.is_finite() && x.y.is_finite() {
+fn check_point<const D: usize>(x: &Point<D>) -> Result<(), BoundError> {
+    if x.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
         Err(BoundError::NonFinite)
@@ -345,24 +346,24 @@ fn check_point(x: &Vec2) -> Result<(), BoundError> {
 /// Intersection of the per-region axis-aligned boxes (Gholami 2015 eq. (53),
 /// generalised to ellipses); `None` when a region is empty or the boxes do not
 /// meet.
-pub fn relaxed_box(regions: &[Region]) -> Option<AxisBox> {
-    let mut lo = Vec2::repeat(f64::NEG_INFINITY);
-    let mut hi = Vec2::repeat(f64::INFINITY);
+pub fn relaxed_box<const D: usize>(regions: &[Region<D>]) -> Option<AxisBox<D>> {
+    let mut lo = Point::<D>::repeat(f64::NEG_INFINITY);
+    let mut hi = Point::<D>::repeat(f64::INFINITY);
     for r in regions {
         let (l, h) = r.aabb()?;
         lo = lo.sup(&l);
         hi = hi.inf(&h);
     }
-    if lo.x > hi.x || lo.y > hi.y || regions.is_empty() {
+    if (0..D).any(|i| lo[i] > hi[i]) || regions.is_empty() {
         return None;
     }
     Some(AxisBox { lo, hi })
 }
 
-fn with_intersection(
-    regions: &[Region],
-    x_hat: &Vec2,
-    f: impl FnOnce(&Intersection, &Vec2) -> Result<BoundOutcome, BoundError>,
+fn with_intersection<const D: usize>(
+    regions: &[Region<D>],
+    x_hat: &Point<D>,
+    f: impl FnOnce(&Intersection<D>, &Point<D>) -> Result<BoundOutcome, BoundError>,
 ) -> Result<BoundOutcome, BoundError> {
     check_point(x_hat)?;
     match Intersection::new(regions)? {
@@ -375,20 +376,29 @@ fn with_intersection(
 /// l-infinity balls for discs) are intersected in closed form and the bound is
 /// the distance from `x_hat` to the farthest corner (at most the eq. (54)
 /// diagonal when `x_hat` is in the box). Includes the emptiness check (one SOCP).
-pub fn upp_rbbox(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+pub fn upp_rbbox<const D: usize>(
+    regions: &[Region<D>],
+    x_hat: &Point<D>,
+) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_rbbox(x))
 }
 
 /// Upp-BBox, Gholami 2015 eq. (48)-(49): exact bounding box of the intersection from
 /// two SOCPs per axis; the bound is the farthest corner from `x_hat`.
-pub fn upp_bbox(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+pub fn upp_bbox<const D: usize>(
+    regions: &[Region<D>],
+    x_hat: &Point<D>,
+) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_bbox(x))
 }
 
 /// Upp-MinBall, Gholami 2015 eq. (43)-(44): S-lemma enclosing ball `(x_c, R)`; the
 /// bound is `R + ||x_hat - x_c||` (the paper's `2R` when `x_hat` is feasible is
 /// never smaller).
-pub fn upp_minball(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+pub fn upp_minball<const D: usize>(
+    regions: &[Region<D>],
+    x_hat: &Point<D>,
+) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_minball(x))
 }
 
@@ -402,6 +412,9 @@ pub fn upp_exact(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, Bound
 
 /// Upp-MaxDis, Gholami 2015 eq. (26): `sqrt(v_sdp)` of the SDP relaxation of
 /// `max_{x in B} ||x - x_hat||^2`.
-pub fn upp_maxdis(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+pub fn upp_maxdis<const D: usize>(
+    regions: &[Region<D>],
+    x_hat: &Point<D>,
+) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_maxdis(x))
 }

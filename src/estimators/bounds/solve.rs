@@ -3,7 +3,8 @@
 
 use super::BoundError;
 use super::region::{Quadratic, Region};
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
+use crate::model::linalg::{MatD, sym_eigenvalues};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
@@ -55,11 +56,11 @@ impl Conic {
         )
     }
 
-    /// Cone rows for the set constraints on `y = (v[0], v[1])`, with an optional
+    /// Cone rows for the set constraints on `y = (v[0], .., v[D-1])`, with an optional
     /// slack column `t` that enlarges every region by `t` (violation form of
     /// [`Region::violation`]). Ellipses use two extra columns `u1, u2` each:
     /// `||y - f1|| <= u1, ||y - f2|| <= u2, u1 + u2 <= sum + 2t` (exact SOC form).
-    fn add_set(&mut self, regions: &[Region], slack: Option<usize>) {
+    fn add_set<const D: usize>(&mut self, regions: &[Region<D>], slack: Option<usize>) {
         for reg in regions {
             match *reg {
                 Region::Disc { center, radius } => {
@@ -68,9 +69,10 @@ impl Conic {
                         first.push((t, -1.0));
                     }
                     self.row(&first, radius);
-                    self.row(&[(0, -1.0)], -center.x);
-                    self.row(&[(1, -1.0)], -center.y);
-                    self.cones.push(SecondOrderConeT(3));
+                    for k in 0..D {
+                        self.row(&[(k, -1.0)], -center[k]);
+                    }
+                    self.cones.push(SecondOrderConeT(D + 1));
                 }
                 Region::Ellipse { f1, f2, sum } => {
                     let u1 = self.ncols;
@@ -78,9 +80,10 @@ impl Conic {
                     self.ncols += 2;
                     for (u, f) in [(u1, f1), (u2, f2)] {
                         self.row(&[(u, -1.0)], 0.0);
-                        self.row(&[(0, -1.0)], -f.x);
-                        self.row(&[(1, -1.0)], -f.y);
-                        self.cones.push(SecondOrderConeT(3));
+                        for k in 0..D {
+                            self.row(&[(k, -1.0)], -f[k]);
+                        }
+                        self.cones.push(SecondOrderConeT(D + 1));
                     }
                     let mut r = vec![(u1, 1.0), (u2, 1.0)];
                     if let Some(t) = slack {
@@ -206,9 +209,9 @@ fn project_psd_triangle(z: &mut [f64], dim: usize) {
 /// regions' own boxes ([`super::relaxed_box`]), widened by a relative 1e-9
 /// against its rounding. `None` when the boxes do not meet (the set is
 /// empty).
-fn position_box(regions: &[Region]) -> Option<[(f64, f64); 2]> {
+fn position_box<const D: usize>(regions: &[Region<D>]) -> Option<[(f64, f64); D]> {
     let b = super::relaxed_box(regions)?;
-    Some([0, 1].map(|k| {
+    Some(std::array::from_fn(|k| {
         let widen = 1e-9 * (b.hi[k] - b.lo[k]).max(b.lo[k].abs()).max(b.hi[k].abs());
         (b.lo[k] - widen, b.hi[k] + widen)
     }))
@@ -217,8 +220,8 @@ fn position_box(regions: &[Region]) -> Option<[(f64, f64); 2]> {
 /// A box holding every variable of [`Conic::add_set`] (no slack) on the set
 /// of `regions`: `y` in [`position_box`], and an ellipse's `u1, u2` in `[0,
 /// sum]`. `None` when the set is empty.
-fn variable_box(regions: &[Region]) -> Option<Vec<(f64, f64)>> {
-    let mut vars = Vec::with_capacity(2 + 2 * regions.len());
+fn variable_box<const D: usize>(regions: &[Region<D>]) -> Option<Vec<(f64, f64)>> {
+    let mut vars = Vec::with_capacity(D + 2 * regions.len());
     vars.extend(position_box(regions)?);
     for r in regions {
         if let Region::Ellipse { sum, .. } = *r {
@@ -315,15 +318,17 @@ pub(super) fn build(
 
 /// `min t` such that every region enlarged by `t` contains a common point: the
 /// minimal max-violation `t*` and its point. Always feasible and bounded below.
-pub(crate) fn min_max_violation(regions: &[Region]) -> Result<(f64, Vec2), BoundError> {
-    let mut c = Conic::new(3);
-    c.add_set(regions, Some(2));
+pub(crate) fn min_max_violation<const D: usize>(
+    regions: &[Region<D>],
+) -> Result<(f64, Point<D>), BoundError> {
+    let mut c = Conic::new(D + 1);
+    c.add_set(regions, Some(D));
     let mut q = vec![0.0; c.ncols];
-    q[2] = 1.0;
+    q[D] = 1.0;
     let p = CscMatrix::zeros((c.ncols, c.ncols));
     let mut s = build(&p, &q, &c, "feasibility SOCP")?;
     match run(&mut s, "feasibility SOCP")? {
-        Solved::Optimal { primal, x, .. } => Ok((primal, Vec2::new(x[0], x[1]))),
+        Solved::Optimal { primal, x, .. } => Ok((primal, Point::<D>::from_fn(|i, _| x[i]))),
         Solved::Infeasible => Err(BoundError::Solver {
             problem: "feasibility SOCP",
             status: "reported infeasible (cannot happen for exact data)".into(),
@@ -332,12 +337,14 @@ pub(crate) fn min_max_violation(regions: &[Region]) -> Result<(f64, Vec2), Bound
 }
 
 /// Exact axis-aligned bounding box of the intersection, Gholami 2015 eq. (48a)-(48b):
-/// four SOCPs `max / min y_l` over the set (one solver, objective updated).
+/// `2 D` SOCPs `max / min y_l` over the set (one solver, objective updated).
 /// Returns `None` when the solver finds the set empty. Each extreme is the
 /// value that the solver's dual variables certify ([`Conic::certified_min`]),
 /// so the box holds the set whatever the solver's accuracy (its own primal
 /// and dual values can be a few 1e-8 inside on near-tangent sets).
-pub(crate) fn bounding_box(regions: &[Region]) -> Result<Option<(Vec2, Vec2)>, BoundError> {
+pub(crate) fn bounding_box<const D: usize>(
+    regions: &[Region<D>],
+) -> Result<Option<(Point<D>, Point<D>)>, BoundError> {
     bounding_box_with(regions, &mut |_| {})
 }
 
@@ -347,12 +354,12 @@ pub(crate) fn bounding_box(regions: &[Region]) -> Result<Option<(Vec2, Vec2)>, B
 pub(crate) type DualTweak<'a> = &'a mut dyn FnMut(&mut [f64]);
 
 /// [`bounding_box`] with its dual variables passed through `tweak`.
-pub(crate) fn bounding_box_with(
-    regions: &[Region],
+pub(crate) fn bounding_box_with<const D: usize>(
+    regions: &[Region<D>],
     tweak: DualTweak<'_>,
-) -> Result<Option<(Vec2, Vec2)>, BoundError> {
+) -> Result<Option<(Point<D>, Point<D>)>, BoundError> {
     const PROBLEM: &str = "bounding-box SOCP (48)";
-    let mut c = Conic::new(2);
+    let mut c = Conic::new(D);
     c.add_set(regions, None);
     let Some(vars) = variable_box(regions) else {
         return Ok(None);
@@ -361,7 +368,7 @@ pub(crate) fn bounding_box_with(
     let mut q = vec![0.0; c.ncols];
     q[0] = 1.0;
     let mut s = build(&p, &q, &c, PROBLEM)?;
-    let mut ext = [0.0; 4];
+    let mut ext = vec![0.0; 2 * D];
     for (k, e) in ext.iter_mut().enumerate() {
         let (axis, sign) = (k / 2, if k % 2 == 0 { 1.0 } else { -1.0 });
         if k > 0 {
@@ -380,7 +387,11 @@ pub(crate) fn bounding_box_with(
             Solved::Infeasible => return Ok(None),
         }
     }
-    Ok(Some((Vec2::new(ext[0], ext[2]), Vec2::new(ext[1], ext[3]))))
+    // ext = [lo_0, hi_0, lo_1, hi_1, ...].
+    Ok(Some((
+        Point::<D>::from_fn(|i, _| ext[2 * i]),
+        Point::<D>::from_fn(|i, _| ext[2 * i + 1]),
+    )))
 }
 
 /// Upper triangle column-major index of `(i, j)`, `i <= j`, in Clarabel's
@@ -409,25 +420,27 @@ fn add_psd(c: &mut Conic, dim: usize, entry: impl Fn(usize, usize) -> (f64, Vec<
 }
 
 /// SDP relaxation (Gholami 2015 eq. (2), (25)-(26)) of `max ||x - x_hat||^2` over the
-/// quadratics: variables `v = [x1, x2, Z11, Z12, Z22]`,
+/// quadratics: variables `v = [x_1..x_D, Z_ij (i <= j, row by row)]` (in 2-D
+/// `[x1, x2, Z11, Z12, Z22]`),
 /// `max tr(Z) - 2 x_hat^T x + ||x_hat||^2` s.t. `tr(P_k Z) + 2 q_k^T x + r_k <= 0`,
-/// `[[Z, x], [x^T, 1]] >= 0` (3x3 PSD). Returns the value the solver's dual
-/// variables certify ([`Conic::certified_min`], with `x` in the box of the
-/// `regions` the quadratics describe and `Z` in [`moment_box`]), so it bounds
-/// the relaxation whatever the solver's accuracy; `None` if infeasible.
-pub(crate) fn maxdis_sdp(
-    regions: &[Region],
-    quads: &[Quadratic],
-    x_hat: &Vec2,
+/// `[[Z, x], [x^T, 1]] >= 0` (a `(D+1)x(D+1)` PSD block). Returns the value the
+/// solver's dual variables certify ([`Conic::certified_min`], with `x` in the
+/// box of the `regions` the quadratics describe and `Z` in [`moment_box`]), so
+/// it bounds the relaxation whatever the solver's accuracy; `None` if
+/// infeasible.
+pub(crate) fn maxdis_sdp<const D: usize>(
+    regions: &[Region<D>],
+    quads: &[Quadratic<D>],
+    x_hat: &Point<D>,
 ) -> Result<Option<f64>, BoundError> {
     maxdis_sdp_with(regions, quads, x_hat, &mut |_| {})
 }
 
 /// [`maxdis_sdp`] with its dual variables passed through `tweak`.
-pub(crate) fn maxdis_sdp_with(
-    regions: &[Region],
-    quads: &[Quadratic],
-    x_hat: &Vec2,
+pub(crate) fn maxdis_sdp_with<const D: usize>(
+    regions: &[Region<D>],
+    quads: &[Quadratic<D>],
+    x_hat: &Point<D>,
     tweak: DualTweak<'_>,
 ) -> Result<Option<f64>, BoundError> {
     const PROBLEM: &str = "Upp-MaxDis SDP (26)";
@@ -440,33 +453,42 @@ pub(crate) fn maxdis_sdp_with(
             status: "no quadratic bounds the moments (no positive definite P_k)".into(),
         });
     };
+    let upper: Vec<(usize, usize)> = (0..D).flat_map(|i| (i..D).map(move |j| (i, j))).collect();
+    let n = D + upper.len();
     let mut vars = xbox.to_vec();
     vars.extend(zbox);
-    let mut c = Conic::new(5);
+    let mut c = Conic::new(n);
     for qd in quads {
         let p = &qd.p;
-        c.row(
-            &[
-                (0, 2.0 * qd.q.x),
-                (1, 2.0 * qd.q.y),
-                (2, p[(0, 0)]),
-                (3, p[(0, 1)] + p[(1, 0)]),
-                (4, p[(1, 1)]),
-            ],
-            -qd.r,
-        );
+        let mut coefs: Vec<(usize, f64)> = (0..D).map(|k| (k, 2.0 * qd.q[k])).collect();
+        for (col, &(i, j)) in upper.iter().enumerate() {
+            let v = if i == j {
+                p[(i, i)]
+            } else {
+                p[(i, j)] + p[(j, i)]
+            };
+            coefs.push((D + col, v));
+        }
+        c.row(&coefs, -qd.r);
     }
     c.cones.push(NonnegativeConeT(quads.len()));
-    add_psd(&mut c, 3, |i, j| match (i, j) {
-        (0, 0) => (0.0, vec![(2, 1.0)]),
-        (0, 1) => (0.0, vec![(3, 1.0)]),
-        (1, 1) => (0.0, vec![(4, 1.0)]),
-        (0, 2) => (0.0, vec![(0, 1.0)]),
-        (1, 2) => (0.0, vec![(1, 1.0)]),
-        _ => (1.0, vec![]),
+    // The column of Z_ij, i <= j.
+    let mut z_col = [[0usize; D]; D];
+    for (col, &(i, j)) in upper.iter().enumerate() {
+        z_col[i][j] = D + col;
+    }
+    add_psd(&mut c, D + 1, |i, j| {
+        if j < D {
+            (0.0, vec![(z_col[i][j], 1.0)])
+        } else if i < D {
+            (0.0, vec![(i, 1.0)])
+        } else {
+            (1.0, vec![])
+        }
     });
-    let q = [2.0 * x_hat.x, 2.0 * x_hat.y, -1.0, 0.0, -1.0];
-    let p = CscMatrix::zeros((5, 5));
+    let mut q: Vec<f64> = (0..D).map(|k| 2.0 * x_hat[k]).collect();
+    q.extend(upper.iter().map(|&(i, j)| if i == j { -1.0 } else { 0.0 }));
+    let p = CscMatrix::zeros((n, n));
     let mut s = build(&p, &q, &c, PROBLEM)?;
     match run(&mut s, PROBLEM)? {
         Solved::Optimal { .. } => {
@@ -478,24 +500,28 @@ pub(crate) fn maxdis_sdp_with(
     }
 }
 
-/// A box holding the moment variables `(Z11, Z12, Z22)` of every feasible
-/// point of the Upp-MaxDis SDP: `[[Z, x], [x^T, 1]] >= 0` gives `Z >= 0`, so
-/// `|Z12| <= tr(Z) / 2`, and a quadratic with `P_k >= mu I`, `mu > 0` (every
-/// disc, and the disc each ellipse circumscribes, has `P = I`) gives `mu
-/// tr(Z) <= tr(P_k Z) <= -2 q_k^T x - r_k`, bounded over the box of `x`.
-/// `None` when no `P_k` is positive definite.
-fn moment_box(quads: &[Quadratic], xbox: &[(f64, f64); 2]) -> Option<[(f64, f64); 3]> {
+/// A box holding the moment variables `Z_ij` (`i <= j`, row by row) of every
+/// feasible point of the Upp-MaxDis SDP: `[[Z, x], [x^T, 1]] >= 0` gives
+/// `Z >= 0`, so `|Z_ij| <= tr(Z) / 2` off the diagonal, and a quadratic with
+/// `P_k >= mu I`, `mu > 0` (every disc, and the disc each ellipse
+/// circumscribes, has `P = I`) gives `mu tr(Z) <= tr(P_k Z) <= -2 q_k^T x -
+/// r_k`, bounded over the box of `x`. `None` when no `P_k` is positive
+/// definite.
+fn moment_box<const D: usize>(
+    quads: &[Quadratic<D>],
+    xbox: &[(f64, f64); D],
+) -> Option<Vec<(f64, f64)>> {
     let trace = quads
         .iter()
         .filter_map(|qd| {
             let p = 0.5 * (qd.p + qd.p.transpose());
-            let mu = p.symmetric_eigenvalues().min();
+            let mu = sym_eigenvalues(&p)?.min();
             (mu > 0.0).then(|| {
-                let lin: f64 = [qd.q.x, qd.q.y]
-                    .iter()
-                    .zip(xbox)
-                    .map(|(q, (lo, hi))| (-2.0 * q * lo).max(-2.0 * q * hi))
-                    .sum();
+                let lin: f64 =
+                    qd.q.iter()
+                        .zip(xbox)
+                        .map(|(q, (lo, hi))| (-2.0 * q * lo).max(-2.0 * q * hi))
+                        .sum();
                 let t = (lin - qd.r) / mu;
                 t + round_off(t.abs() + qd.r.abs() / mu)
             })
@@ -503,30 +529,41 @@ fn moment_box(quads: &[Quadratic], xbox: &[(f64, f64); 2]) -> Option<[(f64, f64)
         .fold(f64::INFINITY, f64::min);
     // A negative bound means no feasible point at all, of which any box holds.
     let t = trace.max(0.0);
-    trace
-        .is_finite()
-        .then_some([(0.0, t), (-t / 2.0, t / 2.0), (0.0, t)])
+    trace.is_finite().then(|| {
+        (0..D)
+            .flat_map(|i| (i..D).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                if i == j {
+                    (0.0, t)
+                } else {
+                    (-t / 2.0, t / 2.0)
+                }
+            })
+            .collect()
+    })
 }
 
 /// Minimum-ball bound for discs only, Gholami 2015 eq. (43) as a convex QP over the
-/// simplex: `v = [lambda_1..lambda_N, c1, c2]`,
+/// simplex: `v = [lambda_1..lambda_N, c_1..c_D]`,
 /// `min ||c||^2 - sum lambda_i (||a_i||^2 - d_i^2)` s.t. `c = sum lambda_i a_i`,
 /// `sum lambda_i = 1`, `lambda >= 0`. The returned `(c, R^2)` is re-evaluated
 /// exactly from the clipped, renormalised `lambda` (plus an allowance for the
 /// rounding of the difference that gives `R^2`), so it is a valid S-lemma
 /// certificate (eq. (35)) whatever the solver accuracy; `R^2 < 0` certifies an
 /// empty set.
-pub(crate) fn minball_qp(discs: &[(Vec2, f64)]) -> Result<(Vec2, f64), BoundError> {
+pub(crate) fn minball_qp<const D: usize>(
+    discs: &[(Point<D>, f64)],
+) -> Result<(Point<D>, f64), BoundError> {
     const PROBLEM: &str = "Upp-MinBall QP (43)";
     let n = discs.len();
-    let mut c = Conic::new(n + 2);
+    let mut c = Conic::new(n + D);
     c.row(&(0..n).map(|i| (i, 1.0)).collect::<Vec<_>>(), 1.0);
-    for axis in 0..2 {
+    for axis in 0..D {
         let mut r = vec![(n + axis, 1.0)];
         r.extend(discs.iter().enumerate().map(|(i, (a, _))| (i, -a[axis])));
         c.row(&r, 0.0);
     }
-    c.cones.push(ZeroConeT(3));
+    c.cones.push(ZeroConeT(1 + D));
     for i in 0..n {
         c.row(&[(i, -1.0)], 0.0);
     }
@@ -535,9 +572,9 @@ pub(crate) fn minball_qp(discs: &[(Vec2, f64)]) -> Result<(Vec2, f64), BoundErro
         .iter()
         .map(|(a, d)| -(a.norm_squared() - d * d))
         .collect();
-    q.extend([0.0, 0.0]);
-    let p =
-        CscMatrix::new_from_triplets(n + 2, n + 2, vec![n, n + 1], vec![n, n + 1], vec![2.0, 2.0]);
+    q.extend([0.0; D]);
+    let diag: Vec<usize> = (n..n + D).collect();
+    let p = CscMatrix::new_from_triplets(n + D, n + D, diag.clone(), diag, vec![2.0; D]);
     let mut s = build(&p, &q, &c, PROBLEM)?;
     let lam = match run(&mut s, PROBLEM)? {
         Solved::Optimal { x, .. } => x[..n].to_vec(),
@@ -552,7 +589,10 @@ pub(crate) fn minball_qp(discs: &[(Vec2, f64)]) -> Result<(Vec2, f64), BoundErro
 }
 
 /// Exact eq. (42)-(43) evaluation for a (clipped, renormalised) `lambda`.
-pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f64) {
+pub(crate) fn ball_from_simplex<const D: usize>(
+    discs: &[(Point<D>, f64)],
+    lam: &[f64],
+) -> (Point<D>, f64) {
     let clipped: Vec<f64> = lam.iter().map(|l| l.max(0.0)).collect();
     let total: f64 = clipped.iter().sum();
     let n = discs.len() as f64;
@@ -564,7 +604,7 @@ pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f6
     let xc = discs
         .iter()
         .zip(&w)
-        .fold(Vec2::zeros(), |s, ((a, _), l)| s + a * *l);
+        .fold(Point::<D>::zeros(), |s, ((a, _), l)| s + a * *l);
     let offsets = discs
         .iter()
         .zip(&w)
@@ -580,58 +620,59 @@ pub(crate) fn ball_from_simplex(discs: &[(Vec2, f64)], lam: &[f64]) -> (Vec2, f6
 }
 
 /// General S-lemma minimum enclosing ball (Gholami 2015 eq. (34)-(37) with quadratic
-/// constraints `x^T P_k x + 2 q_k^T x + r_k <= 0`): `v = [lambda_1..lambda_K, c1, c2, gamma]`,
-/// `min gamma` s.t. `lambda >= 0` and the 5x5 LMI
+/// constraints `x^T P_k x + 2 q_k^T x + r_k <= 0`): `v = [lambda_1..lambda_K, c_1..c_D, gamma]`,
+/// `min gamma` s.t. `lambda >= 0` and the `(2D+1)x(2D+1)` LMI (5x5 in 2-D)
 /// `[[S, g, 0], [g^T, h, c^T], [0, c, I]] >= 0`, `S = sum lambda_k P_k - I`,
 /// `g = sum lambda_k q_k + c`, `h = sum lambda_k r_k + gamma` (Schur form of
 /// eq. (37), `gamma - ||c||^2` in the corner). Returns `(c, gamma)` with the
 /// conservative (larger) objective value, or `None` when `gamma` is unbounded
 /// below (the set is empty).
-pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, BoundError> {
+pub(crate) fn minball_sdp<const D: usize>(
+    quads: &[Quadratic<D>],
+) -> Result<Option<(Point<D>, f64)>, BoundError> {
     const PROBLEM: &str = "Upp-MinBall S-lemma SDP (37)";
     let k = quads.len();
-    let (c0, c1, g) = (k, k + 1, k + 2);
-    let mut c = Conic::new(k + 3);
+    // Columns: lambda (k), c (D), gamma.
+    let (c0, g) = (k, k + D);
+    let mut c = Conic::new(k + D + 1);
     for i in 0..k {
         c.row(&[(i, -1.0)], 0.0);
     }
     c.cones.push(NonnegativeConeT(k));
-    add_psd(&mut c, 5, |i, j| {
-        let lam = |f: &dyn Fn(&Quadratic) -> f64| -> Vec<(usize, f64)> {
+    add_psd(&mut c, 2 * D + 1, |i, j| {
+        let lam = |f: &dyn Fn(&Quadratic<D>) -> f64| -> Vec<(usize, f64)> {
             quads
                 .iter()
                 .enumerate()
                 .map(|(idx, qd)| (idx, f(qd)))
                 .collect()
         };
-        match (i, j) {
-            (0, 0) => (-1.0, lam(&|qd| qd.p[(0, 0)])),
-            (0, 1) => (0.0, lam(&|qd| 0.5 * (qd.p[(0, 1)] + qd.p[(1, 0)]))),
-            (1, 1) => (-1.0, lam(&|qd| qd.p[(1, 1)])),
-            (0, 2) => {
-                let mut v = lam(&|qd| qd.q.x);
-                v.push((c0, 1.0));
-                (0.0, v)
+        // Blocks: S on 0..D, h at D, I on D+1..2D+1 (i <= j).
+        if j < D {
+            if i == j {
+                (-1.0, lam(&|qd| qd.p[(i, i)]))
+            } else {
+                (0.0, lam(&|qd| 0.5 * (qd.p[(i, j)] + qd.p[(j, i)])))
             }
-            (1, 2) => {
-                let mut v = lam(&|qd| qd.q.y);
-                v.push((c1, 1.0));
-                (0.0, v)
-            }
-            (2, 2) => {
-                let mut v = lam(&|qd| qd.r);
-                v.push((g, 1.0));
-                (0.0, v)
-            }
-            (2, 3) => (0.0, vec![(c0, 1.0)]),
-            (2, 4) => (0.0, vec![(c1, 1.0)]),
-            (3, 3) | (4, 4) => (1.0, vec![]),
-            _ => (0.0, vec![]),
+        } else if j == D && i < D {
+            let mut v = lam(&|qd| qd.q[i]);
+            v.push((c0 + i, 1.0));
+            (0.0, v)
+        } else if j == D {
+            let mut v = lam(&|qd| qd.r);
+            v.push((g, 1.0));
+            (0.0, v)
+        } else if i == D {
+            (0.0, vec![(c0 + j - D - 1, 1.0)])
+        } else if i == j {
+            (1.0, vec![])
+        } else {
+            (0.0, vec![])
         }
     });
-    let mut q = vec![0.0; k + 3];
+    let mut q = vec![0.0; k + D + 1];
     q[g] = 1.0;
-    let p = CscMatrix::zeros((k + 3, k + 3));
+    let p = CscMatrix::zeros((k + D + 1, k + D + 1));
     let mut s = build(&p, &q, &c, PROBLEM)?;
     // gamma unbounded below certifies ||x - c||^2 <= gamma < 0 on the set: empty.
     match run_with(&mut s, PROBLEM, true)? {
@@ -658,18 +699,21 @@ pub(crate) fn minball_sdp(quads: &[Quadratic]) -> Result<Option<(Vec2, f64)>, Bo
 /// accuracy, as [`ball_from_simplex`] is for discs (with discs and
 /// `sum lambda = 1`, `H = I` and the two agree). `None` if no scaling makes
 /// `H >= I` (a singular `H`: the multipliers certify no bounded ball).
-pub(crate) fn ball_from_multipliers(quads: &[Quadratic], lam: &[f64]) -> Option<(Vec2, f64)> {
+pub(crate) fn ball_from_multipliers<const D: usize>(
+    quads: &[Quadratic<D>],
+    lam: &[f64],
+) -> Option<(Point<D>, f64)> {
     let lam: Vec<f64> = lam.iter().map(|l| l.max(0.0)).collect();
-    let h: nalgebra::Matrix2<f64> = quads.iter().zip(&lam).map(|(qd, l)| qd.p * *l).sum();
+    let h: MatD<D> = quads.iter().zip(&lam).map(|(qd, l)| qd.p * *l).sum();
     let h = 0.5 * (h + h.transpose());
-    let eig = h.symmetric_eigenvalues();
+    let eig = sym_eigenvalues(&h)?;
     let (smallest, largest) = (eig.min(), eig.max());
     if !(smallest.is_finite() && smallest > 0.0) {
         return None;
     }
     let t = (1.0 / smallest).max(1.0);
     let h = h * t;
-    let b: Vec2 = quads.iter().zip(&lam).map(|(qd, l)| qd.q * (*l * t)).sum();
+    let b: Point<D> = quads.iter().zip(&lam).map(|(qd, l)| qd.q * (*l * t)).sum();
     let rho: f64 = quads.iter().zip(&lam).map(|(qd, l)| qd.r * *l * t).sum();
     let rho_size: f64 = quads
         .iter()

@@ -201,3 +201,142 @@ fn pocs_reaches_a_point_of_an_intersection_of_balls_and_spheroids() {
         assert!(reg.distance(&r.x).expect("nonempty") <= 1e-9);
     }
 }
+
+/// A random nonempty 3-D intersection: four to six balls around a true
+/// point with positive range errors, and one spheroid through two of the
+/// anchors when `spheroid`.
+fn random_set(rng: &mut SonarRng, spheroid: bool) -> (Vec<Region<3>>, Point<3>) {
+    let truth = p3(
+        rng.random_range(0.0..10.0),
+        rng.random_range(0.0..10.0),
+        rng.random_range(0.0..10.0),
+    );
+    let n = rng.random_range(4..7);
+    let anchors: Vec<Point<3>> = (0..n)
+        .map(|_| {
+            p3(
+                rng.random_range(-2.0..12.0),
+                rng.random_range(-2.0..12.0),
+                rng.random_range(-2.0..12.0),
+            )
+        })
+        .collect();
+    let mut regions: Vec<Region<3>> = anchors
+        .iter()
+        .map(|a| Region::from_range(*a, (truth - a).norm() + rng.random_range(0.0..2.0), 0.0))
+        .collect();
+    if spheroid {
+        let (t, r) = (anchors[0], anchors[1]);
+        let rho = (truth - t).norm() + (truth - r).norm() + rng.random_range(0.0..2.0);
+        regions.push(Region::from_bistatic(t, r, rho, 0.0));
+    }
+    (regions, truth)
+}
+
+/// Points of the set: random points of its relaxed box that lie in it, and
+/// POCS from random starts far outside (which stops on the boundary).
+fn sample_set(rng: &mut SonarRng, regions: &[Region<3>]) -> Vec<Point<3>> {
+    let b = relaxed_box(regions).expect("nonempty");
+    let mut out = Vec::new();
+    for _ in 0..20_000 {
+        let x = Point::<3>::from_fn(|i, _| rng.random_range(b.lo[i]..=b.hi[i]));
+        if regions.iter().all(|r| r.violation(&x) <= 0.0) {
+            out.push(x);
+        }
+    }
+    for _ in 0..300 {
+        let x0 = Point::<3>::from_fn(|i, _| rng.random_range(-40.0..50.0) + 0.0 * b.lo[i]);
+        if let Ok(r) = pocs(regions, x0, 5000, 1e-12)
+            && r.feasible
+        {
+            out.push(r.x);
+        }
+    }
+    out
+}
+
+#[test]
+fn every_3d_bound_holds_every_sampled_point_of_the_set_and_the_orderings_hold() {
+    let mut rng = SonarRng::seed_from_u64(24);
+    for case in 0..12 {
+        let (regions, truth) = random_set(&mut rng, case % 2 == 1);
+        let x_hat = truth
+            + p3(
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+                rng.random_range(-2.0..2.0),
+            );
+        let pts = sample_set(&mut rng, &regions);
+        assert!(!pts.is_empty());
+        let far = pts.iter().map(|p| (p - x_hat).norm()).fold(0.0, f64::max);
+        let v = |f: fn(&[Region<3>], &Point<3>) -> Result<BoundOutcome, BoundError>| {
+            f(&regions, &x_hat)
+                .expect("solves")
+                .value()
+                .expect("nonempty")
+        };
+        let (rbbox, bbox, minball, maxdis) =
+            (v(upp_rbbox), v(upp_bbox), v(upp_minball), v(upp_maxdis));
+        for (name, b) in [
+            ("rbbox", rbbox),
+            ("bbox", bbox),
+            ("minball", minball),
+            ("maxdis", maxdis),
+        ] {
+            assert!(
+                b >= far * (1.0 - 1e-12),
+                "case {case}: {name} {b} below a sampled distance {far}"
+            );
+        }
+        assert!(
+            bbox <= rbbox * (1.0 + 1e-9),
+            "case {case}: bbox {bbox} > rbbox {rbbox}"
+        );
+        assert!(
+            maxdis <= minball * (1.0 + 1e-6),
+            "case {case}: maxdis {maxdis} > minball {minball}"
+        );
+        // The certified box holds every sample, inside the relaxed box.
+        let i = Intersection::new(&regions)
+            .expect("finite")
+            .expect("nonempty");
+        let bx = i.bounding_box().expect("solves").expect("nonempty");
+        let rb = i.relaxed_box();
+        for p in &pts {
+            assert!(bx.contains(p, 1e-9), "case {case}: {p:?} outside {bx:?}");
+        }
+        for k in 0..3 {
+            assert!(bx.lo[k] >= rb.lo[k] - 1e-6 && bx.hi[k] <= rb.hi[k] + 1e-6);
+        }
+    }
+}
+
+#[test]
+fn the_3d_min_ball_of_balls_agrees_between_the_simplex_qp_and_the_s_lemma_sdp() {
+    let mut rng = SonarRng::seed_from_u64(25);
+    for _ in 0..8 {
+        let (regions, _) = random_set(&mut rng, false);
+        let i = Intersection::new(&regions)
+            .expect("finite")
+            .expect("nonempty");
+        let qp = i.min_ball().expect("solves").expect("nonempty");
+        let sdp = i.min_ball_via_sdp().expect("solves").expect("nonempty");
+        // As in 2-D: the radius to the solvers' accuracy, the centre (on
+        // which the radius depends only to second order) to 1e-4.
+        let s = qp.radius.max(1.0);
+        assert!((qp.radius - sdp.radius).abs() < 1e-5 * s, "{qp:?} vs {sdp:?}");
+        assert!((qp.center - sdp.center).norm() < 1e-4 * s, "{qp:?} vs {sdp:?}");
+    }
+}
+
+#[test]
+fn disjoint_3d_balls_are_reported_empty_by_every_bound() {
+    let regions = [
+        Region::disc(p3(0.0, 0.0, 0.0), 1.0),
+        Region::disc(p3(0.0, 0.0, 5.0), 1.0),
+    ];
+    let x = p3(0.0, 0.0, 2.5);
+    for f in [upp_rbbox, upp_bbox, upp_minball, upp_maxdis] {
+        assert_eq!(f(&regions, &x).expect("solves"), BoundOutcome::Empty);
+    }
+}
