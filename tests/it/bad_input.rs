@@ -677,3 +677,19 @@ fn a_deploy_table_that_leaves_a_node_on_no_host_or_names_a_stranger_is_refused()
         assert_clear(code, &stderr, &p, &needles);
     }
 }
+
+#[test]
+fn an_elevation_noise_is_refused_in_a_2d_scenario_naming_the_key() {
+    let text = GOOD.replace(
+        "doa_noise = { model = \"gaussian\", sigma = 0.1 }",
+        "doa_noise = { model = \"gaussian\", sigma = 0.1 }\nelevation_noise = { model = \"gaussian\", sigma = 0.2 }",
+    );
+    assert_ne!(text, GOOD);
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["measurements.elevation_noise", "only in 3-D"],
+    );
+}
