@@ -45,6 +45,7 @@
 
 mod estimators;
 pub mod exact;
+mod exact_3d;
 mod region;
 mod sdp;
 mod solve;
@@ -99,6 +100,9 @@ pub enum BoundError {
         /// Solver status or setup error.
         status: String,
     },
+    /// The bound is not defined for these regions in this dimension.
+    #[error("{0}")]
+    Unsupported(&'static str),
 }
 
 /// An axis-aligned box `[lo, hi]` containing the feasible set.

@@ -324,8 +324,14 @@ fn the_3d_min_ball_of_balls_agrees_between_the_simplex_qp_and_the_s_lemma_sdp() 
         // As in 2-D: the radius to the solvers' accuracy, the centre (on
         // which the radius depends only to second order) to 1e-4.
         let s = qp.radius.max(1.0);
-        assert!((qp.radius - sdp.radius).abs() < 1e-5 * s, "{qp:?} vs {sdp:?}");
-        assert!((qp.center - sdp.center).norm() < 1e-4 * s, "{qp:?} vs {sdp:?}");
+        assert!(
+            (qp.radius - sdp.radius).abs() < 1e-5 * s,
+            "{qp:?} vs {sdp:?}"
+        );
+        assert!(
+            (qp.center - sdp.center).norm() < 1e-4 * s,
+            "{qp:?} vs {sdp:?}"
+        );
     }
 }
 
@@ -339,4 +345,200 @@ fn disjoint_3d_balls_are_reported_empty_by_every_bound() {
     for f in [upp_rbbox, upp_bbox, upp_minball, upp_maxdis] {
         assert_eq!(f(&regions, &x).expect("solves"), BoundOutcome::Empty);
     }
+}
+
+/// Brute force of `max_{x in B} ||x - x_hat||` over balls: Fibonacci points
+/// of every sphere that lie in `B`, the best refined by a pattern search in
+/// the sphere's two angles that keeps to `B`.
+fn brute_exact(regions: &[Region<3>], x_hat: &Point<3>) -> f64 {
+    // Points computed on a sphere are on it only to rounding.
+    let inside = |x: &Point<3>| regions.iter().all(|r| r.violation(x) <= 1e-12 * 50.0);
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut best = 0.0f64;
+    for r in regions {
+        let Region::Disc { center, radius } = *r else {
+            panic!("balls only")
+        };
+        let at = |t: f64, f: f64| {
+            let (st, ct) = t.sin_cos();
+            let (sf, cf) = f.sin_cos();
+            center + p3(st * cf, st * sf, ct) * radius
+        };
+        let n = 6000;
+        let mut seeds: Vec<(f64, f64, f64)> = (0..n)
+            .filter_map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+                let (t, f) = (z.acos(), golden * k as f64);
+                let x = at(t, f);
+                inside(&x).then(|| ((x - x_hat).norm(), t, f))
+            })
+            .collect();
+        seeds.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for &(d0, t0, f0) in seeds.iter().take(5) {
+            let (mut d, mut t, mut f) = (d0, t0, f0);
+            let mut step = 0.02;
+            while step > 1e-13 {
+                let mut moved = false;
+                for (a, b) in [(step, 0.0), (-step, 0.0), (0.0, step), (0.0, -step)] {
+                    let x = at(t + a, f + b);
+                    let e = (x - x_hat).norm();
+                    if e > d && inside(&x) {
+                        (d, t, f) = (e, t + a, f + b);
+                        moved = true;
+                    }
+                }
+                if !moved {
+                    step *= 0.5;
+                }
+            }
+            best = best.max(d);
+        }
+    }
+    // A pattern search in the angles stalls where B's boundary crosses the
+    // sphere; the circles where two spheres meet are searched on their own:
+    // 20000 points each, the best refined by golden sections in its angle.
+    let balls: Vec<(Point<3>, f64)> = regions
+        .iter()
+        .filter_map(|r| match *r {
+            Region::Disc { center, radius } => Some((center, radius)),
+            Region::Ellipse { .. } => None,
+        })
+        .collect();
+    for (i, &(ci, ri)) in balls.iter().enumerate() {
+        for &(cj, rj) in &balls[i + 1..] {
+            let l = (cj - ci).norm();
+            // cos of the angle at c_i between c_j and a common point.
+            let cos = (l * l + ri * ri - rj * rj) / (2.0 * l * ri);
+            if !(l > 0.0 && cos.abs() <= 1.0) {
+                continue;
+            }
+            let n = (cj - ci) / l;
+            let (u, v) = frame(&n);
+            let sin = (1.0 - cos * cos).sqrt();
+            let at = |a: f64| ci + (n * cos + (u * a.cos() + v * a.sin()) * sin) * ri;
+            let m = 20_000;
+            let step = std::f64::consts::TAU / m as f64;
+            for k in 0..m {
+                let a0 = step * k as f64;
+                // An arc's end between two samples: bisected to rounding.
+                let (a1, in0, in1) = (a0 + step, inside(&at(a0)), inside(&at(a0 + step)));
+                if in0 != in1 {
+                    let (mut yes, mut no) = if in0 { (a0, a1) } else { (a1, a0) };
+                    for _ in 0..60 {
+                        let mid = 0.5 * (yes + no);
+                        if inside(&at(mid)) {
+                            yes = mid;
+                        } else {
+                            no = mid;
+                        }
+                    }
+                    best = best.max((at(yes) - x_hat).norm());
+                }
+                if !in0 {
+                    continue;
+                }
+                let h = std::f64::consts::TAU / m as f64;
+                let (mut lo, mut hi) = (a0 - h, a0 + h);
+                let g = |a: f64| {
+                    if inside(&at(a)) {
+                        (at(a) - x_hat).norm()
+                    } else {
+                        0.0
+                    }
+                };
+                best = best.max(g(a0));
+                let phi = 0.5 * (5f64.sqrt() - 1.0);
+                for _ in 0..80 {
+                    let (c, d) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+                    if g(c) > g(d) {
+                        hi = d;
+                    } else {
+                        lo = c;
+                    }
+                }
+                best = best.max(g(0.5 * (lo + hi)));
+            }
+        }
+    }
+    best
+}
+
+#[test]
+fn the_3d_exact_worst_case_over_balls_matches_a_brute_force_and_is_below_every_relaxation() {
+    let mut rng = SonarRng::seed_from_u64(26);
+    for case in 0..24 {
+        let (mut regions, truth) = random_set(&mut rng, false);
+        if case % 4 == 3 {
+            // Nested: a ball inside all the others.
+            regions.push(Region::disc(truth, 0.3));
+        }
+        let x_hat = match case % 3 {
+            0 => truth,
+            1 => {
+                truth
+                    + p3(
+                        rng.random_range(-3.0..3.0),
+                        rng.random_range(-3.0..3.0),
+                        rng.random_range(-3.0..3.0),
+                    )
+            }
+            // On a centre: every point of that sphere is equally far.
+            _ => match regions[0] {
+                Region::Disc { center, .. } => center,
+                Region::Ellipse { f1, .. } => f1,
+            },
+        };
+        let i = Intersection::new(&regions)
+            .expect("finite")
+            .expect("nonempty");
+        let exact = i
+            .upp_exact(&x_hat)
+            .expect("balls")
+            .value()
+            .expect("nonempty");
+        let brute = brute_exact(&regions, &x_hat);
+        let l = 30.0;
+        assert!(
+            exact >= brute,
+            "case {case}: exact {exact} below brute force {brute}"
+        );
+        assert!(
+            exact <= brute + 1e-6 * l,
+            "case {case}: exact {exact} above brute force {brute}"
+        );
+        for f in [upp_bbox, upp_minball, upp_maxdis] {
+            let b = f(&regions, &x_hat)
+                .expect("solves")
+                .value()
+                .expect("nonempty");
+            // Up to the round-off allowance (1e-9 of the length scale L <= 50 here).
+            assert!(
+                exact <= b + 1e-7,
+                "case {case}: exact {exact} above a relaxation {b}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_3d_exact_worst_case_refuses_spheroids_and_finds_disjoint_balls_empty() {
+    let regions = [
+        Region::disc(p3(0.0, 0.0, 0.0), 3.0),
+        Region::ellipse(p3(0.0, 0.0, 0.0), p3(1.0, 0.0, 0.0), 4.0),
+    ];
+    let i = Intersection::new(&regions)
+        .expect("finite")
+        .expect("nonempty");
+    assert!(matches!(
+        i.upp_exact(&p3(0.0, 0.0, 0.0)),
+        Err(BoundError::Unsupported(_))
+    ));
+    assert!(
+        Intersection::new(&[
+            Region::disc(p3(0.0, 0.0, 0.0), 1.0),
+            Region::disc(p3(3.0, 0.0, 0.0), 1.0)
+        ])
+        .expect("finite")
+        .is_none()
+    );
 }
