@@ -55,7 +55,7 @@ mod exact_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
-mod tests_3d;
+mod three_d_tests;
 
 pub use estimators::{PocsResult, pocs};
 pub use region::{Quadratic, Region};

@@ -208,4 +208,4 @@ mod tests {
 }
 
 #[cfg(test)]
-mod tests_3d;
+mod three_d_tests;

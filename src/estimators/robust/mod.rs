@@ -729,4 +729,4 @@ mod tests {
 }
 
 #[cfg(test)]
-mod tests_3d;
+mod three_d_tests;
