@@ -38,36 +38,11 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Validate { scenarios } => {
             for p in &scenarios {
-                for sc in Scenario::load_all(p)? {
-                    for w in sc.warnings() {
-                        eprintln!("warning: {w}");
+                for sc in crate::scenario::AnyScenario::load_all(p)? {
+                    match &sc {
+                        crate::scenario::AnyScenario::Plane(sc) => validated(p, sc),
+                        crate::scenario::AnyScenario::Space(sc) => validated(p, sc),
                     }
-                    println!(
-                        "{}{}: ok ({} receivers, {} transmitters, {} edges, {} samples, {} {}{}{})",
-                        p.display(),
-                        sc.variant
-                            .as_ref()
-                            .map_or(String::new(), |v| format!(" [{v}]")),
-                        sc.graph.len(),
-                        sc.geometry.transmitters.len(),
-                        sc.graph.edges().len(),
-                        sc.samples,
-                        sc.algorithm.mode.as_str(),
-                        sc.algorithm.local_solver.as_str(),
-                        if sc.baselines.is_empty() {
-                            String::new()
-                        } else {
-                            format!(
-                                ", baselines {}",
-                                sc.baselines
-                                    .iter()
-                                    .map(|b| b.name())
-                                    .collect::<Vec<_>>()
-                                    .join(" ")
-                            )
-                        },
-                        sc.trials.map_or(String::new(), |n| format!(", {n} trials"))
-                    );
                 }
             }
             Ok(())
@@ -556,4 +531,38 @@ fn run_single(
             Ok((dir, outcome.metrics.expect))
         }
     }
+}
+
+/// `sonarnet validate`'s line for one checked scenario (and its warnings).
+fn validated<const D: usize>(p: &std::path::Path, sc: &Scenario<D>) {
+    for w in sc.warnings() {
+        eprintln!("warning: {w}");
+    }
+    println!(
+        "{}{}: ok ({}{} receivers, {} transmitters, {} edges, {} samples, {} {}{}{})",
+        p.display(),
+        sc.variant
+            .as_ref()
+            .map_or(String::new(), |v| format!(" [{v}]")),
+        if D == 3 { "3-D, " } else { "" },
+        sc.graph.len(),
+        sc.geometry.transmitters.len(),
+        sc.graph.edges().len(),
+        sc.samples,
+        sc.algorithm.mode.as_str(),
+        sc.algorithm.local_solver.as_str(),
+        if sc.baselines.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", baselines {}",
+                sc.baselines
+                    .iter()
+                    .map(|b| b.name())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )
+        },
+        sc.trials.map_or(String::new(), |n| format!(", {n} trials"))
+    );
 }

@@ -243,7 +243,11 @@ impl BaselineCfg {
     /// Check the parameters against the scenario geometry (`has_bistatic`
     /// says whether bistatic ranges exist): the first problem's key (under
     /// the baseline's table) and reason.
-    pub fn validate(&self, geometry: &Geometry, has_bistatic: bool) -> Result<(), KeyError> {
+    pub fn validate<const D: usize>(
+        &self,
+        geometry: &Geometry<D>,
+        has_bistatic: bool,
+    ) -> Result<(), KeyError> {
         let name = self.name();
         if name.is_empty()
             || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')

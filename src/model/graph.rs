@@ -129,8 +129,8 @@ impl Graph {
     }
 
     /// Every pair of points closer than `radius` (a geometric graph).
-    pub fn geometric_edges(
-        points: &[crate::model::geometry::Vec2],
+    pub fn geometric_edges<const D: usize>(
+        points: &[crate::model::geometry::Point<D>],
         radius: f64,
     ) -> Vec<(usize, usize)> {
         let mut e = Vec::new();

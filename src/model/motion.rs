@@ -1,8 +1,14 @@
-//! Target motion models: the true track `x_k*`, `k = 0..samples`.
+//! Target motion models: the true track `x_k*`, `k = 0..samples`, in 2-D
+//! or 3-D. The points of a model are written `[x, y]` or `[x, y, z]`
+//! ([`Pt`]); [`Motion::track`] is generic over the dimension `D` and reads
+//! them in `D` dimensions once the scenario has checked that they all have
+//! `D` coordinates ([`Motion::points`]). Every 2-D track is computed by the
+//! same arithmetic as before depth existed, bit for bit.
 
 use crate::model::error::KeyError;
-use crate::model::geometry::{Vec2, v2};
+use crate::model::geometry::Point;
 use crate::model::rng::SonarRng;
+use crate::model::xy::Pt;
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
@@ -11,11 +17,15 @@ use serde::{Deserialize, Serialize};
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Motion {
     /// Mourya 2017 Sec. III-C: `x = R cos t + x0`, `y = R sin t + y0`, then
-    /// `R += dR`, `t += dt` after every sample.
+    /// `R += dR`, `t += dt` after every sample. In 3-D a helix:
+    /// `z = z0 + k dz` (`dz = 0`: at the fixed depth `z0`).
     Spiral {
-        /// `[x0, y0]`.
-        #[serde(with = "crate::model::xy")]
-        center: [f64; 2],
+        /// `[x0, y0]` or `[x0, y0, z0]`.
+        center: Pt,
+        /// Depth increment per sample `dz` (3-D only; default 0; negative
+        /// descends, as `z` points up).
+        #[serde(default, skip_serializing_if = "is_zero")]
+        dz: f64,
         /// Initial radius `R` (default 0: the track starts at the centre).
         #[serde(default)]
         r0: f64,
@@ -30,46 +40,43 @@ pub enum Motion {
     /// `x_k = start + k * velocity` (velocity in metres per sample).
     ConstantVelocity {
         /// Position at sample 0.
-        #[serde(with = "crate::model::xy")]
-        start: [f64; 2],
+        start: Pt,
         /// Displacement per sample.
-        #[serde(with = "crate::model::xy")]
-        velocity: [f64; 2],
+        velocity: Pt,
     },
     /// A polyline traversed at constant speed: sample 0 at the first point,
     /// the last sample at the last point, linear interpolation by arc length.
     Waypoints {
         /// At least two points.
-        #[serde(with = "crate::model::xy::list")]
-        points: Vec<[f64; 2]>,
+        points: Vec<Pt>,
     },
     /// Pun-So 2022 eq. (19): `x_{t+1} = x_t + c / sqrt(2 (t + 1)) u_t` with `u_t`
-    /// uniform on the unit circle, `t = 1..T-1` (sample `k` is `t = k + 1`).
+    /// uniform on the unit circle (the unit sphere in 3-D), `t = 1..T-1`
+    /// (sample `k` is `t = k + 1`).
     RandomWalk {
         /// `x_1`.
-        #[serde(with = "crate::model::xy")]
-        start: [f64; 2],
+        start: Pt,
         /// Step scale `c`.
         c: f64,
     },
-    /// Pun-So 2020 Examples 1-2: `x_{t+1} = x_t + (-1)^{b_t} c / sqrt(2t) [1, 1]`,
-    /// `b_t ~ Bernoulli(1/2)` (sample `k` steps with `t = k + 1`).
+    /// Pun-So 2020 Examples 1-2: `x_{t+1} = x_t + (-1)^{b_t} c / sqrt(2t) [1, 1]`
+    /// (`[1, 1, 1]` in 3-D), `b_t ~ Bernoulli(1/2)` (sample `k` steps with
+    /// `t = k + 1`).
     DiagonalWalk {
         /// Position at sample 0.
-        #[serde(with = "crate::model::xy")]
-        start: [f64; 2],
+        start: Pt,
         /// Step scale `c` (Pun-So 2020: 0.0025).
         c: f64,
     },
-    /// Pun-So 2020 Example 3: `x_{t+1} = x_t + d_t`, `d_t` uniform on `[-h, h]^2`.
+    /// Pun-So 2020 Example 3: `x_{t+1} = x_t + d_t`, `d_t` uniform on `[-h, h]^D`.
     UniformBoxWalk {
         /// Position at sample 0.
-        #[serde(with = "crate::model::xy")]
-        start: [f64; 2],
+        start: Pt,
         /// Half width `h` (Pun-So 2020: 0.0025).
         half_width: f64,
     },
-    /// Gholami 2015 Fig. 11: `x_k = x0 + k dx`, `y_k = a x_k^2 + b x_k + c`.
+    /// Gholami 2015 Fig. 11: `x_k = x0 + k dx`, `y_k = a x_k^2 + b x_k + c`;
+    /// in 3-D at the fixed height `z`.
     QuadraticPath {
         /// `x` at sample 0.
         x0: f64,
@@ -77,29 +84,89 @@ pub enum Motion {
         dx: f64,
         /// `[a, b, c]` (Gholami 2015: `[-0.0004, 0.3, 10]`).
         coefficients: [f64; 3],
+        /// The path's `z` (3-D only, where it is required).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        z: Option<f64>,
     },
     /// A target that does not move.
     Static {
         /// Its position.
-        #[serde(with = "crate::model::xy")]
-        position: [f64; 2],
+        position: Pt,
     },
     /// A static target at a position drawn uniformly in the box `[min, max]`
     /// from the run seed (a new position for every Monte Carlo trial).
     UniformStatic {
         /// Lower corner.
-        #[serde(with = "crate::model::xy")]
-        min: [f64; 2],
+        min: Pt,
         /// Upper corner.
-        #[serde(with = "crate::model::xy")]
-        max: [f64; 2],
+        max: Pt,
     },
 }
 
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 impl Motion {
-    /// Check the parameters; the [`KeyError`] names the key (under the
-    /// motion's table) and why.
-    pub fn validate(&self) -> Result<(), KeyError> {
+    /// The model's points with their keys (under the motion's table), for
+    /// the scenario's check that every point has its dimension; the
+    /// quadratic path counts as 3-D when it gives `z`.
+    pub fn points(&self) -> Vec<(String, Pt)> {
+        let one = |k: &str, p: &Pt| vec![(k.to_string(), *p)];
+        match self {
+            Motion::Spiral { center, .. } => one("center", center),
+            Motion::ConstantVelocity { start, velocity } => {
+                let mut v = one("start", start);
+                v.extend(one("velocity", velocity));
+                v
+            }
+            Motion::Waypoints { points } => points
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (format!("points[{i}]"), *p))
+                .collect(),
+            Motion::RandomWalk { start, .. }
+            | Motion::DiagonalWalk { start, .. }
+            | Motion::UniformBoxWalk { start, .. } => one("start", start),
+            Motion::QuadraticPath { z, .. } => vec![(
+                "z".to_string(),
+                match z {
+                    Some(z) => Pt::xyz(0.0, 0.0, *z),
+                    None => Pt::xy(0.0, 0.0),
+                },
+            )],
+            Motion::Static { position } => one("position", position),
+            Motion::UniformStatic { min, max } => {
+                let mut v = one("min", min);
+                v.extend(one("max", max));
+                v
+            }
+        }
+    }
+
+    /// Check the parameters for a scenario of dimension `dim` (2 or 3); the
+    /// [`KeyError`] names the key (under the motion's table) and why.
+    pub fn validate(&self, dim: usize) -> Result<(), KeyError> {
+        for (key, p) in self.points() {
+            if p.dim() != dim {
+                let why = if key == "z" && dim == 3 {
+                    "a 3-D scenario needs the path's z".to_string()
+                } else {
+                    format!(
+                        "the scenario is {dim}-D (its receivers have {dim} coordinates), \
+                         this point has {}",
+                        p.dim()
+                    )
+                };
+                return Err(KeyError::new(&key, why));
+            }
+            if !p.is_finite() {
+                return Err(KeyError::new(
+                    &key,
+                    format!("must be finite, got {:?}", p.coords()),
+                ));
+            }
+        }
         let finite = |name: &str, v: &[f64]| {
             if v.iter().all(|x| x.is_finite()) {
                 Ok(())
@@ -107,100 +174,81 @@ impl Motion {
                 Err(KeyError::new(name, format!("must be finite, got {v:?}")))
             }
         };
+        let non_negative = |name: &str, c: f64| {
+            if c.is_finite() && c >= 0.0 {
+                Ok(())
+            } else {
+                Err(KeyError::new(
+                    name,
+                    format!("must be finite and >= 0, got {c}"),
+                ))
+            }
+        };
         match self {
             Motion::Spiral {
-                center,
-                r0,
-                dr,
-                t0,
-                dt,
+                r0, dr, t0, dt, dz, ..
             } => {
-                finite("center", center)?;
-                finite("r0/dr/t0/dt", &[*r0, *dr, *t0, *dt])
-            }
-            Motion::ConstantVelocity { start, velocity } => {
-                finite("start", start)?;
-                finite("velocity", velocity)
-            }
-            Motion::Waypoints { points } => {
-                if points.len() < 2 {
+                finite("r0/dr/t0/dt", &[*r0, *dr, *t0, *dt])?;
+                finite("dz", &[*dz])?;
+                if dim == 2 && *dz != 0.0 {
                     return Err(KeyError::new(
-                        "points",
-                        format!("needs at least 2 entries, got {}", points.len()),
-                    ));
-                }
-                for p in points {
-                    finite("points", p)?;
-                }
-                Ok(())
-            }
-            Motion::RandomWalk { start, c } => {
-                finite("start", start)?;
-                if !(c.is_finite() && *c >= 0.0) {
-                    return Err(KeyError::new(
-                        "c",
-                        format!("must be finite and >= 0, got {c}"),
+                        "dz",
+                        "a helix needs a 3-D scenario (center [x, y, z]); this one is 2-D",
                     ));
                 }
                 Ok(())
             }
-            Motion::DiagonalWalk { start, c } => {
-                finite("start", start)?;
-                if !(c.is_finite() && *c >= 0.0) {
-                    return Err(KeyError::new(
-                        "c",
-                        format!("must be finite and >= 0, got {c}"),
-                    ));
-                }
-                Ok(())
-            }
-            Motion::UniformBoxWalk { start, half_width } => {
-                finite("start", start)?;
-                if !(half_width.is_finite() && *half_width >= 0.0) {
-                    return Err(KeyError::new(
-                        "half_width",
-                        format!("must be finite and >= 0, got {half_width}"),
-                    ));
-                }
-                Ok(())
-            }
+            Motion::Waypoints { points } if points.len() < 2 => Err(KeyError::new(
+                "points",
+                format!("needs at least 2 entries, got {}", points.len()),
+            )),
+            Motion::RandomWalk { c, .. } | Motion::DiagonalWalk { c, .. } => non_negative("c", *c),
+            Motion::UniformBoxWalk { half_width, .. } => non_negative("half_width", *half_width),
             Motion::QuadraticPath {
                 x0,
                 dx,
                 coefficients,
+                ..
             } => {
                 finite("x0/dx", &[*x0, *dx])?;
                 finite("coefficients", coefficients)
             }
-            Motion::Static { position } => finite("position", position),
             Motion::UniformStatic { min, max } => {
-                finite("min", min)?;
-                finite("max", max)?;
-                if min[0] <= max[0] && min[1] <= max[1] {
+                if min.coords().iter().zip(max.coords()).all(|(a, b)| a <= b) {
                     Ok(())
                 } else {
                     Err(KeyError::new(
                         "min",
-                        format!("{min:?} must be below max {max:?}"),
+                        format!("{:?} must be below max {:?}", min.coords(), max.coords()),
                     ))
                 }
+            }
+            Motion::ConstantVelocity { .. } | Motion::Waypoints { .. } | Motion::Static { .. } => {
+                Ok(())
             }
         }
     }
 
-    fn walk(start: &[f64; 2], m: Walk, samples: usize, rng: &mut SonarRng) -> Vec<Vec2> {
-        let mut x = v2(*start);
+    fn walk<const D: usize>(
+        start: &Pt,
+        m: Walk,
+        samples: usize,
+        rng: &mut SonarRng,
+    ) -> Vec<Point<D>> {
+        let mut x = start.point::<D>();
         let mut out = Vec::with_capacity(samples);
         for k in 0..samples {
             out.push(x);
-            x += m.displacement(k, rng);
+            x += m.displacement::<D, _>(k, rng);
         }
         out
     }
 
-    /// The true positions at samples `0..samples`. `rng` drives random motion
-    /// (derive it from the run seed with `Stream::Motion`).
-    pub fn track(&self, samples: usize, rng: &mut SonarRng) -> Vec<Vec2> {
+    /// The true positions at samples `0..samples` in `D` dimensions (the
+    /// model's points have `D` coordinates: [`Motion::validate`]). `rng`
+    /// drives random motion (derive it from the run seed with
+    /// `Stream::Motion`).
+    pub fn track<const D: usize>(&self, samples: usize, rng: &mut SonarRng) -> Vec<Point<D>> {
         match self {
             Motion::Spiral {
                 center,
@@ -208,11 +256,18 @@ impl Motion {
                 dr,
                 t0,
                 dt,
+                dz,
             } => {
                 let (mut r, mut t) = (*r0, *t0);
+                let c = center.point::<D>();
                 (0..samples)
-                    .map(|_| {
-                        let p = Vec2::new(r * t.cos() + center[0], r * t.sin() + center[1]);
+                    .map(|k| {
+                        let mut p = c;
+                        p[0] = r * t.cos() + center[0];
+                        p[1] = r * t.sin() + center[1];
+                        if D == 3 {
+                            p[2] = c[2] + k as f64 * dz;
+                        }
                         r += dr;
                         t += dt;
                         p
@@ -220,10 +275,10 @@ impl Motion {
                     .collect()
             }
             Motion::ConstantVelocity { start, velocity } => (0..samples)
-                .map(|k| v2(*start) + v2(*velocity) * k as f64)
+                .map(|k| start.point::<D>() + velocity.point::<D>() * k as f64)
                 .collect(),
             Motion::Waypoints { points } => {
-                let pts: Vec<Vec2> = points.iter().map(|p| v2(*p)).collect();
+                let pts: Vec<Point<D>> = points.iter().map(Pt::point::<D>).collect();
                 let seg: Vec<f64> = pts.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
                 let total: f64 = seg.iter().sum();
                 (0..samples)
@@ -265,10 +320,15 @@ impl Motion {
                 x0,
                 dx,
                 coefficients: [a, b, c],
+                z,
             } => (0..samples)
                 .map(|k| {
                     let x = x0 + k as f64 * dx;
-                    Vec2::new(x, a * x * x + b * x + c)
+                    Point::<D>::from_fn(|i, _| match i {
+                        0 => x,
+                        1 => a * x * x + b * x + c,
+                        _ => z.unwrap_or(0.0),
+                    })
                 })
                 .collect(),
             Motion::UniformStatic { min, max } => {
@@ -279,10 +339,15 @@ impl Motion {
                         lo
                     }
                 };
-                let p = Vec2::new(draw(min[0], max[0]), draw(min[1], max[1]));
+                // Coordinates drawn in order x, y(, z).
+                let (lo, hi) = (min.point::<D>(), max.point::<D>());
+                let mut p = lo;
+                for i in 0..D {
+                    p[i] = draw(lo[i], hi[i]);
+                }
                 vec![p; samples]
             }
-            Motion::Static { position } => vec![v2(*position); samples],
+            Motion::Static { position } => vec![position.point::<D>(); samples],
         }
     }
 }
@@ -323,24 +388,38 @@ impl Walk {
         }
     }
 
-    /// The random displacement `d_k` from 0-based position `k` to `k + 1`.
-    pub fn displacement<R: RngExt + ?Sized>(&self, k: usize, rng: &mut R) -> Vec2 {
+    /// The random displacement `d_k` from 0-based position `k` to `k + 1`,
+    /// in `D` = 2 or 3 dimensions. The circle's direction is `phi` uniform in
+    /// `[0, 2 pi)`; the sphere's is Archimedes' `(sqrt(1 - w^2) cos phi,
+    /// sqrt(1 - w^2) sin phi, w)` with `w` uniform in `[-1, 1]` (drawn after
+    /// `phi`), which is uniform on the sphere.
+    pub fn displacement<const D: usize, R: RngExt + ?Sized>(
+        &self,
+        k: usize,
+        rng: &mut R,
+    ) -> Point<D> {
         match *self {
             Walk::SqrtDecayCircle { c } => {
                 let phi = rng.random_range(0.0..std::f64::consts::TAU);
                 let (s, co) = phi.sin_cos();
-                Vec2::new(co, s) * (c / (2.0 * (k as f64 + 2.0)).sqrt())
+                let scale = c / (2.0 * (k as f64 + 2.0)).sqrt();
+                if D == 2 {
+                    return Point::<D>::from_fn(|i, _| [co, s][i]) * scale;
+                }
+                let w: f64 = rng.random_range(-1.0..=1.0);
+                let rho = (1.0 - w * w).max(0.0).sqrt();
+                Point::<D>::from_fn(|i, _| [rho * co, rho * s, w][i]) * scale
             }
             Walk::SqrtDecayDiagonal { c } => {
                 let sign = if rng.random_bool(0.5) { -1.0 } else { 1.0 };
                 let a = sign * c / (2.0 * (k as f64 + 1.0)).sqrt();
-                Vec2::new(a, a)
+                Point::<D>::repeat(a)
             }
             Walk::UniformBox { half_width: h } => {
                 if h > 0.0 {
-                    Vec2::new(rng.random_range(-h..=h), rng.random_range(-h..=h))
+                    Point::<D>::from_fn(|_, _| rng.random_range(-h..=h))
                 } else {
-                    Vec2::zeros()
+                    Point::<D>::zeros()
                 }
             }
         }
@@ -350,19 +429,21 @@ impl Walk {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::geometry::Vec2;
     use crate::model::rng::{Stream, stream_rng};
     use approx::assert_relative_eq;
 
     #[test]
     fn the_spiral_starts_at_its_centre_and_grows_by_dr_per_sample() {
         let m = Motion::Spiral {
-            center: [500.0, 500.0],
+            center: Pt::from([500.0, 500.0]),
             r0: 0.0,
             dr: 2.5,
             t0: 0.0,
             dt: 0.25,
+            dz: 0.0,
         };
-        let tr = m.track(5, &mut stream_rng(0, Stream::Motion, 0));
+        let tr = m.track::<2>(5, &mut stream_rng(0, Stream::Motion, 0));
         assert_relative_eq!(tr[0].x, 500.0);
         assert_relative_eq!(tr[0].y, 500.0);
         let k: f64 = 4.0;
@@ -373,9 +454,9 @@ mod tests {
     #[test]
     fn waypoints_are_hit_at_the_ends_and_interpolated_by_arc_length() {
         let m = Motion::Waypoints {
-            points: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]],
+            points: vec![[0.0, 0.0].into(), [10.0, 0.0].into(), [10.0, 10.0].into()],
         };
-        let tr = m.track(5, &mut stream_rng(0, Stream::Motion, 0));
+        let tr = m.track::<2>(5, &mut stream_rng(0, Stream::Motion, 0));
         assert_relative_eq!(tr[0], Vec2::new(0.0, 0.0));
         assert_relative_eq!(tr[2], Vec2::new(10.0, 0.0), epsilon = 1e-12);
         assert_relative_eq!(tr[3], Vec2::new(10.0, 5.0), epsilon = 1e-12);
@@ -385,10 +466,10 @@ mod tests {
     #[test]
     fn random_walk_steps_have_the_length_of_eq_19() {
         let m = Motion::RandomWalk {
-            start: [2.0, 1.0],
+            start: Pt::from([2.0, 1.0]),
             c: 0.005,
         };
-        let tr = m.track(50, &mut stream_rng(3, Stream::Motion, 0));
+        let tr = m.track::<2>(50, &mut stream_rng(3, Stream::Motion, 0));
         assert_relative_eq!(tr[0], Vec2::new(2.0, 1.0));
         for k in 0..49 {
             let t = (k + 1) as f64;
@@ -403,10 +484,10 @@ mod tests {
     #[test]
     fn seed_001_walks_take_diagonal_and_boxed_steps() {
         let m = Motion::DiagonalWalk {
-            start: [2.0, 1.0],
+            start: Pt::from([2.0, 1.0]),
             c: 0.0025,
         };
-        let tr = m.track(20, &mut stream_rng(1, Stream::Motion, 0));
+        let tr = m.track::<2>(20, &mut stream_rng(1, Stream::Motion, 0));
         for k in 0..19 {
             let d = tr[k + 1] - tr[k];
             assert_relative_eq!(d.x, d.y);
@@ -417,10 +498,10 @@ mod tests {
             );
         }
         let m = Motion::UniformBoxWalk {
-            start: [2.0, 1.0],
+            start: Pt::from([2.0, 1.0]),
             half_width: 0.0025,
         };
-        let tr = m.track(200, &mut stream_rng(1, Stream::Motion, 0));
+        let tr = m.track::<2>(200, &mut stream_rng(1, Stream::Motion, 0));
         assert!(tr.windows(2).all(|w| (w[1] - w[0]).amax() <= 0.0025));
     }
 
@@ -430,15 +511,16 @@ mod tests {
             x0: 0.0,
             dx: 10.0,
             coefficients: [-0.0004, 0.3, 10.0],
+            z: None,
         };
-        let tr = m.track(3, &mut stream_rng(0, Stream::Motion, 0));
+        let tr = m.track::<2>(3, &mut stream_rng(0, Stream::Motion, 0));
         assert_relative_eq!(tr[2], Vec2::new(20.0, -0.0004 * 400.0 + 6.0 + 10.0));
         let u = Motion::UniformStatic {
-            min: [0.0, 0.0],
-            max: [100.0, 50.0],
+            min: Pt::from([0.0, 0.0]),
+            max: Pt::from([100.0, 50.0]),
         };
-        let a = u.track(4, &mut stream_rng(0, Stream::Motion, 0));
-        let b = u.track(4, &mut stream_rng(1, Stream::Motion, 0));
+        let a = u.track::<2>(4, &mut stream_rng(0, Stream::Motion, 0));
+        let b = u.track::<2>(4, &mut stream_rng(1, Stream::Motion, 0));
         assert!(a.iter().all(|p| *p == a[0]));
         assert!(a[0].x >= 0.0 && a[0].x < 100.0 && a[0].y >= 0.0 && a[0].y < 50.0);
         assert!((a[0] - b[0]).norm() > 0.0);
@@ -447,27 +529,153 @@ mod tests {
     #[test]
     fn constant_velocity_and_static_tracks_are_exact() {
         let cv = Motion::ConstantVelocity {
-            start: [1.0, 2.0],
-            velocity: [0.5, -1.0],
+            start: Pt::from([1.0, 2.0]),
+            velocity: Pt::from([0.5, -1.0]),
         };
-        let tr = cv.track(3, &mut stream_rng(0, Stream::Motion, 0));
+        let tr = cv.track::<2>(3, &mut stream_rng(0, Stream::Motion, 0));
         assert_relative_eq!(tr[2], Vec2::new(2.0, 0.0));
         let st = Motion::Static {
-            position: [3.0, 4.0],
+            position: Pt::from([3.0, 4.0]),
         };
-        assert_eq!(st.track(2, &mut stream_rng(0, Stream::Motion, 0)).len(), 2);
+        assert_eq!(
+            st.track::<2>(2, &mut stream_rng(0, Stream::Motion, 0))
+                .len(),
+            2
+        );
     }
 
     #[test]
     fn bad_parameters_are_rejected_with_the_key_name() {
         let m = Motion::Waypoints {
-            points: vec![[0.0, 0.0]],
+            points: vec![[0.0, 0.0].into()],
         };
-        assert_eq!(m.validate().unwrap_err().key, "points");
+        assert_eq!(m.validate(2).unwrap_err().key, "points");
         let m = Motion::RandomWalk {
-            start: [0.0, f64::NAN],
+            start: Pt::from([0.0, f64::NAN]),
             c: 1.0,
         };
-        assert_eq!(m.validate().unwrap_err().key, "start");
+        assert_eq!(m.validate(2).unwrap_err().key, "start");
+    }
+
+    #[test]
+    fn the_3d_spiral_is_a_helix_with_dz_per_sample_over_the_2d_spiral() {
+        let helix = Motion::Spiral {
+            center: Pt::xyz(500.0, 400.0, -100.0),
+            r0: 10.0,
+            dr: 2.5,
+            t0: 0.3,
+            dt: 0.25,
+            dz: -4.0,
+        };
+        helix.validate(3).expect("valid helix");
+        let flat = Motion::Spiral {
+            center: Pt::xy(500.0, 400.0),
+            r0: 10.0,
+            dr: 2.5,
+            t0: 0.3,
+            dt: 0.25,
+            dz: 0.0,
+        };
+        let h = helix.track::<3>(30, &mut stream_rng(0, Stream::Motion, 0));
+        let f = flat.track::<2>(30, &mut stream_rng(0, Stream::Motion, 0));
+        for (k, (p, q)) in h.iter().zip(&f).enumerate() {
+            // The plan view is the 2-D spiral, bit for bit.
+            assert_eq!(p[0].to_bits(), q[0].to_bits());
+            assert_eq!(p[1].to_bits(), q[1].to_bits());
+            assert_relative_eq!(p[2], -100.0 - 4.0 * k as f64, epsilon = 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_3d_random_walk_steps_by_eq_19_in_directions_spread_over_the_sphere() {
+        let m = Motion::RandomWalk {
+            start: Pt::xyz(2.0, 1.0, -3.0),
+            c: 0.005,
+        };
+        let tr = m.track::<3>(4001, &mut stream_rng(5, Stream::Motion, 0));
+        let mut mean = Point::<3>::zeros();
+        let mut second = [0.0; 3];
+        for k in 0..4000 {
+            let d = tr[k + 1] - tr[k];
+            let len = 0.005 / (2.0 * (k as f64 + 2.0)).sqrt();
+            assert_relative_eq!(d.norm(), len, epsilon = 1e-15);
+            let u = d / len;
+            mean += u / 4000.0;
+            for i in 0..3 {
+                second[i] += u[i] * u[i] / 4000.0;
+            }
+        }
+        // Uniform on the sphere: mean 0 and E[u_i^2] = 1/3 per axis (the
+        // standard errors are 0.009 and 0.0047; 5 of them allowed).
+        assert!(mean.amax() < 0.045, "{mean:?}");
+        assert!(
+            second.iter().all(|s| (s - 1.0 / 3.0).abs() < 0.024),
+            "{second:?}"
+        );
+    }
+
+    #[test]
+    fn a_3d_box_walk_diagonal_walk_and_uniform_static_target_use_every_axis() {
+        let b = Motion::UniformBoxWalk {
+            start: Pt::xyz(0.0, 0.0, 0.0),
+            half_width: 1.0,
+        };
+        let tr = b.track::<3>(300, &mut stream_rng(2, Stream::Motion, 0));
+        assert!(tr.windows(2).all(|w| (w[1] - w[0]).amax() <= 1.0));
+        assert!(tr.windows(2).any(|w| (w[1][2] - w[0][2]).abs() > 0.5));
+        let d = Motion::DiagonalWalk {
+            start: Pt::xyz(0.0, 0.0, 0.0),
+            c: 1.0,
+        };
+        let tr = d.track::<3>(5, &mut stream_rng(2, Stream::Motion, 0));
+        let step = tr[1] - tr[0];
+        assert_relative_eq!(step[2], step[0]);
+        assert_relative_eq!(step[0].abs(), 1.0 / 2f64.sqrt());
+        let u = Motion::UniformStatic {
+            min: Pt::xyz(0.0, 0.0, -200.0),
+            max: Pt::xyz(100.0, 50.0, -100.0),
+        };
+        let p = u.track::<3>(3, &mut stream_rng(0, Stream::Motion, 0))[0];
+        assert!((-200.0..-100.0).contains(&p[2]), "{p:?}");
+        let q = Motion::QuadraticPath {
+            x0: 0.0,
+            dx: 10.0,
+            coefficients: [0.0, 1.0, 0.0],
+            z: Some(-7.0),
+        };
+        assert_relative_eq!(
+            q.track::<3>(2, &mut stream_rng(0, Stream::Motion, 0))[1][2],
+            -7.0
+        );
+    }
+
+    #[test]
+    fn points_of_the_wrong_dimension_a_2d_helix_and_a_3d_path_without_z_are_named() {
+        let m = Motion::Waypoints {
+            points: vec![Pt::xyz(0.0, 0.0, 0.0), Pt::xy(1.0, 1.0)],
+        };
+        let e = m.validate(3).expect_err("mixed");
+        assert_eq!(e.key, "points[1]");
+        assert!(
+            e.reason.contains("3-D") && e.reason.contains("has 2"),
+            "{e:?}"
+        );
+        let m = Motion::Spiral {
+            center: Pt::xy(0.0, 0.0),
+            r0: 0.0,
+            dr: 1.0,
+            t0: 0.0,
+            dt: 0.1,
+            dz: -1.0,
+        };
+        assert_eq!(m.validate(2).expect_err("2-D helix").key, "dz");
+        let q = Motion::QuadraticPath {
+            x0: 0.0,
+            dx: 1.0,
+            coefficients: [0.0; 3],
+            z: None,
+        };
+        assert_eq!(q.validate(3).expect_err("no z").key, "z");
+        q.validate(2).expect("a 2-D path needs no z");
     }
 }

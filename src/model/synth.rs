@@ -6,7 +6,7 @@
 //! Whether a link is NLOS comes from the run's [`NlosMask`] (drawn from the
 //! run seed, stream `Links`).
 
-use crate::model::geometry::{Point, Vec2};
+use crate::model::geometry::Point;
 use crate::model::measure::{self, Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
 use crate::model::noise::{NlosMask, NoiseModel};
 use crate::model::rng::{Stream, stream_rng};
@@ -119,9 +119,9 @@ fn default_omega() -> f64 {
 
 /// The measurements and truth of one run (one seed).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Realization {
+pub struct Realization<const D: usize = 2> {
     /// True positions per sample, if known.
-    pub truth: Option<Vec<Vec2>>,
+    pub truth: Option<Vec<Point<D>>>,
     /// Every receiver's measurements per sample.
     pub measurements: Vec<SampleMeasurements>,
     /// Nominal noise sigmas per sample (weights of the centralised estimators).

@@ -1,119 +1,181 @@
-//! Serde for points `[x, y]` read from scenario files.
+//! Points as written in scenario files: `[x, y]` or `[x, y, z]`.
 //!
 //! A plain `[f64; 2]` field would take the first two numbers of a longer
 //! array and drop the rest without a word, so a depth written as `[x, y, z]`
-//! would vanish. These helpers read any array and refuse a length other
-//! than two, naming what was found; they write the same `[x, y]` as the
-//! plain field, so saved scenarios are unchanged.
+//! would vanish. A [`Pt`] reads any array of two or three numbers and keeps
+//! them all; it refuses other lengths, naming what was found. The scenario
+//! decides its dimension from its receivers and refuses a point of another
+//! dimension by key (see the scenario's `sections::points`). A `Pt` writes
+//! back exactly what was read, so saved scenarios are unchanged.
+//!
+//! The depth axis is `z`, positive upwards (a depth of 100 m is `z = -100`),
+//! as in the sonar scenarios' surface at `z = 0`.
 
+use crate::model::geometry::Point;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+/// A point of a scenario file (metres): two or three finite-or-not numbers
+/// (finiteness is checked with the key by the scenario reader).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pt {
+    c: [f64; 3],
+    dim: usize,
+}
+
+impl Pt {
+    /// `[x, y]`.
+    pub const fn xy(x: f64, y: f64) -> Pt {
+        Pt {
+            c: [x, y, 0.0],
+            dim: 2,
+        }
+    }
+
+    /// `[x, y, z]`.
+    pub const fn xyz(x: f64, y: f64, z: f64) -> Pt {
+        Pt {
+            c: [x, y, z],
+            dim: 3,
+        }
+    }
+
+    /// The point's coordinates from a slice of 2 or 3 numbers.
+    pub fn from_slice(v: &[f64]) -> Result<Pt, String> {
+        match *v {
+            [x, y] => Ok(Pt::xy(x, y)),
+            [x, y, z] => Ok(Pt::xyz(x, y, z)),
+            _ => Err(wrong_length(v.len())),
+        }
+    }
+
+    /// 2 or 3.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The coordinates as written.
+    pub fn coords(&self) -> &[f64] {
+        &self.c[..self.dim]
+    }
+
+    /// Every coordinate is finite.
+    pub fn is_finite(&self) -> bool {
+        self.coords().iter().all(|x| x.is_finite())
+    }
+
+    /// The point in `D` dimensions: its first `D` coordinates, a missing `z`
+    /// read as 0. Callers check `dim() == D` first (the scenario reader
+    /// refuses mixed dimensions), so nothing is dropped.
+    pub fn point<const D: usize>(&self) -> Point<D> {
+        Point::<D>::from_fn(|i, _| self.c.get(i).copied().unwrap_or(0.0))
+    }
+
+    /// The point from a position of `D` = 2 or 3 coordinates.
+    pub fn of<const D: usize>(p: &Point<D>) -> Pt {
+        match D {
+            3 => Pt::xyz(p[0], p[1], p[2]),
+            _ => Pt::xy(p[0], p[1]),
+        }
+    }
+}
+
+impl From<[f64; 2]> for Pt {
+    fn from(p: [f64; 2]) -> Pt {
+        Pt::xy(p[0], p[1])
+    }
+}
+
+impl From<[f64; 3]> for Pt {
+    fn from(p: [f64; 3]) -> Pt {
+        Pt::xyz(p[0], p[1], p[2])
+    }
+}
+
+impl std::ops::Index<usize> for Pt {
+    type Output = f64;
+    fn index(&self, i: usize) -> &f64 {
+        &self.coords()[i]
+    }
+}
 
 /// Why a list of `n` numbers is not a point.
 fn wrong_length(n: usize) -> String {
-    match n {
-        3 => "3-D positions are not supported yet: a point is [x, y] in metres \
-              (got three coordinates; the depth would be dropped)"
-            .to_string(),
-        n => format!("a point is [x, y] in metres: expected 2 coordinates, got {n}"),
+    format!("a point is [x, y] or [x, y, z] in metres: expected 2 or 3 coordinates, got {n}")
+}
+
+impl Serialize for Pt {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.coords().serialize(s)
     }
 }
 
-fn point<E: serde::de::Error>(v: Vec<f64>) -> Result<[f64; 2], E> {
-    match v.as_slice() {
-        [x, y] => Ok([*x, *y]),
-        other => Err(E::custom(wrong_length(other.len()))),
+impl<'de> Deserialize<'de> for Pt {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Pt, D::Error> {
+        let v = Vec::<f64>::deserialize(d)?;
+        Pt::from_slice(&v).map_err(serde::de::Error::custom)
     }
 }
 
-/// Read one point (`#[serde(with = "crate::model::xy")]`).
-pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
-    point(Vec::<f64>::deserialize(d)?)
-}
-
-/// Write one point as `[x, y]`.
-pub fn serialize<S: Serializer>(p: &[f64; 2], s: S) -> Result<S::Ok, S::Error> {
-    p.serialize(s)
-}
-
-/// A list of points (`#[serde(with = "crate::model::xy::list")]`).
+/// A list of points (`#[serde(with = "crate::model::xy::list")]`): the error
+/// names the first bad one by index.
 pub mod list {
-    use super::{Deserialize, Deserializer, Serialize, Serializer, point, wrong_length};
+    use super::{Deserialize, Deserializer, Pt, Serialize, Serializer};
     use serde::de::Error as _;
 
-    /// Read a list of points; the error names the first bad one by index.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<[f64; 2]>, D::Error> {
+    /// Read a list of points.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Pt>, D::Error> {
         let raw = Vec::<Vec<f64>>::deserialize(d)?;
-        raw.into_iter()
+        raw.iter()
             .enumerate()
             .map(|(i, v)| {
-                let n = v.len();
-                point::<D::Error>(v)
-                    .map_err(|_| D::Error::custom(format!("point {i}: {}", wrong_length(n))))
+                Pt::from_slice(v).map_err(|e| D::Error::custom(format!("point {i}: {e}")))
             })
             .collect()
     }
 
     /// Write a list of points.
-    pub fn serialize<S: Serializer>(p: &[[f64; 2]], s: S) -> Result<S::Ok, S::Error> {
-        p.serialize(s)
-    }
-}
-
-/// An optional point (`#[serde(default, with = "crate::model::xy::option")]`).
-pub mod option {
-    use super::{Deserialize, Deserializer, Serialize, Serializer, point};
-
-    /// Read an optional point.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 2]>, D::Error> {
-        Option::<Vec<f64>>::deserialize(d)?.map(point).transpose()
-    }
-
-    /// Write an optional point.
-    pub fn serialize<S: Serializer>(p: &Option<[f64; 2]>, s: S) -> Result<S::Ok, S::Error> {
+    pub fn serialize<S: Serializer>(p: &[Pt], s: S) -> Result<S::Ok, S::Error> {
         p.serialize(s)
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::Pt;
     use serde::Deserialize;
 
-    #[derive(Debug, Deserialize)]
+    #[derive(Debug, Deserialize, serde::Serialize)]
     struct One {
-        #[serde(with = "super")]
-        p: [f64; 2],
+        p: Pt,
         #[serde(default, with = "super::list")]
-        ps: Vec<[f64; 2]>,
+        ps: Vec<Pt>,
     }
 
     #[test]
-    fn a_point_with_two_coordinates_reads_as_is() {
+    fn a_point_with_two_coordinates_reads_and_writes_as_is() {
         let v: One = toml::from_str("p = [1.5, -2]\nps = [[0, 1], [2, 3]]").expect("valid");
         // Exact: these are the numbers as written.
+        assert_eq!(v.p.dim(), 2);
         assert!(
-            v.p.iter()
+            v.p.coords()
+                .iter()
                 .zip([1.5, -2.0])
                 .all(|(a, b)| a.to_bits() == f64::to_bits(b))
         );
-        let flat: Vec<f64> = v.ps.iter().flatten().copied().collect();
-        assert!(
-            flat.iter()
-                .zip([0.0, 1.0, 2.0, 3.0])
-                .all(|(a, b)| a.to_bits() == f64::to_bits(b))
-        );
+        let flat: Vec<f64> = v.ps.iter().flat_map(|p| p.coords().to_vec()).collect();
         assert_eq!(flat.len(), 4);
+        let text = toml::to_string(&v).expect("writes");
+        assert!(text.contains("p = [1.5, -2.0]"), "{text}");
     }
 
     #[test]
-    fn a_point_with_three_coordinates_is_refused_as_3d_not_truncated() {
-        let e = toml::from_str::<One>("p = [1, 2, 3]")
-            .expect_err("3-D")
-            .to_string();
-        assert!(e.contains("3-D positions are not supported yet"), "{e}");
-        let e = toml::from_str::<One>("p = [0, 0]\nps = [[0, 1], [1, 2, 3]]")
-            .expect_err("3-D")
-            .to_string();
-        assert!(e.contains("point 1") && e.contains("3-D"), "{e}");
+    fn a_point_with_three_coordinates_keeps_its_depth() {
+        let v: One = toml::from_str("p = [1, 2, -300]\nps = [[0, 1, 2]]").expect("3-D");
+        assert_eq!(v.p.dim(), 3);
+        assert_eq!(v.p.point::<3>()[2].to_bits(), (-300.0f64).to_bits());
+        assert_eq!(v.ps[0].coords().len(), 3);
+        let text = toml::to_string(&v).expect("writes");
+        assert!(text.contains("p = [1.0, 2.0, -300.0]"), "{text}");
     }
 
     #[test]
@@ -122,7 +184,11 @@ mod tests {
             let e = toml::from_str::<One>(text)
                 .expect_err("bad length")
                 .to_string();
-            assert!(e.contains(n), "{e}");
+            assert!(e.contains(n) && e.contains("[x, y, z]"), "{e}");
         }
+        let e = toml::from_str::<One>("p = [0, 0]\nps = [[0, 1], [1]]")
+            .expect_err("bad length")
+            .to_string();
+        assert!(e.contains("point 1") && e.contains("got 1"), "{e}");
     }
 }

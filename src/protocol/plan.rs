@@ -273,7 +273,7 @@ fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConf
         gamma,
         solver: sc.algorithm.local_solver,
         kappa: sc.algorithm.kappa,
-        init_u: sc.algorithm.init_u[id],
+        init_u: sc.algorithm.init_u_of::<3>(id),
         first_fix: sc.algorithm.init == crate::scenario::InitMode::FirstFix,
         noise_weights: sc.algorithm.row_weights == RowWeights::Noise,
         seed: sc.seed,

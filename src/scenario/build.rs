@@ -16,10 +16,10 @@ use std::path::PathBuf;
 /// against them: a [`KeyError`]. The one check for the file and for
 /// `--baselines`, which replaces the list (so `bounds.tracks` must still name
 /// existing tracks).
-pub(super) fn check_tracks(
+pub(super) fn check_tracks<const D: usize>(
     baselines: &[crate::estimators::baselines::BaselineCfg],
     bounds: Option<&BoundsCfg>,
-    geometry: &Geometry,
+    geometry: &Geometry<D>,
 ) -> Result<(), KeyError> {
     let mut names = BTreeSet::new();
     for (i, b) in baselines.iter().enumerate() {
@@ -103,63 +103,110 @@ pub fn merge_tables(base: &mut toml::Table, over: &toml::Table) {
 }
 
 impl Scenario {
-    /// Read, parse and validate a scenario file without `[[variants]]`
-    /// (a file with variants is an error here: use [`Scenario::load_all`]).
+    /// Read, parse and validate a 2-D scenario file without `[[variants]]`
+    /// (a file with variants is an error here: use [`Scenario::load_all`]; a
+    /// 3-D file is an error naming its receivers: [`AnyScenario`] reads
+    /// either).
+    ///
+    /// [`AnyScenario`]: super::AnyScenario
     pub fn load(path: &Path) -> Result<Scenario, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
-        Self::from_toml_str(&text, path)
+        load_one(path)
     }
 
-    /// Read, parse and validate a scenario file: one scenario, or one per
-    /// `[[variants]]` entry, in file order.
+    /// Read, parse and validate a 2-D scenario file: one scenario, or one
+    /// per `[[variants]]` entry, in file order.
     pub fn load_all(path: &Path) -> Result<Vec<Scenario>, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
-        Self::all_from_toml_str(&text, path)
+        load_every(path)
     }
 
-    /// Parse and validate scenario text without variants; `path` names it in
-    /// errors and anchors relative file names.
+    /// Parse and validate 2-D scenario text without variants; `path` names
+    /// it in errors and anchors relative file names.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Scenario, InputError> {
-        let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-        if !file.variants.is_empty() {
-            let names: Vec<&str> = file.variants.iter().map(|v| v.name.as_str()).collect();
-            return Err(InputError::at(
-                path,
-                "variants",
-                format!(
-                    "the file has {} variants ({}); load them all, or pick one with --variant",
-                    names.len(),
-                    names.join(", ")
-                ),
-            ));
-        }
-        Self::from_parsed(file, path)
+        one_from_toml_str(text, path)
     }
 
-    /// Parse and validate scenario text with any `[[variants]]`: each variant
-    /// is the base file with the variant's tables deep-merged over it.
+    /// Parse and validate 2-D scenario text with any `[[variants]]`: each
+    /// variant is the base file with the variant's tables deep-merged over it.
     pub fn all_from_toml_str(text: &str, path: &Path) -> Result<Vec<Scenario>, InputError> {
-        let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-        if file.variants.is_empty() {
-            return Ok(vec![Self::from_parsed(file, path)?]);
-        }
-        let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-        base.remove("variants");
-        for_each_variant(&file, &base, path, &[], |t| {
-            let f: ScenarioFile = toml::Value::Table(t)
-                .try_into()
-                .map_err(|e: toml::de::Error| InputError::file(path, e.message().trim()))?;
-            Self::from_parsed(f, path)
-        })
+        every_from_toml_str(text, path)
     }
+}
 
+fn read_text(path: &Path) -> Result<String, InputError> {
+    std::fs::read_to_string(path)
+        .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))
+}
+
+/// [`Scenario::load`] in `D` dimensions.
+pub(super) fn load_one<const D: usize>(path: &Path) -> Result<Scenario<D>, InputError> {
+    one_from_toml_str(&read_text(path)?, path)
+}
+
+/// [`Scenario::load_all`] in `D` dimensions.
+pub(super) fn load_every<const D: usize>(path: &Path) -> Result<Vec<Scenario<D>>, InputError> {
+    every_from_toml_str(&read_text(path)?, path)
+}
+
+/// [`Scenario::from_toml_str`] in `D` dimensions.
+pub(super) fn one_from_toml_str<const D: usize>(
+    text: &str,
+    path: &Path,
+) -> Result<Scenario<D>, InputError> {
+    let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+    if !file.variants.is_empty() {
+        let names: Vec<&str> = file.variants.iter().map(|v| v.name.as_str()).collect();
+        return Err(InputError::at(
+            path,
+            "variants",
+            format!(
+                "the file has {} variants ({}); load them all, or pick one with --variant",
+                names.len(),
+                names.join(", ")
+            ),
+        ));
+    }
+    Scenario::<D>::from_parsed(file, path)
+}
+
+/// [`Scenario::all_from_toml_str`] in `D` dimensions.
+pub(super) fn every_from_toml_str<const D: usize>(
+    text: &str,
+    path: &Path,
+) -> Result<Vec<Scenario<D>>, InputError> {
+    let file: ScenarioFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+    if file.variants.is_empty() {
+        return Ok(vec![Scenario::<D>::from_parsed(file, path)?]);
+    }
+    let mut base: toml::Table = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+    base.remove("variants");
+    for_each_variant(&file, &base, path, &[], |t| {
+        let f: ScenarioFile = toml::Value::Table(t)
+            .try_into()
+            .map_err(|e: toml::de::Error| InputError::file(path, e.message().trim()))?;
+        Scenario::<D>::from_parsed(f, path)
+    })
+}
+
+impl<const D: usize> Scenario<D> {
     /// Validate a parsed scenario file.
-    pub fn from_parsed(file: ScenarioFile, path: &Path) -> Result<Scenario, InputError> {
+    pub fn from_parsed(file: ScenarioFile, path: &Path) -> Result<Scenario<D>, InputError> {
         let base = path.parent().unwrap_or(Path::new("."));
         if file.name.trim().is_empty() {
             return Err(InputError::at(path, "name", "must not be empty"));
+        }
+        let dim = sections::dimension(path, &file)?;
+        if dim != D {
+            return Err(InputError::at(
+                path,
+                "geometry.receivers",
+                if dim == 3 {
+                    "the scenario is 3-D ([x, y, z] positions); this command runs 2-D \
+                     scenarios only (`sonarnet validate` and the library read 3-D ones)"
+                        .to_string()
+                } else {
+                    format!("the scenario is {dim}-D, {D}-D was expected")
+                },
+            ));
         }
         let (transmitters, mut receivers) = sections::points(path, &file)?;
         let graph = sections::network(path, &file, &mut receivers)?;
@@ -169,7 +216,7 @@ impl Scenario {
         };
         sections::measurements(path, &file.measurements, &geometry)?;
         let (source, samples) = sections::data_source(path, base, &file, &geometry)?;
-        let algorithm = sections::algorithm(path, base, &file, &graph, samples)?;
+        let algorithm = sections::algorithm::<D>(path, base, &file, &graph, samples)?;
         sections::realtime(path, &file)?;
         if let Some(ch) = file.channel.acoustic() {
             ch.validate(geometry.receivers.len())
@@ -345,13 +392,13 @@ pub(crate) fn resolve_faults(
 /// without its variants) with the variant's tables deep-merged over it,
 /// built by `build`; an error names the variant. With `only` non-empty,
 /// only the variants it names are built (every name is still checked).
-pub(super) fn for_each_variant(
+pub(super) fn for_each_variant<const D: usize>(
     file: &ScenarioFile,
     base: &toml::Table,
     path: &Path,
     only: &[String],
-    build: impl Fn(toml::Table) -> Result<Scenario, InputError>,
-) -> Result<Vec<Scenario>, InputError> {
+    build: impl Fn(toml::Table) -> Result<Scenario<D>, InputError>,
+) -> Result<Vec<Scenario<D>>, InputError> {
     let mut seen = BTreeSet::new();
     let mut out = Vec::with_capacity(file.variants.len());
     for (i, v) in file.variants.iter().enumerate() {

@@ -69,7 +69,7 @@ fn gib(b: u64) -> String {
     format!("{:.1} GiB", b as f64 / (1u64 << 30) as f64)
 }
 
-impl Scenario {
+impl<const D: usize> Scenario<D> {
     /// Bytes of the record of one run (an estimate, seed-independent):
     /// per sample every node's `theta` and measurements and every track's
     /// point; per async iteration its `(v, w)` pair; with
@@ -149,7 +149,7 @@ impl Scenario {
     }
 }
 
-impl Scenario {
+impl<const D: usize> Scenario<D> {
     /// What is allowed but probably not meant, one line each with the file
     /// and key (`sonarnet run` and `sonarnet validate` print them): receivers
     /// at the same position (their measurements are independent draws, so
@@ -159,10 +159,9 @@ impl Scenario {
         let rx = &self.geometry.receivers;
         let mut order: Vec<usize> = (0..rx.len()).collect();
         order.sort_by(|&a, &b| {
-            rx[a]
-                .x
-                .total_cmp(&rx[b].x)
-                .then(rx[a].y.total_cmp(&rx[b].y))
+            (0..D)
+                .map(|i| rx[a][i].total_cmp(&rx[b][i]))
+                .fold(std::cmp::Ordering::Equal, std::cmp::Ordering::then)
                 .then(a.cmp(&b))
         });
         let mut out = Vec::new();
@@ -170,11 +169,14 @@ impl Scenario {
             let (a, b) = (w[0].min(w[1]), w[0].max(w[1]));
             if (rx[a] - rx[b]).norm() <= 1e-9 * (1.0 + rx[a].norm()) {
                 out.push(format!(
-                    "{}: geometry.receivers: receivers {a} and {b} are at the same position ({}, {}); \
+                    "{}: geometry.receivers: receivers {a} and {b} are at the same position ({}); \
                      they measure independently but see the target identically",
                     self.path.display(),
-                    rx[a].x,
-                    rx[a].y
+                    rx[a]
+                        .iter()
+                        .map(|c| c.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ));
             }
         }

@@ -15,7 +15,7 @@ pub use crate::scenario::expect::ExpectCfg;
 
 use crate::estimators::prox::LocalSolver;
 use crate::model::error::{InputError, KeyError};
-use crate::model::geometry::{Vec2, Vec3};
+use crate::model::geometry::{Lifted, Point};
 use crate::model::graph::Graph;
 use crate::model::measure::{Geometry, NodeMeasurements, SampleMeasurements, Sigmas};
 use crate::model::motion::Motion;
@@ -47,9 +47,9 @@ pub use schema::{
     VariantCfg,
 };
 
-/// Where the measurements come from.
+/// Where the measurements come from, in `D` = 2 or 3 dimensions.
 #[derive(Debug, Clone, PartialEq)]
-pub enum DataSource {
+pub enum DataSource<const D: usize = 2> {
     /// Synthesized from a motion model at run time (depends on the seed).
     Synthetic {
         /// The target motion.
@@ -62,7 +62,7 @@ pub enum DataSource {
         /// Per-sample measurements.
         measurements: Vec<SampleMeasurements>,
         /// The true track, if a truth file was given.
-        truth: Option<Vec<Vec2>>,
+        truth: Option<Vec<Point<D>>>,
     },
 }
 
@@ -85,8 +85,10 @@ pub struct Algorithm {
     pub init: InitMode,
     /// How each node weighs the rows of its cost.
     pub row_weights: RowWeights,
-    /// Initial `u` of each node (`init_u[i]` is node `i`'s).
-    pub init_u: Vec<Vec3>,
+    /// Initial `u` of each node (`init_u[i]` is node `i`'s): `D + 1`
+    /// numbers `[x, y(, z), d]`, checked against the scenario's dimension
+    /// ([`Algorithm::init_u_of`]).
+    pub init_u: Vec<Vec<f64>>,
     /// A replayed async schedule, `(v, w)` per iteration, and its file.
     pub schedule: Option<(PathBuf, Vec<(usize, usize)>)>,
     /// Burn-in samples.
@@ -95,9 +97,65 @@ pub struct Algorithm {
     pub clock: Option<ClockCfg>,
 }
 
-/// A validated scenario.
+/// A validated scenario of either dimension, as its file decides: 2-D if
+/// its receivers are `[x, y]`, 3-D if they are `[x, y, z]`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Scenario {
+pub enum AnyScenario {
+    /// A 2-D scenario.
+    Plane(Scenario<2>),
+    /// A 3-D scenario.
+    Space(Scenario<3>),
+}
+
+impl AnyScenario {
+    /// Read, parse and validate a scenario file of either dimension: one
+    /// scenario, or one per `[[variants]]` entry (a variant keeps the
+    /// file's dimension).
+    pub fn load_all(path: &Path) -> Result<Vec<AnyScenario>, InputError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        Self::all_from_toml_str(&text, path)
+    }
+
+    /// [`AnyScenario::load_all`] from text; `path` names it in errors.
+    pub fn all_from_toml_str(text: &str, path: &Path) -> Result<Vec<AnyScenario>, InputError> {
+        let file: ScenarioFile =
+            toml::from_str(text).map_err(|e| build::toml_error(path, text, &e))?;
+        Ok(match sections::dimension(path, &file)? {
+            3 => build::every_from_toml_str::<3>(text, path)?
+                .into_iter()
+                .map(AnyScenario::Space)
+                .collect(),
+            _ => build::every_from_toml_str::<2>(text, path)?
+                .into_iter()
+                .map(AnyScenario::Plane)
+                .collect(),
+        })
+    }
+
+    /// 2 or 3.
+    pub fn dim(&self) -> usize {
+        match self {
+            AnyScenario::Plane(_) => 2,
+            AnyScenario::Space(_) => 3,
+        }
+    }
+}
+
+impl Algorithm {
+    /// Node `id`'s initial `u` as a lifted variable of `L = D + 1`
+    /// dimensions (the lengths were checked against the scenario's
+    /// dimension when it was read).
+    pub fn init_u_of<const L: usize>(&self, id: usize) -> Lifted<L> {
+        let u = &self.init_u[id];
+        Lifted::<L>::from_fn(|i, _| u.get(i).copied().unwrap_or(0.0))
+    }
+}
+
+/// A validated scenario in `D` = 2 or 3 dimensions (decided by its
+/// receivers' coordinates; [`AnyScenario`] holds either).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario<const D: usize = 2> {
     /// The scenario file.
     pub path: PathBuf,
     /// The raw file as parsed (recorded in `run.json`).
@@ -107,13 +165,13 @@ pub struct Scenario {
     /// Run seed.
     pub seed: u64,
     /// Positions.
-    pub geometry: Geometry,
+    pub geometry: Geometry<D>,
     /// Gossip graph over the receivers.
     pub graph: Graph,
     /// Number of samples.
     pub samples: usize,
     /// Measurement source.
-    pub source: DataSource,
+    pub source: DataSource<D>,
     /// What to synthesize and the nominal noise.
     pub measurements: MeasurementsCfg,
     /// DR parameters.
@@ -148,7 +206,7 @@ pub struct Scenario {
     pub deploy: Option<deploy::Placement>,
 }
 
-impl Scenario {
+impl<const D: usize> Scenario<D> {
     /// The nominal number of rows of node `id`'s local cost (Mourya 2017 eq. 9): one per
     /// bistatic range, two per DOA, one per one-way range. Synthetic data: what the
     /// measurements config synthesizes; a trace: the most the node has at any sample.
@@ -380,18 +438,24 @@ impl Scenario {
     /// Nominal noise sigmas at sample `k`.
     pub fn sigmas_at(&self, k: usize) -> Sigmas {
         let m = &self.measurements;
+        let doa = m.doa_noise.as_ref().map_or(0.1, |n| n.sigma_at(k));
         Sigmas {
             range: m.range_noise.as_ref().map_or(1.0, |n| n.sigma_at(k)),
-            doa: m.doa_noise.as_ref().map_or(0.1, |n| n.sigma_at(k)),
-            // Every scenario is 2-D: no elevation is measured.
-            elevation: 0.0,
+            doa,
+            // 2-D measures no elevation; 3-D draws it with its own noise
+            // model, the DOA's when not given.
+            elevation: if D == 3 {
+                m.elevation_noise.as_ref().map_or(doa, |n| n.sigma_at(k))
+            } else {
+                0.0
+            },
         }
     }
 
     /// The truth and measurements of a run with this scenario's seed
     /// (`self.seed`, the one run seed): synthesized for synthetic scenarios,
     /// read from the trace otherwise.
-    pub fn realize(&self) -> Realization {
+    pub fn realize(&self) -> Realization<D> {
         let seed = self.seed;
         let sigmas = (0..self.samples).map(|k| self.sigmas_at(k)).collect();
         match &self.source {
@@ -409,7 +473,8 @@ impl Scenario {
                 ),
             },
             DataSource::Synthetic { motion } => {
-                let truth = motion.track(self.samples, &mut stream_rng(seed, Stream::Motion, 0));
+                let truth =
+                    motion.track::<D>(self.samples, &mut stream_rng(seed, Stream::Motion, 0));
                 let (n_tx, n_rx) = (
                     self.geometry.transmitters.len(),
                     self.geometry.receivers.len(),

@@ -3,7 +3,7 @@
 //! and the line.
 
 use crate::model::error::InputError;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::graph::Graph;
 use crate::model::measure::Geometry;
 use crate::model::measure::NodeMeasurements;
@@ -60,8 +60,13 @@ fn row_line(rec: &csv::StringRecord) -> String {
         .map_or("line ?".into(), |p| format!("line {}", p.line()))
 }
 
-/// Read a measurement trace (`sample,receiver,transmitter,kind,value`).
-pub fn read_trace(path: &Path, geometry: &Geometry) -> Result<Vec<SampleMeasurements>, InputError> {
+/// Read a measurement trace (`sample,receiver,transmitter,kind,value`);
+/// `kind` is `bistatic_range`, `doa` (the azimuth, radians), `range`, or in
+/// a 3-D scenario `elevation` (radians above the horizontal).
+pub fn read_trace<const D: usize>(
+    path: &Path,
+    geometry: &Geometry<D>,
+) -> Result<Vec<SampleMeasurements>, InputError> {
     let mut rdr = csv_reader(
         path,
         &["sample", "receiver", "transmitter", "kind", "value"],
@@ -129,7 +134,14 @@ pub fn read_trace(path: &Path, geometry: &Geometry) -> Result<Vec<SampleMeasurem
                 }
                 node.bistatic.push((t, row.value));
             }
-            "doa" | "range" => {
+            "doa" | "range" | "elevation" => {
+                if row.kind == "elevation" && D != 3 {
+                    return Err(InputError::at(
+                        path,
+                        &line,
+                        "an elevation is measured only in a 3-D scenario ([x, y, z] positions)",
+                    ));
+                }
                 if row.transmitter.is_some() {
                     return Err(InputError::at(
                         path,
@@ -137,17 +149,24 @@ pub fn read_trace(path: &Path, geometry: &Geometry) -> Result<Vec<SampleMeasurem
                         format!("transmitter must be empty for kind {}", row.kind),
                     ));
                 }
-                if row.kind == "doa" {
-                    node.doa = Some(row.value);
-                } else {
-                    node.range = Some(row.value);
+                match row.kind.as_str() {
+                    "doa" => node.doa = Some(row.value),
+                    "elevation" => node.elevation = Some(row.value),
+                    _ => node.range = Some(row.value),
                 }
             }
             other => {
                 return Err(InputError::at(
                     path,
                     &line,
-                    format!("unknown kind `{other}` (expected bistatic_range, doa or range)"),
+                    format!(
+                        "unknown kind `{other}` (expected bistatic_range, doa, range{})",
+                        if D == 3 {
+                            " or elevation"
+                        } else {
+                            " (or elevation in 3-D)"
+                        }
+                    ),
                 ));
             }
         }
@@ -163,16 +182,29 @@ pub fn read_trace(path: &Path, geometry: &Geometry) -> Result<Vec<SampleMeasurem
     Ok(out)
 }
 
-/// Read a truth file (`sample,x,y`, samples 0..S-1 in order).
-pub fn read_truth(path: &Path) -> Result<Vec<Vec2>, InputError> {
-    let mut rdr = csv_reader(path, &["sample", "x", "y"])?;
+/// Read a truth file: `sample,x,y` in 2-D, `sample,x,y,z` in 3-D
+/// (samples 0..S-1 in order).
+pub fn read_truth<const D: usize>(path: &Path) -> Result<Vec<Point<D>>, InputError> {
+    let header: &[&str] = if D == 3 {
+        &["sample", "x", "y", "z"]
+    } else {
+        &["sample", "x", "y"]
+    };
+    let mut rdr = csv_reader(path, header)?;
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| InputError::file(path, e.to_string()))?;
         let line = row_line(&rec);
-        let (k, x, y): (usize, f64, f64) = trim_record(&rec, 3)
-            .deserialize(None)
-            .map_err(|e| InputError::at(path, &line, format!("bad row: {e}")))?;
+        let row = trim_record(&rec, D + 1);
+        let bad = |e: &dyn std::fmt::Display| InputError::at(path, &line, format!("bad row: {e}"));
+        let (k, c): (usize, Vec<f64>) = if D == 3 {
+            let (k, x, y, z): (usize, f64, f64, f64) =
+                row.deserialize(None).map_err(|e| bad(&e))?;
+            (k, vec![x, y, z])
+        } else {
+            let (k, x, y): (usize, f64, f64) = row.deserialize(None).map_err(|e| bad(&e))?;
+            (k, vec![x, y])
+        };
         if k != out.len() {
             return Err(InputError::at(
                 path,
@@ -180,10 +212,14 @@ pub fn read_truth(path: &Path) -> Result<Vec<Vec2>, InputError> {
                 format!("expected sample {}, got {k}", out.len()),
             ));
         }
-        if !(x.is_finite() && y.is_finite()) {
-            return Err(InputError::at(path, &line, "x and y must be finite"));
+        if !c.iter().all(|v| v.is_finite()) {
+            return Err(InputError::at(
+                path,
+                &line,
+                format!("{} must be finite", header[1..].join(", ")),
+            ));
         }
-        out.push(Vec2::new(x, y));
+        out.push(Point::<D>::from_fn(|i, _| c[i]));
     }
     Ok(out)
 }

@@ -2,14 +2,16 @@
 //! directory): the file with every override applied, so that
 //! `sonarnet run DIR/scenario.toml` reproduces the run.
 
+use super::InitU;
 use super::MonteCarloCfg;
 use super::ScenarioFile;
 use super::VariantCfg;
+use crate::model::xy::Pt;
 use crate::scenario::DataSource;
 use crate::scenario::Scenario;
 use std::path::Path;
 
-impl Scenario {
+impl<const D: usize> Scenario<D> {
     /// The scenario file this run amounts to: the file as loaded (with
     /// `--set` and a variant's keys already in it), plus the command-line
     /// shorthands (`--seed`, `--mode`, `--local-solver`, `--kappa`,
@@ -29,7 +31,10 @@ impl Scenario {
         if let Some(t) = &mut f.target {
             t.samples = self.samples;
         }
-        f.geometry.receivers = self.geometry.receivers.iter().map(|r| [r.x, r.y]).collect();
+        f.geometry.receivers = self.geometry.receivers.iter().map(Pt::of).collect();
+        if f.algorithm.init_u == InitU::default() {
+            f.algorithm.init_u = InitU::One(vec![0.0; D + 1]);
+        }
         // A generator that draws the receivers (rgg with `count`) would
         // conflict with them listed: the graph it made is listed instead.
         if f.network.generator.is_some() {

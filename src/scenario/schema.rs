@@ -213,13 +213,15 @@ pub struct MonteCarloCfg {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct GeometryCfg {
-    /// Transmitter positions `t_m` (metres).
+    /// Transmitter positions `t_m` (metres), `[x, y]` or `[x, y, z]`.
     #[serde(default, with = "crate::model::xy::list")]
-    pub transmitters: Vec<[f64; 2]>,
+    pub transmitters: Vec<crate::model::xy::Pt>,
     /// Receiver positions `r_n`; may be omitted when `network.generator` is
-    /// `random_geometric` with `count` (receivers are then drawn).
+    /// `random_geometric` with `count` (receivers are then drawn). Their
+    /// dimension is the scenario's: 2-D if they are `[x, y]`, 3-D if they
+    /// are `[x, y, z]`.
     #[serde(default, with = "crate::model::xy::list")]
-    pub receivers: Vec<[f64; 2]>,
+    pub receivers: Vec<crate::model::xy::Pt>,
 }
 
 /// `[network]`: exactly one of `edges` and `generator`.
@@ -260,11 +262,11 @@ pub enum GeneratorCfg {
         #[serde(default)]
         count: Option<usize>,
         /// Lower corner of the layout box.
-        #[serde(default, with = "crate::model::xy::option")]
-        min: Option<[f64; 2]>,
+        #[serde(default)]
+        min: Option<crate::model::xy::Pt>,
         /// Upper corner of the layout box.
-        #[serde(default, with = "crate::model::xy::option")]
-        max: Option<[f64; 2]>,
+        #[serde(default)]
+        max: Option<crate::model::xy::Pt>,
     },
 }
 
@@ -364,15 +366,16 @@ pub enum RowWeights {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum InitU {
-    /// `[x, y, d]` for every node.
-    One([f64; 3]),
+    /// `[x, y, d]` (3-D: `[x, y, z, d]`) for every node.
+    One(Vec<f64>),
     /// `[[x, y, d], ...]`, one per node in node order.
-    PerNode(Vec<[f64; 3]>),
+    PerNode(Vec<Vec<f64>>),
 }
 
 impl Default for InitU {
+    /// Zeros in the scenario's dimension (an empty list reads as zeros).
     fn default() -> Self {
-        InitU::One([0.0; 3])
+        InitU::One(Vec::new())
     }
 }
 
@@ -418,7 +421,8 @@ impl<'de> Deserialize<'de> for InitItem {
 impl<'de> Deserialize<'de> for InitU {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         use serde::de::Error;
-        const EXPECTED: &str = "[x, y, d] for every node, or [[x, y, d], ...] with one per node";
+        const EXPECTED: &str = "[x, y, d] for every node, or [[x, y, d], ...] with one per node \
+                                (in 3-D [x, y, z, d])";
         let items = Vec::<InitItem>::deserialize(d)?;
         let nums: Option<Vec<f64>> = items
             .iter()
@@ -428,22 +432,22 @@ impl<'de> Deserialize<'de> for InitU {
             })
             .collect();
         if let Some(n) = nums {
-            return <[f64; 3]>::try_from(n.as_slice())
-                .map(InitU::One)
-                .map_err(|_| {
-                    D::Error::custom(format!("{} numbers: expected {EXPECTED}", n.len()))
-                });
+            return match n.len() {
+                3 | 4 => Ok(InitU::One(n)),
+                len => Err(D::Error::custom(format!(
+                    "{len} numbers: expected {EXPECTED}"
+                ))),
+            };
         }
         items
             .into_iter()
             .enumerate()
             .map(|(k, i)| match i {
-                InitItem::Triple(t) => <[f64; 3]>::try_from(t.as_slice()).map_err(|_| {
-                    D::Error::custom(format!(
-                        "entry {k} has {} numbers: expected {EXPECTED}",
-                        t.len()
-                    ))
-                }),
+                InitItem::Triple(t) if matches!(t.len(), 3 | 4) => Ok(t),
+                InitItem::Triple(t) => Err(D::Error::custom(format!(
+                    "entry {k} has {} numbers: expected {EXPECTED}",
+                    t.len()
+                ))),
                 InitItem::Num(_) => Err(D::Error::custom(format!(
                     "entry {k} is a number among [x, y, d] arrays: expected {EXPECTED}"
                 ))),

@@ -8,15 +8,14 @@ use super::InitU;
 use super::ScenarioFile;
 use crate::estimators::gossip::Mode;
 use crate::model::error::InputError;
-use crate::model::geometry::Vec2;
-use crate::model::geometry::Vec3;
-use crate::model::geometry::v2;
+use crate::model::geometry::Point;
 use crate::model::graph::Graph;
 use crate::model::measure::Geometry;
 use crate::model::rng::SonarRng;
 use crate::model::rng::Stream;
 use crate::model::rng::stream_rng;
 use crate::model::synth::MeasurementsCfg;
+use crate::model::xy::Pt;
 use crate::scenario::Algorithm;
 use crate::scenario::DataSource;
 use crate::scenario::readers::read_schedule;
@@ -30,11 +29,52 @@ pub const SAMPLE_PERIOD_MS: (f64, f64) = (0.1, 3.6e6);
 /// The range of `realtime.wake_rate_hz`: one wake-up in 1000 s to a million a second.
 pub const WAKE_RATE_HZ: (f64, f64) = (1e-3, 1e6);
 
-/// `[geometry]`: the transmitters and receivers, every coordinate finite.
-pub(super) fn points(
+/// The scenario's dimension, 2 or 3: that of its receivers (or, when a
+/// generator draws them, of the generator's box; with neither, of its
+/// transmitters; else 2). Every point of the file must have it: the first
+/// that does not is named with its key.
+pub(crate) fn dimension(path: &Path, file: &ScenarioFile) -> Result<usize, InputError> {
+    let mut points: Vec<(String, Pt)> = Vec::new();
+    let g = &file.geometry;
+    for (i, p) in g.receivers.iter().enumerate() {
+        points.push((format!("geometry.receivers[{i}]"), *p));
+    }
+    if let Some(GeneratorCfg::RandomGeometric { min, max, .. }) = &file.network.generator {
+        for (k, p) in [("min", min), ("max", max)] {
+            if let Some(p) = p {
+                points.push((format!("network.generator.{k}"), *p));
+            }
+        }
+    }
+    for (i, p) in g.transmitters.iter().enumerate() {
+        points.push((format!("geometry.transmitters[{i}]"), *p));
+    }
+    let Some((first_key, first)) = points.first().cloned() else {
+        return Ok(2);
+    };
+    let dim = first.dim();
+    for (key, p) in &points {
+        if p.dim() != dim {
+            return Err(InputError::at(
+                path,
+                key.as_str(),
+                format!(
+                    "this point has {} coordinates but the scenario is {dim}-D ({first_key} has \
+                     {dim}); every point of a scenario has the same dimension",
+                    p.dim()
+                ),
+            ));
+        }
+    }
+    Ok(dim)
+}
+
+/// `[geometry]`: the transmitters and receivers in `D` dimensions (checked
+/// by [`dimension`]), every coordinate finite.
+pub(super) fn points<const D: usize>(
     path: &Path,
     file: &ScenarioFile,
-) -> Result<(Vec<Vec2>, Vec<Vec2>), InputError> {
+) -> Result<(Vec<Point<D>>, Vec<Point<D>>), InputError> {
     let transmitters = file
         .geometry
         .transmitters
@@ -55,10 +95,10 @@ pub(super) fn points(
 
 /// `[network]`: the gossip graph, given or generated (a generator may place
 /// the receivers), and the number of receivers.
-pub(super) fn network(
+pub(super) fn network<const D: usize>(
     path: &Path,
     file: &ScenarioFile,
-    receivers: &mut Vec<Vec2>,
+    receivers: &mut Vec<Point<D>>,
 ) -> Result<Graph, InputError> {
     let graph = match (&file.network.edges, &file.network.generator) {
         (Some(_), Some(_)) => {
@@ -109,10 +149,10 @@ pub(super) fn network(
 }
 
 /// `[measurements]`: the noise models and the NLOS links.
-pub(super) fn measurements(
+pub(super) fn measurements<const D: usize>(
     path: &Path,
     m: &MeasurementsCfg,
-    geometry: &Geometry,
+    geometry: &Geometry<D>,
 ) -> Result<(), InputError> {
     if !(m.omega.is_finite() && m.omega > 0.0) {
         return Err(InputError::at(
@@ -129,8 +169,11 @@ pub(super) fn measurements(
         n.validate()
             .map_err(|e| e.under("measurements.doa_noise").in_file(path))?;
     }
-    if m.elevation_noise.is_some() {
-        // Every scenario is 2-D until 3-D positions are read.
+    if let Some(n) = &m.elevation_noise {
+        n.validate()
+            .map_err(|e| e.under("measurements.elevation_noise").in_file(path))?;
+    }
+    if m.elevation_noise.is_some() && D == 2 {
         return Err(InputError::at(
             path,
             "measurements.elevation_noise",
@@ -152,12 +195,12 @@ pub(super) fn measurements(
 
 /// Where the measurements come from (a trace, or synthesized along
 /// `[target]`), and how many samples.
-pub(super) fn data_source(
+pub(super) fn data_source<const D: usize>(
     path: &Path,
     base: &Path,
     file: &ScenarioFile,
-    geometry: &Geometry,
-) -> Result<(DataSource, usize), InputError> {
+    geometry: &Geometry<D>,
+) -> Result<(DataSource<D>, usize), InputError> {
     let m = &file.measurements;
     let (source, samples) = match &m.trace {
         Some(trace) => {
@@ -218,7 +261,7 @@ pub(super) fn data_source(
                 ));
             };
             t.motion
-                .validate()
+                .validate(D)
                 .map_err(|e| e.under("target.motion").in_file(path))?;
             if !m.bistatic && !m.doa && !m.range {
                 return Err(InputError::at(
@@ -262,8 +305,10 @@ pub(super) fn data_source(
     Ok((source, samples))
 }
 
-/// `[algorithm]`, with `samples` samples and the gossip graph `graph`.
-pub(super) fn algorithm(
+/// `[algorithm]`, with `samples` samples and the gossip graph `graph`, in
+/// a scenario of `D` dimensions (`init_u` entries are `[x, y, d]` or
+/// `[x, y, z, d]`).
+pub(super) fn algorithm<const D: usize>(
     path: &Path,
     base: &Path,
     file: &ScenarioFile,
@@ -281,20 +326,36 @@ pub(super) fn algorithm(
     super::limits::check_count(a.iterations_per_sample, super::MAX_ITERATIONS_PER_SAMPLE)
         .map_err(|r| InputError::at(path, "algorithm.iterations_per_sample", r))?;
     let n_nodes = graph.len();
-    let init_u: Vec<Vec3> = match &a.init_u {
-        InitU::One(u) => vec![Vec3::new(u[0], u[1], u[2]); n_nodes],
+    let form = if D == 3 { "[x, y, z, d]" } else { "[x, y, d]" };
+    let check_len = |u: &Vec<f64>, key: String| {
+        if u.len() == D + 1 {
+            Ok(u.clone())
+        } else {
+            Err(InputError::at(
+                path,
+                key,
+                format!("has {} numbers: a {D}-D scenario's u is {form}", u.len()),
+            ))
+        }
+    };
+    let init_u: Vec<Vec<f64>> = match &a.init_u {
+        InitU::One(u) if u.is_empty() => vec![vec![0.0; D + 1]; n_nodes],
+        InitU::One(u) => vec![check_len(u, "algorithm.init_u".into())?; n_nodes],
         InitU::PerNode(us) => {
             if us.len() != n_nodes {
                 return Err(InputError::at(
                     path,
                     "algorithm.init_u",
                     format!(
-                        "has {} entries, one per node is {n_nodes} (or give one [x, y, d] for all)",
+                        "has {} entries, one per node is {n_nodes} (or give one {form} for all)",
                         us.len()
                     ),
                 ));
             }
-            us.iter().map(|u| Vec3::new(u[0], u[1], u[2])).collect()
+            us.iter()
+                .enumerate()
+                .map(|(i, u)| check_len(u, format!("algorithm.init_u[{i}]")))
+                .collect::<Result<Vec<_>, _>>()?
         }
     };
     if !init_u.iter().all(|u| u.iter().all(|x| x.is_finite())) {
@@ -373,22 +434,22 @@ pub(super) fn realtime(path: &Path, file: &ScenarioFile) -> Result<(), InputErro
     Ok(())
 }
 
-fn check_point(path: &Path, key: &str, p: &[f64; 2]) -> Result<Vec2, InputError> {
-    if p.iter().all(|x| x.is_finite()) {
-        Ok(v2(*p))
+fn check_point<const D: usize>(path: &Path, key: &str, p: &Pt) -> Result<Point<D>, InputError> {
+    if p.is_finite() {
+        Ok(p.point::<D>())
     } else {
         Err(InputError::at(
             path,
             key,
-            format!("coordinates must be finite, got {p:?}"),
+            format!("coordinates must be finite, got {:?}", p.coords()),
         ))
     }
 }
 
-fn build_generated(
+fn build_generated<const D: usize>(
     path: &Path,
     generator: &GeneratorCfg,
-    receivers: &mut Vec<Vec2>,
+    receivers: &mut Vec<Point<D>>,
 ) -> Result<Graph, InputError> {
     let key = "network.generator";
     let wrap = |e: crate::model::graph::GraphError| InputError::at(path, key, e.to_string());
@@ -449,25 +510,21 @@ fn build_generated(
                     }
                     super::limits::check_count(*count, super::MAX_RECEIVERS)
                         .map_err(|r| InputError::at(path, "network.generator.count", r))?;
-                    let lo = check_point(path, "network.generator.min", lo)?;
-                    let hi = check_point(path, "network.generator.max", hi)?;
-                    if lo.x >= hi.x || lo.y >= hi.y {
+                    let lo: Point<D> = check_point(path, "network.generator.min", lo)?;
+                    let hi: Point<D> = check_point(path, "network.generator.max", hi)?;
+                    if (0..D).any(|i| lo[i] >= hi[i]) {
                         return Err(InputError::at(
                             path,
                             key,
-                            "min must be below max in x and y",
+                            "min must be below max in every coordinate",
                         ));
                     }
                     let mut last_err = None;
                     for attempt in 0..1000u64 {
                         let mut rng: SonarRng = stream_rng(*seed, Stream::Graph, attempt);
-                        let pts: Vec<Vec2> = (0..*count)
-                            .map(|_| {
-                                Vec2::new(
-                                    rng.random_range(lo.x..hi.x),
-                                    rng.random_range(lo.y..hi.y),
-                                )
-                            })
+                        // Coordinates drawn in order x, y(, z) per receiver.
+                        let pts: Vec<Point<D>> = (0..*count)
+                            .map(|_| Point::<D>::from_fn(|i, _| rng.random_range(lo[i]..hi[i])))
                             .collect();
                         match Graph::new(*count, &Graph::geometric_edges(&pts, *radius)) {
                             Ok(g) => {

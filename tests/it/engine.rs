@@ -37,7 +37,7 @@ fn reference(sc: &Scenario) -> Vec<Vec<Vec3>> {
             _ => a.gamma,
         })
         .collect();
-    let mut u = a.init_u.clone();
+    let mut u: Vec<Vec3> = (0..n).map(|i| a.init_u_of::<3>(i)).collect();
     if a.init == InitMode::FirstFix {
         for (i, ui) in u.iter_mut().enumerate() {
             let p = LocalProblem::build(
@@ -188,9 +188,7 @@ fn nodes_started_from_their_first_fix_equal_the_transcription_bit_for_bit() {
     }
     // Per-node init_u.
     let mut sc = load(Mode::Async, "mourya2017-spiral.toml");
-    sc.algorithm.init_u = (0..6)
-        .map(|i| Vec3::new(100.0 * i as f64, 50.0, 10.0))
-        .collect();
+    sc.algorithm.init_u = (0..6).map(|i| vec![100.0 * i as f64, 50.0, 10.0]).collect();
     check_scenario(&sc, "mourya2017-spiral.toml");
 }
 

@@ -240,15 +240,18 @@ fn refused(args: &[&str]) -> String {
 }
 
 #[test]
-fn a_point_with_three_coordinates_is_refused_with_exit_2_naming_the_key() {
+fn a_point_of_another_dimension_is_refused_with_exit_2_naming_its_key() {
     let dir = TempDir::new("three-d");
     let text = std::fs::read_to_string(crate::util::scenario("mourya2017-spiral.toml"))
         .expect("read")
-        .replace("[-1000.0, -1000.0],", "[-1000.0, -1000.0, -50.0],");
-    let file = dir.write("three.toml", &text);
+        .replace("[1500.0, -1000.0],", "[1500.0, -1000.0, -50.0],");
+    let file = dir.write("mixed.toml", &text);
     let err = refused(&["validate", file.to_str().expect("utf-8")]);
-    assert!(err.contains("3-D positions are not supported yet"), "{err}");
-    assert!(err.contains("receivers"), "{err}");
+    assert!(err.contains("geometry.receivers[1]"), "{err}");
+    assert!(
+        err.contains("has 3 coordinates but the scenario is 2-D"),
+        "{err}"
+    );
     let spiral = crate::util::scenario("mourya2017-spiral.toml");
     let spiral = spiral.to_str().expect("utf-8");
     let err = refused(&[
@@ -257,9 +260,41 @@ fn a_point_with_three_coordinates_is_refused_with_exit_2_naming_the_key() {
         "--set",
         "geometry.transmitters=[[0,0,0],[1,1,1]]",
     ]);
-    assert!(err.contains("3-D positions are not supported yet"), "{err}");
+    assert!(err.contains("geometry.transmitters[0]"), "{err}");
     let err = refused(&["run", spiral, "--set", "target.motion.center=[1]"]);
-    assert!(err.contains("expected 2 coordinates, got 1"), "{err}");
+    assert!(err.contains("expected 2 or 3 coordinates, got 1"), "{err}");
+    let err = refused(&["run", spiral, "--set", "target.motion.dz=-1"]);
+    assert!(
+        err.contains("target.motion.dz") && err.contains("3-D"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_3d_scenario_validates_as_3d_and_a_run_of_it_is_refused_with_exit_2_saying_why() {
+    let dir = TempDir::new("three-d");
+    let file = dir.write("helix.toml", &crate::util::spiral_3d());
+    let f = file.to_str().expect("utf-8");
+    let out = crate::util::sonarnet(&["validate", f], std::time::Duration::from_secs(60));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{out:?}");
+    assert!(stdout.contains("ok (3-D, 6 receivers"), "{stdout}");
+    let err = refused(&["run", f]);
+    assert!(
+        err.contains("3-D") && err.contains("2-D scenarios only"),
+        "{err}"
+    );
+    // A 2-D u in a 3-D scenario is named.
+    let bad = dir.write(
+        "bad-u.toml",
+        &crate::util::spiral_3d()
+            .replace("init_u = [0.0, 0.0, 0.0, 0.0]", "init_u = [0.0, 0.0, 0.0]"),
+    );
+    let err = refused(&["validate", bad.to_str().expect("utf-8")]);
+    assert!(
+        err.contains("algorithm.init_u") && err.contains("[x, y, z, d]"),
+        "{err}"
+    );
 }
 
 #[test]

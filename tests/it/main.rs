@@ -18,6 +18,7 @@ mod replay;
 mod report;
 mod scenarios;
 mod sweep;
+mod three_d;
 mod transport;
 mod util;
 mod workflow;

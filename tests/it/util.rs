@@ -473,3 +473,35 @@ pub fn cpu_exclusive() -> std::sync::MutexGuard<'static, ()> {
     LOCK.lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
+
+/// The spiral scenario in 3-D: every point with a depth, the target on a
+/// descending helix, the elevation with its own noise.
+pub fn spiral_3d() -> String {
+    let text =
+        std::fs::read_to_string(crate::util::scenario("mourya2017-spiral.toml")).expect("read");
+    let mut out = String::new();
+    let mut depth = 0;
+    for line in text.lines() {
+        let l = if line.starts_with("transmitters = ") {
+            "transmitters = [[0.0, 0.0, -10.0], [2000.0, 2000.0, -10.0]]".to_string()
+        } else if line.starts_with("  [") && line.ends_with("],") {
+            depth += 1;
+            line.replace("],", &format!(", {}.0],", -50 * depth))
+        } else if line.starts_with("motion = ") {
+            line.replace(
+                "center = [500.0, 500.0]",
+                "center = [500.0, 500.0, -100.0], dz = -1.0",
+            )
+        } else if line.starts_with("init_u = ") {
+            "init_u = [0.0, 0.0, 0.0, 0.0]".to_string()
+        } else if line.starts_with("doa_noise = ") {
+            format!("{line}\nelevation_noise = {{ model = \"gaussian\", sigma = 0.2 }}")
+        } else {
+            line.to_string()
+        };
+        out.push_str(&l);
+        out.push('\n');
+    }
+    assert_eq!(depth, 6, "the six receivers got a depth");
+    out
+}

@@ -1,0 +1,85 @@
+//! 3-D scenarios through the library: read, checked and realized in the
+//! dimension their receivers give, with the 2-D numbers untouched.
+
+use crate::util::spiral_3d;
+use sonarnet::model::measure;
+use sonarnet::scenario::{AnyScenario, Scenario};
+use std::path::Path;
+
+fn space(text: &str) -> Scenario<3> {
+    let all = AnyScenario::all_from_toml_str(text, Path::new("helix.toml")).expect("valid 3-D");
+    match all.into_iter().next() {
+        Some(AnyScenario::Space(sc)) => sc,
+        other => panic!("expected one 3-D scenario, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_3d_spiral_realizes_a_descending_helix_over_the_2d_spiral_in_plan_view() {
+    let sc = space(&spiral_3d());
+    assert_eq!(sc.geometry.receivers.len(), 6);
+    assert!((sc.geometry.receivers[5][2] + 300.0).abs() < 1e-12);
+    let real = sc.realize();
+    let truth = real.truth.expect("synthetic");
+    let flat = Scenario::load(&crate::util::scenario("mourya2017-spiral.toml"))
+        .expect("2-D")
+        .realize()
+        .truth
+        .expect("synthetic");
+    for (k, (p, q)) in truth.iter().zip(&flat).enumerate() {
+        assert_eq!(p[0].to_bits(), q[0].to_bits(), "sample {k}");
+        assert_eq!(p[1].to_bits(), q[1].to_bits(), "sample {k}");
+        assert!(
+            (p[2] - (-100.0 - k as f64)).abs() < 1e-9,
+            "sample {k}: {p:?}"
+        );
+    }
+    // Nominal weights: the elevation has its own sigma.
+    assert!((real.sigmas[0].elevation - 0.2).abs() < 1e-15);
+    assert!(
+        real.measurements[0]
+            .nodes
+            .iter()
+            .all(|n| n.elevation.is_some())
+    );
+}
+
+#[test]
+fn noise_free_3d_measurements_are_the_geometry_of_the_3d_points_exactly() {
+    let text = spiral_3d()
+        .replace("sigma = 5.0", "sigma = 0.0")
+        .replace("sigma = 0.5", "sigma = 0.0")
+        .replace("sigma = 0.2", "sigma = 0.0");
+    let sc = space(&text);
+    let real = sc.realize();
+    let truth = real.truth.expect("synthetic");
+    let g = &sc.geometry;
+    for (k, x) in truth.iter().enumerate().step_by(7) {
+        for (n, r) in g.receivers.iter().enumerate() {
+            let m = &real.measurements[k].nodes[n];
+            for &(t, rho) in &m.bistatic {
+                let want = measure::bistatic_range(x, &g.transmitters[t], r);
+                assert_eq!(rho.to_bits(), want.to_bits(), "sample {k} node {n}");
+                // Against the distances written out by hand.
+                let by_hand = (x - g.transmitters[t]).norm() + (x - r).norm();
+                assert!((rho - by_hand).abs() <= 1e-9 * by_hand);
+            }
+            let d = x - r;
+            let az = m.doa.expect("doa");
+            let el = m.elevation.expect("elevation");
+            assert!((az - d[1].atan2(d[0])).abs() < 1e-12);
+            assert!((el - d[2].atan2(d.xy().norm())).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn a_2d_scenario_read_as_either_dimension_is_the_same_scenario() {
+    let path = crate::util::scenario("mourya2017-spiral.toml");
+    let text = std::fs::read_to_string(&path).expect("read");
+    let any = AnyScenario::all_from_toml_str(&text, &path).expect("valid");
+    let plane = Scenario::from_toml_str(&text, &path).expect("valid");
+    assert_eq!(any.len(), 1);
+    assert_eq!(any[0].dim(), 2);
+    assert!(matches!(&any[0], AnyScenario::Plane(sc) if *sc == plane));
+}
