@@ -133,7 +133,7 @@ fn three_spheres(
 }
 
 impl Intersection<3> {
-    /// `upp_exact` for balls (module [`exact_3d`](self)):
+    /// `upp_exact` for balls (see the module docs of `exact_3d`):
     /// `max_{x in B} ||x - x_hat||` plus the round-off allowance; never
     /// below the true maximum. [`BoundError::Unsupported`] when a region is
     /// a spheroid.
