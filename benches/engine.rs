@@ -29,7 +29,7 @@ fn iterations(c: &mut Criterion) {
         let plan = RunPlan::new(&sc, Clock::Logical).expect("plan");
         g.throughput(Throughput::Elements(sc.total_iterations() as u64));
         g.bench_function(mode.as_str(), |b| {
-            b.iter(|| black_box(run_inprocess(&plan, &real, &mut |_, _| {})))
+            b.iter(|| black_box(run_inprocess(&plan, real.feed(), &mut |_, _| {})))
         });
     }
     g.finish();
@@ -44,7 +44,7 @@ fn whole_run(c: &mut Criterion) {
             b.iter(|| {
                 let real = sc.realize();
                 let plan = RunPlan::new(&sc, Clock::Logical).expect("plan");
-                black_box(run_inprocess(&plan, &real, &mut |_, _| {}))
+                black_box(run_inprocess(&plan, real.feed(), &mut |_, _| {}))
             })
         });
     }

@@ -10,7 +10,7 @@
 //! The discrete-event engine keeps checkpoints in memory; only node
 //! processes, which die for real, need the file.
 
-use crate::model::geometry::Vec3;
+use crate::model::coords::Coords;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -22,21 +22,21 @@ pub struct Checkpoint {
     pub node: u32,
     /// The sample whose arrival wrote it.
     pub sample: u32,
-    /// `u`, readable (not read back).
-    pub u: [f64; 3],
+    /// `u`, readable (not read back): 3 numbers in 2-D, 4 in 3-D.
+    pub u: Vec<f64>,
     /// `theta`, readable (not read back).
-    pub theta: [f64; 3],
+    pub theta: Vec<f64>,
     /// `u`'s exact bits.
-    pub u_bits: [u64; 3],
+    pub u_bits: Vec<u64>,
     /// `theta`'s exact bits.
-    pub theta_bits: [u64; 3],
+    pub theta_bits: Vec<u64>,
 }
 
 impl Checkpoint {
     /// The checkpoint of node `node` at sample `sample`.
-    pub fn new(node: u32, sample: u32, u: &Vec3, theta: &Vec3) -> Checkpoint {
-        let arr = |v: &Vec3| [v[0], v[1], v[2]];
-        let bits = |v: &Vec3| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()];
+    pub fn new(node: u32, sample: u32, u: &Coords, theta: &Coords) -> Checkpoint {
+        let arr = |v: &Coords| v.as_slice().to_vec();
+        let bits = |v: &Coords| v.as_slice().iter().map(|x| x.to_bits()).collect();
         Checkpoint {
             node,
             sample,
@@ -47,16 +47,24 @@ impl Checkpoint {
         }
     }
 
-    /// `(u, theta)`, exactly as saved.
-    pub fn state(&self) -> (Vec3, Vec3) {
-        let v = |b: &[u64; 3]| {
-            Vec3::new(
-                f64::from_bits(b[0]),
-                f64::from_bits(b[1]),
-                f64::from_bits(b[2]),
-            )
+    /// `(u, theta)`, exactly as saved, or why they are not a node's state
+    /// of a `dim`-dimensional run (`dim + 1` numbers each).
+    pub fn state(&self, dim: usize) -> Result<(Coords, Coords), String> {
+        let v = |what: &str, b: &[u64]| {
+            if b.len() != dim + 1 {
+                return Err(format!(
+                    "{what} holds {} numbers, not the {} of a {dim}-D run",
+                    b.len(),
+                    dim + 1
+                ));
+            }
+            let x: Vec<f64> = b.iter().map(|&b| f64::from_bits(b)).collect();
+            Coords::from_slice(&x).ok_or_else(|| format!("{what}: not a state"))
         };
-        (v(&self.u_bits), v(&self.theta_bits))
+        Ok((
+            v("u_bits", &self.u_bits)?,
+            v("theta_bits", &self.theta_bits)?,
+        ))
     }
 
     /// Write it to `path` atomically (`path.tmp`, then a rename).
@@ -67,10 +75,10 @@ impl Checkpoint {
         std::fs::rename(&tmp, path)
     }
 
-    /// Read node `node`'s checkpoint from `path`: `Ok(None)` if there is
-    /// none yet; an error if the file is not a checkpoint of that node or
-    /// holds a non-finite value.
-    pub fn read(path: &Path, node: u32) -> Result<Option<Checkpoint>, String> {
+    /// Read node `node`'s checkpoint of a `dim`-dimensional run from
+    /// `path`: `Ok(None)` if there is none yet; an error if the file is not a
+    /// checkpoint of that node and dimension or holds a non-finite value.
+    pub fn read(path: &Path, node: u32, dim: usize) -> Result<Option<Checkpoint>, String> {
         let text = match std::fs::read_to_string(path) {
             Ok(t) => t,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -85,8 +93,10 @@ impl Checkpoint {
                 ck.node
             ));
         }
-        let (u, theta) = ck.state();
-        if !u.iter().chain(theta.iter()).all(|x| x.is_finite()) {
+        let (u, theta) = ck
+            .state(dim)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        if !(u.is_finite() && theta.is_finite()) {
             return Err(format!("{}: a non-finite value", path.display()));
         }
         Ok(Some(ck))
@@ -102,32 +112,51 @@ pub fn path(dir: &Path, node: u32) -> PathBuf {
 mod tests {
     use super::*;
 
+    fn c(v: &[f64]) -> Coords {
+        Coords::from_slice(v).unwrap()
+    }
+
     #[test]
     fn a_checkpoint_file_reads_back_bit_for_bit_and_names_its_node() {
         let dir = std::env::temp_dir().join(format!("sonarnet-ck-test-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = path(&dir, 3);
-        assert_eq!(Checkpoint::read(&p, 3), Ok(None));
+        assert_eq!(Checkpoint::read(&p, 3, 2), Ok(None));
         // Values whose shortest decimal form does not round-trip through
         // every parser: the bits do.
-        let u = Vec3::new(0.1 + 0.2, -1.0 / 3.0, 1e-310);
-        let theta = Vec3::new(f64::MAX, 2.0f64.sqrt(), -0.0);
+        let u = c(&[0.1 + 0.2, -1.0 / 3.0, 1e-310]);
+        let theta = c(&[f64::MAX, 2.0f64.sqrt(), -0.0]);
         Checkpoint::new(3, 12, &u, &theta).write(&p).unwrap();
-        let ck = Checkpoint::read(&p, 3).unwrap().unwrap();
+        let ck = Checkpoint::read(&p, 3, 2).unwrap().unwrap();
         assert_eq!(ck.sample, 12);
-        let (u2, t2) = ck.state();
-        for (a, b) in u.iter().chain(theta.iter()).zip(u2.iter().chain(t2.iter())) {
-            assert_eq!(a.to_bits(), b.to_bits());
-        }
+        let (u2, t2) = ck.state(2).unwrap();
+        let bits = |v: &Coords| v.as_slice().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!((bits(&u), bits(&theta)), (bits(&u2), bits(&t2)));
         assert!(!p.with_extension("json.tmp").exists(), "renamed into place");
-        let other = Checkpoint::read(&p, 4).unwrap_err();
+        let other = Checkpoint::read(&p, 4, 2).unwrap_err();
         assert!(other.contains("node 3, not of node 4"), "{other}");
+        let wrong_dim = Checkpoint::read(&p, 3, 3).unwrap_err();
+        assert!(wrong_dim.contains("not the 4 of a 3-D run"), "{wrong_dim}");
         std::fs::write(&p, "{}").unwrap();
         assert!(
-            Checkpoint::read(&p, 3)
+            Checkpoint::read(&p, 3, 2)
                 .unwrap_err()
                 .contains("not a checkpoint")
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_3d_checkpoint_holds_four_numbers_each() {
+        let dir = std::env::temp_dir().join(format!("sonarnet-ck3-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = path(&dir, 0);
+        let u = c(&[1.0, -2.0, -300.5, 1e-310]);
+        let theta = c(&[0.1, 0.2, -0.3, 4.0]);
+        Checkpoint::new(0, 5, &u, &theta).write(&p).unwrap();
+        let ck = Checkpoint::read(&p, 0, 3).unwrap().unwrap();
+        assert_eq!(ck.state(3).unwrap(), (u, theta));
+        assert!(Checkpoint::read(&p, 0, 2).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

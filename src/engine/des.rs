@@ -37,8 +37,8 @@
 use crate::engine::Progress;
 use crate::engine::actions::{Actuator, carry_out};
 use crate::engine::outcome::RunOutcome;
-use crate::model::geometry::Vec3;
-use crate::model::synth::Realization;
+use crate::model::coords::Coords;
+use crate::model::synth::Feed;
 use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
 use crate::protocol::config::Driver;
@@ -114,7 +114,7 @@ struct Slot {
     /// Waits and timers are multiplied by this (clock drift).
     clock_factor: f64,
     /// Its last checkpoint `(u, theta)`.
-    checkpoint: Option<(Vec3, Vec3)>,
+    checkpoint: Option<(Coords, Coords)>,
 }
 
 /// The whole run in virtual time.
@@ -136,7 +136,7 @@ struct Des<'a> {
 /// acoustic channel). Returns the record of every completed sample and, if
 /// the run stopped early, why. SIGINT/SIGTERM ([`super::interrupt`]) end it as
 /// [`EngineError::Interrupted`].
-pub fn run_des(plan: &RunPlan, real: &Realization, progress: Progress<'_>) -> RunOutcome {
+pub fn run_des(plan: &RunPlan, real: Feed<'_>, progress: Progress<'_>) -> RunOutcome {
     let start = std::time::Instant::now();
     let interrupt = super::interrupt::flag();
     let mut des = Des {

@@ -1,7 +1,7 @@
 //! The engines: the drivers of the protocol's one coordinator.
 //!
 //! A run is a [`RunPlan`] (built once from a scenario,
-//! [`crate::protocol::plan`]) on a [`Realization`]. The I/O-free
+//! [`crate::protocol::plan`]) on the measurements of a run ([`Feed`]). The I/O-free
 //! [`Coordinator`] turns events into actions, which [`actions::carry_out`]
 //! performs over an [`Actuator`]; [`drive`] is its driver over any
 //! [`Network`] in wall time: the in-process engine ([`inprocess::InProcess`])
@@ -28,7 +28,7 @@ pub mod water;
 pub use actions::Actuator;
 pub use outcome::{ProcessStats, RunOutcome};
 
-use crate::model::synth::Realization;
+use crate::model::synth::Feed;
 use crate::protocol::codec::Control;
 use crate::protocol::config::Driver;
 use crate::protocol::coordinator::{Coordinator, Event, Timer};
@@ -62,7 +62,7 @@ pub type Progress<'a> = &'a mut dyn FnMut(usize, u64);
 /// stopped early, why.
 pub fn drive(
     plan: &RunPlan,
-    real: &Realization,
+    real: Feed<'_>,
     net: &mut dyn Network,
     progress: Progress<'_>,
 ) -> (RunRecord, Result<(), EngineError>) {
@@ -140,7 +140,7 @@ impl Actuator for Wired<'_> {
 
 /// Run `plan` in-process; SIGINT/SIGTERM ([`interrupt`]) end it with
 /// [`EngineError::Interrupted`] and the samples completed.
-pub fn run_inprocess(plan: &RunPlan, real: &Realization, progress: Progress<'_>) -> RunOutcome {
+pub fn run_inprocess(plan: &RunPlan, real: Feed<'_>, progress: Progress<'_>) -> RunOutcome {
     let mut net = inprocess::InProcess::new(plan.nodes.clone()).with_interrupt(interrupt::flag());
     let (rec, res) = drive(plan, real, &mut net, progress);
     RunOutcome::new(Driver::LockStep, rec, res)

@@ -178,12 +178,13 @@ struct Loop<'o, 'a> {
 
 impl<'o, 'a> Loop<'o, 'a> {
     fn new(core: NodeCore, opts: &'o NodeLoop<'a>) -> Self {
+        let dim = core.dim();
         Loop {
             id: core.id(),
             opts,
             core,
             drift: 1.0,
-            decoder: NodeDecoder::default(),
+            decoder: NodeDecoder::new(dim),
             outputs: Vec::new(),
             encoded: Vec::new(),
             iteration_reports: Vec::new(),
@@ -387,8 +388,8 @@ impl<'o, 'a> Loop<'o, 'a> {
     fn checkpoint(
         &self,
         sample: u32,
-        u: &crate::model::geometry::Vec3,
-        theta: &crate::model::geometry::Vec3,
+        u: &crate::model::coords::Coords,
+        theta: &crate::model::coords::Coords,
     ) {
         let Some(path) = &self.opts.checkpoint else {
             return;
@@ -480,7 +481,7 @@ fn start_core(node: NodeConfig, opts: &NodeLoop<'_>) -> NodeCore {
     let Some(path) = opts.checkpoint.as_ref().filter(|_| opts.resume) else {
         return NodeCore::new(node);
     };
-    match Checkpoint::read(path, id) {
+    match Checkpoint::read(path, id, node.dim()) {
         Ok(Some(ck)) => {
             if opts.verbose {
                 eprintln!(
@@ -488,8 +489,13 @@ fn start_core(node: NodeConfig, opts: &NodeLoop<'_>) -> NodeCore {
                     ck.sample
                 );
             }
-            let (u, theta) = ck.state();
-            NodeCore::restore(node, u, theta)
+            match ck.state(node.dim()) {
+                Ok((u, theta)) => NodeCore::restore(node, u, theta),
+                Err(e) => {
+                    eprintln!("[node {id}] warning: starts fresh: checkpoint unreadable: {e}");
+                    NodeCore::new(node)
+                }
+            }
         }
         Ok(None) => NodeCore::new(node),
         Err(e) => {
@@ -518,8 +524,9 @@ fn vlog(id: u32, text: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::geometry::{Vec2, Vec3};
+    use crate::model::coords::Coords;
     use crate::model::measure::{NodeMeasurements, Sigmas};
+    use crate::model::xy::Pt;
     use crate::protocol::codec::{CoordinatorInput, ReportDecoder};
     use crate::transport::{MemNetwork, RunTopology};
 
@@ -527,14 +534,14 @@ mod tests {
         NodeConfig {
             id: 0,
             n_nodes: 1,
-            anchor: Vec2::new(1.0, 2.0),
-            transmitters: vec![Vec2::new(0.0, 0.0)],
+            anchor: Pt::xy(1.0, 2.0),
+            transmitters: vec![Pt::xy(0.0, 0.0)],
             neighbours: vec![],
             omega: 1.0,
             gamma: 1e-3,
             solver: crate::estimators::prox::LocalSolver::Gtrs,
             kappa: 1,
-            init_u: Vec3::new(5.0, 6.0, 7.0),
+            init_u: Coords::from([5.0, 6.0, 7.0]),
             first_fix: false,
             noise_weights: false,
             seed: 7,
@@ -566,7 +573,7 @@ mod tests {
     /// Run a lone node program over the in-memory transport with
     /// `checkpoint` and `resume`; send it sample `sample` then a snapshot
     /// request, and return the `theta` it reports.
-    fn snapshot_after_start(cfg: NodeConfig, checkpoint: &std::path::Path, resume: bool) -> Vec3 {
+    fn snapshot_after_start(cfg: NodeConfig, checkpoint: &std::path::Path, resume: bool) -> Coords {
         let topo = RunTopology::new("ck", vec![vec![]], 16).unwrap();
         let net = MemNetwork::new(&topo);
         let mut coord = net.endpoint(Endpoint::Coordinator).unwrap();
@@ -597,7 +604,7 @@ mod tests {
             coord.send(Endpoint::Node(0), f).unwrap();
         }
         coord.flush().unwrap();
-        let mut dec = ReportDecoder::default();
+        let mut dec = ReportDecoder::new(2);
         let mut got = Vec::new();
         let deadline = Instant::now() + Duration::from_secs(30);
         let theta = loop {
@@ -631,19 +638,20 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("sonarnet-node-ck-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = super::super::checkpoint::path(&dir, 0);
-        let init = Vec3::new(5.0, 6.0, 7.0);
+        let init = Coords::from([5.0, 6.0, 7.0]);
         assert_eq!(snapshot_after_start(lone_node(None), &path, true), init);
         assert!(!path.exists(), "no checkpoint without checkpoint_every");
-        let saved = Vec3::new(0.1 + 0.2, -1.0 / 3.0, 123.456_789);
-        Checkpoint::new(0, 3, &Vec3::zeros(), &saved)
+        let saved = Coords::from([0.1 + 0.2, -1.0 / 3.0, 123.456_789]);
+        Checkpoint::new(0, 3, &Coords::zeros(3), &saved)
             .write(&path)
             .unwrap();
         let theta = snapshot_after_start(lone_node(Some(1)), &path, true);
-        assert_eq!(theta.map(f64::to_bits), saved.map(f64::to_bits));
+        let bits = |c: &Coords| c.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&theta), bits(&saved));
         // The arrival of sample 4 wrote the restored state.
-        let ck = Checkpoint::read(&path, 0).unwrap().unwrap();
+        let ck = Checkpoint::read(&path, 0, 2).unwrap().unwrap();
         assert_eq!(ck.sample, 4);
-        assert_eq!(ck.state().1.map(f64::to_bits), saved.map(f64::to_bits));
+        assert_eq!(bits(&ck.state(2).unwrap().1), bits(&saved));
         assert_eq!(snapshot_after_start(lone_node(Some(1)), &path, false), init);
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -670,7 +678,7 @@ mod tests {
         run_lone(&mut node_tx, lone_node(None), None, false).unwrap();
         let mut got = Vec::new();
         coord.recv(&mut got, Some(Duration::from_secs(1))).unwrap();
-        let mut dec = ReportDecoder::default();
+        let mut dec = ReportDecoder::new(2);
         let snapshots: Vec<u32> = got
             .iter()
             .filter_map(|f| match dec.feed(f).unwrap() {

@@ -10,7 +10,7 @@ use super::node::{NodeError, NodeLoop, run_node};
 use crate::engine::Network;
 use crate::engine::Progress;
 use crate::engine::outcome::RunOutcome;
-use crate::model::synth::Realization;
+use crate::model::synth::Feed;
 use crate::protocol::EngineError;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder};
 use crate::protocol::config::Driver;
@@ -50,6 +50,7 @@ impl Threads {
             .endpoint(Endpoint::Coordinator)
             .map_err(EngineError::Transport)?;
         let term = Arc::new(AtomicBool::new(false));
+        let dim = net.configs.first().map_or(2, |c| c.dim());
         let mut nodes = Vec::with_capacity(net.configs.len());
         for cfg in net.configs {
             let mut node_tx = mem
@@ -62,7 +63,7 @@ impl Threads {
         }
         Ok(Threads {
             tx,
-            decoder: ReportDecoder::default(),
+            decoder: ReportDecoder::new(dim),
             frames: Vec::new(),
             encoded: Vec::new(),
             nodes,
@@ -160,7 +161,7 @@ impl Network for Threads {
 }
 
 /// Run `plan` with logical clocks, every node a thread over [`MemTransport`].
-pub fn run_threads(plan: &RunPlan, real: &Realization, progress: Progress<'_>) -> RunOutcome {
+pub fn run_threads(plan: &RunPlan, real: Feed<'_>, progress: Progress<'_>) -> RunOutcome {
     let mut net = match Threads::start(network_layout(plan)) {
         Ok(t) => t,
         Err(e) => return RunOutcome::failed(Driver::Threads, plan.n(), e),

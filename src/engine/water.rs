@@ -255,16 +255,13 @@ impl Water {
 mod tests {
     use super::*;
     use crate::model::channel::{AcousticCfg, Reason};
-    use crate::model::geometry::{Vec2, Vec3};
+    use crate::model::coords::Coords;
+    use crate::model::xy::Pt;
 
     fn plan() -> ChannelPlan {
         ChannelPlan {
             cfg: AcousticCfg::default(),
-            positions: vec![
-                Vec2::new(0.0, 0.0),
-                Vec2::new(1500.0, 0.0),
-                Vec2::new(0.0, 3000.0),
-            ],
+            positions: vec![Pt::xy(0.0, 0.0), Pt::xy(1500.0, 0.0), Pt::xy(0.0, 3000.0)],
             links: vec![vec![1, 2], vec![0], vec![0]],
             exchange_timeout_s: 5.0,
             round_timeout_s: None,
@@ -275,7 +272,7 @@ mod tests {
         PeerMsg::Reflect {
             from,
             seq,
-            r: Vec3::new(1.0, 2.0, 3.0),
+            r: Coords::from([1.0, 2.0, 3.0]),
         }
     }
 

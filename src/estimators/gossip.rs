@@ -3,7 +3,7 @@
 //! core computes them here, so both ends of an exchange and every engine give
 //! bit-identical values.
 
-use crate::model::geometry::{Vec2, Vec3};
+use crate::model::coords::Coords;
 
 crate::named_enum! {
     /// Gossip mode of the Douglas-Rachford engine.
@@ -15,30 +15,38 @@ crate::named_enum! {
     }
 }
 
-/// The average `a = (r_v[0:2] + r_w[0:2]) / 2` of a pairwise exchange
-/// (Mourya 2017 eq. 11, second line). IEEE addition is commutative, so both
-/// ends compute bit-identical values.
-pub fn pair_average(r_a: &Vec3, r_b: &Vec3) -> Vec2 {
-    Vec2::new((r_a[0] + r_b[0]) / 2.0, (r_a[1] + r_b[1]) / 2.0)
+/// The average `a = (r_v[0:D] + r_w[0:D]) / 2` of a pairwise exchange
+/// (Mourya 2017 eq. 11, second line), in `D` = 2 or 3 dimensions (`r` holds
+/// `D + 1` numbers). IEEE addition is commutative, so both ends compute
+/// bit-identical values.
+pub fn pair_average(r_a: &Coords, r_b: &Coords) -> Coords {
+    r_a.position().zip(&r_b.position(), |a, b| (a + b) / 2.0)
 }
 
 /// The sync consensus average: the mean of the position parts of all
-/// reflected points, summed in node-id order.
-pub fn mean_position<'a>(rs: impl Iterator<Item = &'a Vec3>) -> Vec2 {
-    let mut s = Vec2::zeros();
+/// reflected points, summed in node-id order (each coordinate summed from
+/// zero, then divided by the count).
+pub fn mean_position<'a>(rs: impl Iterator<Item = &'a Coords>) -> Coords {
+    let mut s: Option<Coords> = None;
     let mut n = 0usize;
     for r in rs {
-        s.x += r[0];
-        s.y += r[1];
+        let p = r.position();
+        s = Some(match s {
+            None => Coords::zeros(p.len()).zip(&p, |a, b| a + b),
+            Some(s) => s.zip(&p, |a, b| a + b),
+        });
         n += 1;
     }
-    s / n.max(1) as f64
+    let s = s.unwrap_or_else(|| Coords::zeros(2));
+    let n = n.max(1) as f64;
+    s.zip(&s, |a, _| a / n)
 }
 
-/// The DR update `u += z - theta` with `z = (a, r[2])` (Mourya 2017 eq. 7 / 11).
-pub fn dr_update(u: &mut Vec3, theta: &Vec3, r: &Vec3, a: Vec2) {
-    let z = Vec3::new(a.x, a.y, r[2]);
-    *u += z - theta;
+/// The DR update `u += z - theta` with `z = (a, r[D])` (Mourya 2017 eq. 7 / 11).
+pub fn dr_update(u: &mut Coords, theta: &Coords, r: &Coords, a: Coords) {
+    let d = u.len() - 1;
+    let z = |i: usize| if i < d { a[i] } else { r[d] };
+    *u = Coords::from_fn(u.len(), |i| u[i] + (z(i) - theta[i]));
 }
 
 crate::named_enum! {

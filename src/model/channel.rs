@@ -41,8 +41,8 @@
 //! whatever else happens meanwhile.
 
 use crate::model::error::{KeyError, in_range};
-use crate::model::geometry::Vec2;
 use crate::model::rng::{Stream, link_draw};
+use crate::model::xy::Pt;
 use serde::{Deserialize, Serialize};
 
 /// Thorp's absorption coefficient `a(f)` in dB/km, `f` in kHz.
@@ -295,7 +295,7 @@ impl AcousticCfg {
     /// The longest round trip over `links`: twice the longest one-way delay
     /// between linked nodes plus twice the time to send a frame of `fields`
     /// values (a Request and its answer), seconds.
-    pub fn round_trip(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+    pub fn round_trip(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
         let mut max_delay = 0.0f64;
         for (i, out) in links.iter().enumerate() {
             for &j in out {
@@ -303,7 +303,7 @@ impl AcousticCfg {
                     continue;
                 };
                 let extra = self.link(i as u32, j).map_or(0.0, |l| l.extra_delay_s);
-                max_delay = max_delay.max((a - b).norm() / self.sound_speed + extra);
+                max_delay = max_delay.max(a.distance(b) / self.sound_speed + extra);
             }
         }
         2.0 * max_delay + 2.0 * self.transmission_s(self.frame_bits(fields))
@@ -315,12 +315,12 @@ impl AcousticCfg {
     /// arrive exactly at the timeout, and be late by any jitter (or by the
     /// order of two events at one virtual time), so that link would never
     /// complete an exchange.
-    pub fn default_exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+    pub fn default_exchange_timeout(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
         self.round_trip(pos, links, fields) + self.transmission_s(self.frame_bits(fields))
     }
 
     /// The exchange timeout in force (the key, or the default).
-    pub fn exchange_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32) -> f64 {
+    pub fn exchange_timeout(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
         self.exchange_timeout_s
             .unwrap_or_else(|| self.default_exchange_timeout(pos, links, fields))
     }
@@ -334,7 +334,7 @@ impl AcousticCfg {
     /// waits.
     pub fn default_round_timeout(
         &self,
-        pos: &[Vec2],
+        pos: &[Pt],
         links: &[Vec<u32>],
         fields: u32,
         sync: bool,
@@ -349,7 +349,7 @@ impl AcousticCfg {
     }
 
     /// The logical round timeout in force (the key, or the default).
-    pub fn round_timeout(&self, pos: &[Vec2], links: &[Vec<u32>], fields: u32, sync: bool) -> f64 {
+    pub fn round_timeout(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32, sync: bool) -> f64 {
         self.round_timeout_s
             .unwrap_or_else(|| self.default_round_timeout(pos, links, fields, sync))
     }
@@ -485,7 +485,7 @@ pub struct Frame {
 pub struct Medium {
     cfg: AcousticCfg,
     seed: u64,
-    pos: Vec<Vec2>,
+    pos: Vec<Pt>,
     /// `reach[i]`: the nodes that node `i`'s transmissions reach.
     reach: Vec<Vec<u32>>,
     /// Per node: when its modem is free again.
@@ -506,7 +506,7 @@ pub struct Medium {
 impl Medium {
     /// A medium for nodes at `pos`, where node `i` reaches the nodes
     /// `links[i]` (the gossip graph), with a validated `cfg` and the run seed.
-    pub fn new(cfg: AcousticCfg, seed: u64, pos: Vec<Vec2>, links: &[Vec<u32>]) -> Medium {
+    pub fn new(cfg: AcousticCfg, seed: u64, pos: Vec<Pt>, links: &[Vec<u32>]) -> Medium {
         let n = pos.len();
         let mut reach: Vec<Vec<u32>> = (0..n)
             .map(|i| {
@@ -534,7 +534,7 @@ impl Medium {
 
     /// One-way delay of the link `i -> j`, seconds.
     pub fn delay(&self, i: u32, j: u32) -> f64 {
-        let d = (self.pos[i as usize] - self.pos[j as usize]).norm();
+        let d = self.pos[i as usize].distance(&self.pos[j as usize]);
         d / self.cfg.sound_speed
             + self.cfg.link(i, j).map_or(0.0, |l| l.extra_delay_s)
             + self.link_faults.delay(i, j)
@@ -551,6 +551,11 @@ impl Medium {
     /// How many nodes it joins.
     pub fn nodes(&self) -> usize {
         self.pos.len()
+    }
+
+    /// The run's dimension, 2 or 3: the positions'.
+    pub fn dim(&self) -> usize {
+        self.pos.first().map_or(2, Pt::dim)
     }
 
     /// The channel's configuration.
@@ -642,7 +647,7 @@ impl Medium {
                 return Fate::Lost(Reason::Collision);
             }
         }
-        let d = (self.pos[f.from as usize] - self.pos[to]).norm();
+        let d = self.pos[f.from as usize].distance(&self.pos[to]);
         let p = self.cfg.loss_probability(f.from, f.to, d, f.bits);
         if fate_draw(self.seed, f.from, f.to, f.number) < p {
             return Fate::Lost(Reason::Loss);

@@ -2,6 +2,7 @@
 //! closed forms.
 
 use super::*;
+use crate::model::xy::Pt;
 use approx::assert_relative_eq;
 
 /// Nodes on the x axis at `xs` metres, each linked to the others.
@@ -10,12 +11,7 @@ fn line(cfg: AcousticCfg, xs: &[f64]) -> Medium {
     let links: Vec<Vec<u32>> = (0..n)
         .map(|i| (0..n).filter(|&j| j != i).collect())
         .collect();
-    Medium::new(
-        cfg,
-        7,
-        xs.iter().map(|&x| Vec2::new(x, 0.0)).collect(),
-        &links,
-    )
+    Medium::new(cfg, 7, xs.iter().map(|&x| Pt::xy(x, 0.0)).collect(), &links)
 }
 
 /// Ideal but for the rule under test.

@@ -1,23 +1,25 @@
 //! Track metrics: one implementation, used by every engine and baseline.
 
-use crate::model::geometry::{Vec2, Vec3, pos};
+use crate::model::coords::Coords;
+use crate::model::geometry::{Point, Vec2};
 use serde::{Deserialize, Serialize};
 
-/// The network estimate `theta_bar = mean_i theta_i[0:2]` (node-id order).
-pub fn theta_bar(thetas: &[Vec3]) -> Vec2 {
-    let mut s = Vec2::zeros();
+/// The network estimate `theta_bar = mean_i theta_i[0:D]` (node-id order) of
+/// the nodes' lifted variables in `D` dimensions.
+pub fn theta_bar<const D: usize>(thetas: &[Coords]) -> Point<D> {
+    let mut s = Point::<D>::zeros();
     for t in thetas {
-        s += pos(t);
+        s += t.point::<D>();
     }
     s / thetas.len().max(1) as f64
 }
 
-/// Consensus disagreement `max_i ||theta_i[0:2] - theta_bar||`.
-pub fn disagreement(thetas: &[Vec3]) -> f64 {
-    let bar = theta_bar(thetas);
+/// Consensus disagreement `max_i ||theta_i[0:D] - theta_bar||`.
+pub fn disagreement<const D: usize>(thetas: &[Coords]) -> f64 {
+    let bar = theta_bar::<D>(thetas);
     thetas
         .iter()
-        .map(|t| (pos(t) - bar).norm())
+        .map(|t| (t.point::<D>() - bar).norm())
         .fold(0.0, f64::max)
 }
 
@@ -110,14 +112,19 @@ mod tests {
 
     #[test]
     fn theta_bar_and_disagreement_of_symmetric_points() {
+        let c = |v: &[f64]| Coords::from_slice(v).unwrap();
         let t = [
-            Vec3::new(1.0, 0.0, 9.0),
-            Vec3::new(-1.0, 0.0, 2.0),
-            Vec3::new(0.0, 3.0, 0.0),
-            Vec3::new(0.0, -3.0, 0.0),
+            c(&[1.0, 0.0, 9.0]),
+            c(&[-1.0, 0.0, 2.0]),
+            c(&[0.0, 3.0, 0.0]),
+            c(&[0.0, -3.0, 0.0]),
         ];
-        assert_relative_eq!(theta_bar(&t), Vec2::zeros());
-        assert_relative_eq!(disagreement(&t), 3.0);
+        assert_relative_eq!(theta_bar::<2>(&t), Vec2::zeros());
+        assert_relative_eq!(disagreement::<2>(&t), 3.0);
+        // In 3-D the third number is a depth, not `d`.
+        let t = [c(&[1.0, 0.0, 4.0, 9.0]), c(&[-1.0, 0.0, -4.0, 2.0])];
+        assert_relative_eq!(theta_bar::<3>(&t), Point::<3>::zeros());
+        assert_relative_eq!(disagreement::<3>(&t), 17f64.sqrt());
     }
 
     #[test]

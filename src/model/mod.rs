@@ -6,6 +6,7 @@
 //! it imports nothing else of the crate.
 
 pub mod channel;
+pub mod coords;
 pub mod error;
 pub mod fault;
 pub mod geometry;

@@ -129,3 +129,24 @@ pub struct Realization<const D: usize = 2> {
     /// The NLOS links of this run (all LOS for a trace).
     pub nlos: crate::model::noise::NlosMask,
 }
+
+/// What the coordinator hands to the nodes of a run, in either dimension:
+/// every receiver's measurements and the noise sigmas, per sample
+/// ([`Realization::feed`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Feed<'a> {
+    /// Every receiver's measurements per sample.
+    pub measurements: &'a [SampleMeasurements],
+    /// Nominal noise sigmas per sample.
+    pub sigmas: &'a [Sigmas],
+}
+
+impl<const D: usize> Realization<D> {
+    /// The measurements and sigmas the nodes are fed.
+    pub fn feed(&self) -> Feed<'_> {
+        Feed {
+            measurements: &self.measurements,
+            sigmas: &self.sigmas,
+        }
+    }
+}

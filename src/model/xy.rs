@@ -70,6 +70,17 @@ impl Pt {
         Point::<D>::from_fn(|i, _| self.c.get(i).copied().unwrap_or(0.0))
     }
 
+    /// The Euclidean distance to `other` (metres), in 3-D when either point
+    /// is 3-D (a 2-D point is at `z = 0`); between two 2-D points exactly
+    /// what nalgebra computes on [`Point<2>`].
+    pub fn distance(&self, other: &Pt) -> f64 {
+        if self.dim == 3 || other.dim == 3 {
+            (self.point::<3>() - other.point::<3>()).norm()
+        } else {
+            (self.point::<2>() - other.point::<2>()).norm()
+        }
+    }
+
     /// The point from a position of `D` = 2 or 3 coordinates.
     pub fn of<const D: usize>(p: &Point<D>) -> Pt {
         match D {

@@ -53,11 +53,11 @@ fn distributed_run(
     }
     alt.samples = samples;
     let run = match crate::protocol::RunPlan::new(&alt, Clock::Logical) {
-        Ok(plan) => crate::engine::run_inprocess(&plan, real, &mut |_, _| {}),
+        Ok(plan) => crate::engine::run_inprocess(&plan, real.feed(), &mut |_, _| {}),
         Err(e) => RunOutcome::refused(alt.graph.len(), e),
     };
     let est = (0..samples)
-        .map(|k| run.record.thetas.get(k).map(|t| metrics::theta_bar(t)))
+        .map(|k| run.record.thetas.get(k).map(|t| metrics::theta_bar::<2>(t)))
         .collect();
     (est, run.error.as_ref().map(EngineError::in_full))
 }
@@ -131,7 +131,7 @@ pub fn evaluate(
     // theta_bar is the mean of the nodes alive at each sample: a dead node's
     // frozen estimate is left out from the sample its death was noticed.
     let est: Vec<Vec2> = (0..done)
-        .map(|k| metrics::theta_bar(&record.alive_thetas(k)))
+        .map(|k| metrics::theta_bar::<2>(&record.alive_thetas(k)))
         .collect();
     // The centralised ML reference, solved once for the `ml` track and any
     // `ml` baseline.
@@ -148,7 +148,7 @@ pub fn evaluate(
     let ml = &scored.tracks[1].metrics;
     let crlbs: Vec<f64> = scored.crlb.iter().flatten().copied().collect();
     let max_dis = (0..done)
-        .map(|k| metrics::disagreement(&record.alive_thetas(k)))
+        .map(|k| metrics::disagreement::<2>(&record.alive_thetas(k)))
         .fold(0.0, f64::max);
     let status = match error {
         None => RunStatus::Ok,

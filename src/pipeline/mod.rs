@@ -319,7 +319,7 @@ pub fn execute(
     let plan = crate::protocol::RunPlan::new(sc, opts.run_config())
         .and_then(|p| p.with_stall_timeout(opts.stall_timeout));
     let run = match plan {
-        Ok(plan) => crate::runtime::run(&plan, &real, &popts, progress),
+        Ok(plan) => crate::runtime::run(&plan, real.feed(), &popts, progress),
         Err(e) => RunOutcome::refused(sc.graph.len(), e),
     };
     Executed { real, run }

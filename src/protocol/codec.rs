@@ -6,7 +6,7 @@
 //! from one sender arrive in order (one publisher per sender and service),
 //! which is all the reassembly needs.
 
-use crate::model::geometry::Vec3;
+use crate::model::coords::Coords;
 use crate::model::measure::{NodeMeasurements, Sigmas};
 use crate::protocol::{Command, Counters, PeerMsg, Report};
 use crate::transport::wire::{COORDINATOR_ID, Frame};
@@ -63,13 +63,15 @@ pub mod kind {
     pub const ACCEPT: u32 = 22;
     /// Peer: exchange declined.
     pub const DECLINE: u32 = 23;
-    /// Peer (sync, from the root): consensus average of round `seq`, `data[0..2]`.
+    /// Peer (sync, from the root): consensus average of round `seq`,
+    /// `data[0..D]`.
     pub const AVERAGE: u32 = 24;
     /// Report: counters (`data` = prox_solves, messages_out, messages_in, declines, updates).
     pub const COUNTERS: u32 = 30;
-    /// Report: sample done, `data[0..3]` = theta (after a COUNTERS frame).
+    /// Report: sample done, `data[0..L]` = theta (`L` = 3 in 2-D, 4 in 3-D;
+    /// after a COUNTERS frame).
     pub const SAMPLE_DONE: u32 = 31;
-    /// Report: snapshot, `data[0..3]` = theta (after a COUNTERS frame).
+    /// Report: snapshot, `data[0..L]` = theta (after a COUNTERS frame).
     pub const SNAPSHOT_REPLY: u32 = 32;
     /// Report: iteration done, `seq`.
     pub const ITER_DONE: u32 = 33;
@@ -179,8 +181,10 @@ fn decode_plan_steps(f: &Frame, steps: &mut Vec<(u64, u32)>) -> Result<(), Decod
     Ok(())
 }
 
-fn v3(d: &[f64; 5]) -> Vec3 {
-    Vec3::new(d[0], d[1], d[2])
+/// The first `n` numbers of a frame's payload (`n` = 2 to 4: a consensus
+/// average or a lifted variable of the run's dimension).
+fn coords(d: &[f64; 5], n: usize) -> Coords {
+    Coords::from_fn(n, |i| d[i])
 }
 
 /// Extra coordinator-to-node commands that only exist between processes.
@@ -440,14 +444,25 @@ pub enum DecodeError {
 }
 
 /// Reassembles a node's incoming frames.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct NodeDecoder {
     meas: NodeMeasurements,
     meas_n: u32,
     steps: Vec<(u64, u32)>,
+    dim: usize,
 }
 
 impl NodeDecoder {
+    /// The decoder of a node of a `dim`-dimensional run (2 or 3).
+    pub fn new(dim: usize) -> NodeDecoder {
+        NodeDecoder {
+            meas: NodeMeasurements::default(),
+            meas_n: 0,
+            steps: Vec::new(),
+            dim,
+        }
+    }
+
     /// Feed one frame; returns a complete input when one is finished.
     pub fn feed(&mut self, f: &Frame) -> Result<Option<NodeInput>, DecodeError> {
         use kind::{
@@ -533,38 +548,40 @@ impl NodeDecoder {
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
             CLOCK_FACTOR => Ok(Some(NodeInput::Control(Control::ClockFactor(f.data[0])))),
             REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
-                Ok(decode_peer(f).map(NodeInput::Peer))
+                Ok(decode_peer(f, self.dim).map(NodeInput::Peer))
             }
             k => Err(DecodeError::UnknownKind(k)),
         }
     }
 }
 
-/// The gossip message a peer frame carries (`None` for another kind).
-pub fn decode_peer(f: &Frame) -> Option<PeerMsg> {
+/// The gossip message a peer frame of a `dim`-dimensional run carries
+/// (`None` for another kind): a reflected point of `dim + 1` numbers, an
+/// average of `dim`.
+pub fn decode_peer(f: &Frame, dim: usize) -> Option<PeerMsg> {
     use kind::{ACCEPT, AVERAGE, DECLINE, REFLECT, REQUEST};
     let (from, seq) = (f.from, f.seq);
     Some(match f.kind {
         REFLECT => PeerMsg::Reflect {
             from,
             seq,
-            r: v3(&f.data),
+            r: coords(&f.data, dim + 1),
         },
         REQUEST => PeerMsg::Request {
             from,
             seq,
-            r: v3(&f.data),
+            r: coords(&f.data, dim + 1),
         },
         ACCEPT => PeerMsg::Accept {
             from,
             seq,
-            r: v3(&f.data),
+            r: coords(&f.data, dim + 1),
         },
         DECLINE => PeerMsg::Decline { from, seq },
         AVERAGE => PeerMsg::Average {
             from,
             seq,
-            a: crate::model::geometry::Vec2::new(f.data[0], f.data[1]),
+            a: coords(&f.data, dim),
         },
         _ => return None,
     })
@@ -696,7 +713,7 @@ mod tests {
         for c in &cmds {
             encode_control(c, &mut frames);
         }
-        let mut dec = NodeDecoder::default();
+        let mut dec = NodeDecoder::new(2);
         let got: Vec<Control> = frames
             .iter()
             .filter_map(|f| match dec.feed(f).unwrap() {
@@ -735,7 +752,7 @@ mod tests {
         for (steps, frames) in [(close, 3), (far, 4), (vec![(9, 1)], 1), (vec![], 0)] {
             let f = plan_frames(&steps);
             assert_eq!(f.len(), frames + 1, "{steps:?}");
-            let mut dec = NodeDecoder::default();
+            let mut dec = NodeDecoder::new(2);
             let got: Vec<_> = f.iter().filter_map(|f| dec.feed(f).unwrap()).collect();
             assert_eq!(
                 got,
@@ -752,7 +769,7 @@ mod tests {
         for bad in [0.5, f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300] {
             let mut f = plan_frames(&[(10, 1), (11, 2), (12, 3)]);
             f[0].data[1] = bad;
-            let mut dec = NodeDecoder::default();
+            let mut dec = NodeDecoder::new(2);
             let e = dec.feed(&f[0]).unwrap_err();
             assert_eq!(
                 e,
@@ -767,7 +784,7 @@ mod tests {
 
     #[test]
     fn peer_messages_and_reports_survive_a_round_trip() {
-        let r = Vec3::new(1.0 / 3.0, -2e-300, 5e10);
+        let r = Coords::from([1.0 / 3.0, -2e-300, 5e10]);
         for m in [
             PeerMsg::Reflect {
                 from: 1,
@@ -780,12 +797,12 @@ mod tests {
             PeerMsg::Average {
                 from: 0,
                 seq: 12,
-                a: crate::model::geometry::Vec2::new(-1.5, 2.25),
+                a: Coords::from([-1.5, 2.25]),
             },
         ] {
             let f = encode_peer(&m);
             assert_eq!(
-                NodeDecoder::default().feed(&f).unwrap(),
+                NodeDecoder::new(2).feed(&f).unwrap(),
                 Some(NodeInput::Peer(m))
             );
         }
@@ -822,7 +839,7 @@ mod tests {
         for rep in &reports {
             encode_report(rep, &mut frames);
         }
-        let mut dec = ReportDecoder::default();
+        let mut dec = ReportDecoder::new(2);
         let got: Vec<Report> = frames
             .iter()
             .filter_map(|f| match dec.feed(f).unwrap() {
@@ -859,7 +876,7 @@ mod tests {
             };
             let mut frames = Vec::new();
             encode_report(&sent, &mut frames);
-            let got = ReportDecoder::default().feed(&frames[0]).unwrap();
+            let got = ReportDecoder::new(2).feed(&frames[0]).unwrap();
             assert_eq!(
                 got,
                 Some(CoordinatorInput::Report(Report::Failed {
@@ -880,7 +897,7 @@ mod tests {
     fn hop_probes_and_measured_hops_survive_a_round_trip() {
         for back in [false, true] {
             assert_eq!(
-                NodeDecoder::default()
+                NodeDecoder::new(2)
                     .feed(&encode_probe(2, 41, back))
                     .unwrap(),
                 Some(NodeInput::Probe {
@@ -894,7 +911,7 @@ mod tests {
         let mut frames = Vec::new();
         encode_hops(5, 100, &hops, &mut frames);
         assert_eq!(frames.len(), 3);
-        let mut dec = ReportDecoder::default();
+        let mut dec = ReportDecoder::new(2);
         let mut got = Vec::new();
         for f in &frames {
             match dec.feed(f).unwrap() {
@@ -933,7 +950,7 @@ mod tests {
             &mut frames,
         );
         frames.remove(0);
-        let mut dec = NodeDecoder::default();
+        let mut dec = NodeDecoder::new(2);
         assert!(dec.feed(&frames[0]).unwrap().is_none());
         assert!(matches!(
             dec.feed(&frames[1]),

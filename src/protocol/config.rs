@@ -140,7 +140,7 @@ fn refuse<T>(key: Key, reason: &str) -> Result<T, Refused> {
 
 /// The emulated duration of a realtime run of `sc` in seconds (0 on logical
 /// clocks): what node processes take in wall time.
-pub fn realtime_wall_s(sc: &Scenario, clock: Clock) -> f64 {
+pub fn realtime_wall_s<const D: usize>(sc: &Scenario<D>, clock: Clock) -> f64 {
     match (clock, &sc.realtime) {
         (Clock::Realtime, Some(rt)) => sc.samples as f64 * rt.sample_period_ms / 1000.0,
         _ => 0.0,
@@ -150,7 +150,7 @@ pub fn realtime_wall_s(sc: &Scenario, clock: Clock) -> f64 {
 /// The clock of `sc` when none is asked for: its `algorithm.clock`, else
 /// realtime for the acoustic channel and faults (they happen in time), else
 /// logical.
-pub fn default_clock(sc: &Scenario) -> Clock {
+pub fn default_clock<const D: usize>(sc: &Scenario<D>) -> Clock {
     match sc.algorithm.clock {
         Some(ClockCfg::Realtime) => Clock::Realtime,
         Some(ClockCfg::Logical) => Clock::Logical,
@@ -166,7 +166,10 @@ impl RunConfig {
     /// acoustic channel, faults and realtime runs longer than
     /// [`LONG_WALL_S`] run in-process (in virtual time on the discrete-event
     /// engine), unless zenoh is asked for; everything else on node processes.
-    pub fn resolve(&self, sc: &Scenario) -> Result<(EngineKind, Clock), Refused> {
+    pub fn resolve<const D: usize>(
+        &self,
+        sc: &Scenario<D>,
+    ) -> Result<(EngineKind, Clock), Refused> {
         let clock = self.clock.unwrap_or_else(|| default_clock(sc));
         // Which key chose the clock: the flag, or the scenario.
         let clock_key = match self.clock {

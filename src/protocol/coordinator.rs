@@ -33,8 +33,8 @@
 
 use super::plan::{RunPlan, Scheduler};
 use crate::estimators::gossip::Mode;
-use crate::model::geometry::Vec3;
-use crate::model::synth::Realization;
+use crate::model::coords::Coords;
+use crate::model::synth::Feed;
 use crate::protocol::EngineError;
 use crate::protocol::RunRecord;
 use crate::protocol::codec::Control;
@@ -142,7 +142,7 @@ pub enum Action {
 /// Logical clocks: one sample sent to the nodes and not yet complete.
 struct InFlight {
     /// Each node's `theta` after the sample, once reported.
-    thetas: Vec<Option<Vec3>>,
+    thetas: Vec<Option<Coords>>,
     /// Each node's counters at the end of the sample: the record's counters
     /// are those of the last complete sample, so work a node did on the
     /// samples sent ahead ([`LOOKAHEAD`](super::LOOKAHEAD)) is not counted
@@ -175,15 +175,16 @@ enum Phase {
         /// `Some(asked)` while the snapshot of `sample` is awaited.
         snapshot: Option<Vec<bool>>,
         got: Vec<bool>,
-        last_theta: Vec<Vec3>,
+        last_theta: Vec<Coords>,
         updates_before: u64,
     },
 }
 
-/// The coordinator of one run of a [`RunPlan`] on a [`Realization`].
+/// The coordinator of one run of a [`RunPlan`] on the measurements of a
+/// [`Feed`].
 pub struct Coordinator<'a> {
     plan: &'a RunPlan,
-    real: &'a Realization,
+    real: Feed<'a>,
     sched: Scheduler<'a>,
     rec: RunRecord,
     dead: Vec<bool>,
@@ -197,7 +198,7 @@ pub struct Coordinator<'a> {
 
 impl<'a> Coordinator<'a> {
     /// A coordinator for `plan`, sending the measurements of `real`.
-    pub fn new(plan: &'a RunPlan, real: &'a Realization) -> Self {
+    pub fn new(plan: &'a RunPlan, real: Feed<'a>) -> Self {
         let n = plan.n();
         let phase = match plan.realtime {
             None => Phase::Logical {
@@ -496,10 +497,16 @@ impl<'a> Coordinator<'a> {
         let samples = self.plan.samples;
         let ips = self.plan.iterations_per_sample;
         let mut advanced = false;
+        // A node that never reported the sample (only ever a dead one, left
+        // out of `theta_bar`).
+        let unreported = Coords::zeros(self.plan.dim() + 1);
         while let Some(thetas) = self.pop_complete() {
-            self.rec
-                .thetas
-                .push(thetas.into_iter().map(|t| t.unwrap_or_default()).collect());
+            self.rec.thetas.push(
+                thetas
+                    .into_iter()
+                    .map(|t| t.unwrap_or(unreported))
+                    .collect(),
+            );
             self.rec.iterations += ips as u64;
             out.push(Action::Progress {
                 samples: self.rec.thetas.len(),
@@ -522,7 +529,7 @@ impl<'a> Coordinator<'a> {
 
     /// Logical clocks: the oldest sample in flight, taken out if every node
     /// reported it.
-    fn pop_complete(&mut self) -> Option<Vec<Option<Vec3>>> {
+    fn pop_complete(&mut self) -> Option<Vec<Option<Coords>>> {
         let n = self.plan.n();
         let Phase::Logical {
             in_flight,
@@ -753,7 +760,7 @@ mod tests {
         Event::Report(Report::Snapshot {
             node,
             sample,
-            theta: Vec3::new(x, 0.0, 0.0),
+            theta: Coords::from([x, 0.0, 0.0]),
             counters: Counters {
                 updates,
                 ..Default::default()
@@ -767,7 +774,7 @@ mod tests {
         let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
         let real = sc.realize();
         let period = Duration::from_millis(20);
-        let mut c = Coordinator::new(&plan, &real);
+        let mut c = Coordinator::new(&plan, real.feed());
         let mut out = vec![];
         c.handle(Duration::ZERO, [Event::Start], &mut out);
         let s = sends(&out);
@@ -817,7 +824,7 @@ mod tests {
         assert!(c.is_done());
         let rec = c.into_record(false);
         assert_eq!(rec.iterations_per_sample, vec![30, 6]);
-        assert_eq!(rec.thetas[0][3], Vec3::new(3.0, 0.0, 0.0));
+        assert_eq!(rec.thetas[0][3], Coords::from([3.0, 0.0, 0.0]));
         // No death: no alive masks.
         assert!(rec.alive.is_empty());
     }
@@ -827,7 +834,7 @@ mod tests {
         let sc = spiral(3);
         let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
         let real = sc.realize();
-        let mut c = Coordinator::new(&plan, &real);
+        let mut c = Coordinator::new(&plan, real.feed());
         let mut out = vec![];
         let t = Duration::from_millis(20);
         c.handle(Duration::ZERO, [Event::Start], &mut out);
@@ -880,7 +887,7 @@ mod tests {
         let sc = spiral(2);
         let plan = RunPlan::new(&sc, Clock::Realtime).unwrap();
         let real = sc.realize();
-        let mut c = Coordinator::new(&plan, &real);
+        let mut c = Coordinator::new(&plan, real.feed());
         let mut out = vec![];
         let t = Duration::from_millis(20);
         c.handle(Duration::ZERO, [Event::Start], &mut out);
@@ -940,7 +947,7 @@ mod tests {
         let sc = spiral(5);
         let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
         let real = sc.realize();
-        let mut c = Coordinator::new(&plan, &real);
+        let mut c = Coordinator::new(&plan, real.feed());
         let (half, out) = first_check(&mut c, &plan);
         let pings: Vec<u32> = sends(&out)
             .into_iter()
@@ -981,7 +988,7 @@ mod tests {
         let sc = spiral(5);
         let plan = RunPlan::new(&sc, Clock::Logical).unwrap();
         let real = sc.realize();
-        let mut c = Coordinator::new(&plan, &real);
+        let mut c = Coordinator::new(&plan, real.feed());
         let (half, _) = first_check(&mut c, &plan);
         let mut out = vec![];
         c.handle(
@@ -1006,7 +1013,7 @@ mod tests {
         let report = Event::Report(Report::SampleDone {
             node: 0,
             sample: 0,
-            theta: Vec3::zeros(),
+            theta: Coords::zeros(3),
             counters: Counters::default(),
         });
         let reported = 3 * half + Duration::from_millis(1);
@@ -1068,7 +1075,7 @@ mod tests {
             ),
             (Event::Interrupted, EngineError::Interrupted { sample: 0 }),
         ] {
-            let mut c = Coordinator::new(&plan, &real);
+            let mut c = Coordinator::new(&plan, real.feed());
             let mut out = vec![];
             c.handle(Duration::ZERO, [Event::Start], &mut out);
             // LOOKAHEAD samples of measurements and plans, then one flush.

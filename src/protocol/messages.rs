@@ -4,8 +4,9 @@
 
 use crate::estimators::prox::LocalSolver;
 use crate::estimators::prox::gtrs::ProxFailure;
-use crate::model::geometry::{Vec2, Vec3};
+use crate::model::coords::Coords;
 use crate::model::measure::{NodeMeasurements, Sigmas};
+use crate::model::xy::Pt;
 
 /// Everything a node knows about the world: itself, its neighbours and the
 /// transmitters. It never learns another node's measurements or state except
@@ -17,10 +18,10 @@ pub struct NodeConfig {
     pub id: u32,
     /// Number of nodes in the network (sync averaging divides by it).
     pub n_nodes: u32,
-    /// This receiver's position `r_v`.
-    pub anchor: Vec2,
-    /// All transmitter positions `t_m`.
-    pub transmitters: Vec<Vec2>,
+    /// This receiver's position `r_v`; its dimension (2 or 3) is the run's.
+    pub anchor: Pt,
+    /// All transmitter positions `t_m`, of the anchor's dimension.
+    pub transmitters: Vec<Pt>,
     /// Sorted neighbour ids.
     pub neighbours: Vec<u32>,
     /// DOA row weight.
@@ -34,8 +35,8 @@ pub struct NodeConfig {
     /// [`crate::estimators::prox::l0::effective_kappa`]). Ignored by the other solvers.
     #[serde(default = "default_kappa")]
     pub kappa: usize,
-    /// Initial `u` (and `theta`).
-    pub init_u: Vec3,
+    /// Initial `u` (and `theta`): one number more than the anchor has.
+    pub init_u: Coords,
     /// Start instead from the node's own fix of the first sample it gets
     /// ([`crate::estimators::local::LocalProblem::first_fix`]).
     #[serde(default)]
@@ -73,6 +74,13 @@ pub struct NodeConfig {
     /// restart from its checkpoint). `None`: never.
     #[serde(default)]
     pub checkpoint_every: Option<u32>,
+}
+
+impl NodeConfig {
+    /// The run's dimension, 2 or 3: the anchor's.
+    pub fn dim(&self) -> usize {
+        self.anchor.dim()
+    }
 }
 
 fn default_kappa() -> usize {
@@ -173,7 +181,7 @@ pub enum PeerMsg {
         /// Round or iteration number.
         seq: u64,
         /// Reflected point.
-        r: Vec3,
+        r: Coords,
     },
     /// Realtime: `from` asks for an exchange and sends its reflected point.
     Request {
@@ -182,7 +190,7 @@ pub enum PeerMsg {
         /// Initiator's exchange counter.
         seq: u64,
         /// Initiator's reflected point.
-        r: Vec3,
+        r: Coords,
     },
     /// Realtime: the responder accepted and updated; here is its reflected point.
     Accept {
@@ -191,7 +199,7 @@ pub enum PeerMsg {
         /// The initiator's exchange counter.
         seq: u64,
         /// Responder's reflected point.
-        r: Vec3,
+        r: Coords,
     },
     /// Realtime: the responder is inside another exchange; the initiator keeps its state.
     Decline {
@@ -208,7 +216,7 @@ pub enum PeerMsg {
         /// Round.
         seq: u64,
         /// `mean_i r_i[0:2]`, summed in node-id order.
-        a: Vec2,
+        a: Coords,
     },
 }
 
@@ -235,19 +243,24 @@ impl PeerMsg {
         }
     }
 
-    /// The most values a message carries ([`PeerMsg::values`]).
-    pub const MAX_VALUES: u32 = 3;
+    /// The most values a message of a `dim`-dimensional run carries
+    /// ([`PeerMsg::values`]): a reflected point, `dim + 1`.
+    pub fn max_values(dim: usize) -> u32 {
+        dim as u32 + 1
+    }
 
     /// The values a message carries over an acoustic modem, the `fields` of
     /// [`AcousticCfg::frame_bits`](crate::model::channel::AcousticCfg::frame_bits):
-    /// a reflected point `r = (x, y, d)` is 3 (Reflect, Request, Accept), a
-    /// consensus average `(x, y)` 2 (Average), a Decline none. The sender, the
-    /// addressee, the kind and the sequence number are the frame header
-    /// (`header_bits`).
+    /// a reflected point `r = (x, y, d)` is 3 (Reflect, Request, Accept; 4
+    /// in 3-D, `(x, y, z, d)`), a consensus average `(x, y)` 2 (Average; 3 in
+    /// 3-D), a Decline none. The sender, the addressee, the kind and the
+    /// sequence number are the frame header (`header_bits`).
     pub fn values(&self) -> u32 {
         match self {
-            PeerMsg::Reflect { .. } | PeerMsg::Request { .. } | PeerMsg::Accept { .. } => 3,
-            PeerMsg::Average { .. } => 2,
+            PeerMsg::Reflect { r, .. } | PeerMsg::Request { r, .. } | PeerMsg::Accept { r, .. } => {
+                r.len() as u32
+            }
+            PeerMsg::Average { a, .. } => a.len() as u32,
             PeerMsg::Decline { .. } => 0,
         }
     }
@@ -299,7 +312,7 @@ pub enum Report {
         /// Sample index.
         sample: u32,
         /// Current `theta`.
-        theta: Vec3,
+        theta: Coords,
         /// Counters so far.
         counters: Counters,
     },
@@ -313,7 +326,7 @@ pub enum Report {
         /// Global iteration (sync: round).
         iteration: u64,
         /// The node's `theta` after the iteration.
-        theta: Vec3,
+        theta: Coords,
     },
     /// Answer to [`Command::Snapshot`].
     Snapshot {
@@ -322,7 +335,7 @@ pub enum Report {
         /// Sample index.
         sample: u32,
         /// Current `theta`.
-        theta: Vec3,
+        theta: Coords,
         /// Counters so far.
         counters: Counters,
     },
@@ -359,9 +372,9 @@ pub enum Output {
         /// The sample.
         sample: u32,
         /// `u`.
-        u: Vec3,
+        u: Coords,
         /// `theta`.
-        theta: Vec3,
+        theta: Coords,
     },
     /// Over a lossy channel: hand the node `then` (a
     /// [`Command::ExchangeTimeout`] or a [`Command::RoundTimeout`]) after

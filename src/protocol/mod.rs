@@ -27,6 +27,7 @@ pub mod codec;
 pub mod config;
 pub mod coordinator;
 pub mod error;
+pub mod local;
 mod messages;
 pub mod plan;
 pub mod record;
@@ -40,11 +41,10 @@ pub use plan::{ChannelPlan, RealtimePlan, RunPlan, Scheduler};
 pub use record::RunRecord;
 
 use crate::estimators::gossip::{dr_update, mean_position, pair_average};
-use crate::estimators::local::LocalProblem;
 use crate::estimators::prox::gtrs::ProxError;
-use crate::estimators::prox::prox;
-use crate::model::geometry::{Vec2, Vec3};
+use crate::model::coords::Coords;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
+use local::LocalStep;
 use rand::RngExt;
 use std::collections::{BTreeMap, VecDeque};
 
@@ -58,9 +58,9 @@ struct SyncState {
     round: u64,
     last_round: u64,
     /// Own theta and r of the current round, once computed.
-    mine: Option<(Vec3, Vec3)>,
+    mine: Option<(Coords, Coords)>,
     /// Received reflected points, by round, by sender.
-    received: BTreeMap<u64, Vec<Option<Vec3>>>,
+    received: BTreeMap<u64, Vec<Option<Coords>>>,
 }
 
 #[derive(Debug, Clone)]
@@ -68,35 +68,35 @@ struct AsyncState {
     sample: u32,
     steps: VecDeque<(u64, u32)>,
     /// Own theta and r of the head step, once computed.
-    mine: Option<(Vec3, Vec3)>,
+    mine: Option<(Coords, Coords)>,
 }
 
 #[derive(Debug, Clone, Copy)]
 struct Exchange {
     partner: u32,
     seq: u64,
-    theta: Vec3,
-    r: Vec3,
+    theta: Coords,
+    r: Coords,
 }
 
 /// The protocol state machine of one receiver node.
 #[derive(Debug, Clone)]
 pub struct NodeCore {
     cfg: NodeConfig,
-    problem: LocalProblem,
-    u: Vec3,
-    theta: Vec3,
+    problem: LocalStep,
+    u: Coords,
+    theta: Coords,
     sample: u32,
     counters: Counters,
     sync: Option<SyncState>,
     plan: Option<AsyncState>,
     /// Async-logical reflected points that arrived before this node reached
     /// that iteration, keyed by iteration.
-    early: BTreeMap<u64, Vec3>,
+    early: BTreeMap<u64, Coords>,
     /// Root: sync reflected points that arrived before the SyncRounds command.
-    early_sync: BTreeMap<u64, Vec<Option<Vec3>>>,
+    early_sync: BTreeMap<u64, Vec<Option<Coords>>>,
     /// Other nodes: consensus averages from the root not yet used, by round.
-    averages: BTreeMap<u64, Vec2>,
+    averages: BTreeMap<u64, Coords>,
     exchange: Option<Exchange>,
     exchange_seq: u64,
     alive: Vec<u32>,
@@ -117,7 +117,7 @@ impl NodeCore {
     /// A node restarted from its checkpoint ([`Output::Checkpoint`]): `u` and
     /// `theta` as saved, no measurements yet (the coordinator sends the
     /// current sample's).
-    pub fn restore(cfg: NodeConfig, u: Vec3, theta: Vec3) -> NodeCore {
+    pub fn restore(cfg: NodeConfig, u: Coords, theta: Coords) -> NodeCore {
         let mut n = NodeCore::new(cfg);
         n.u = u;
         n.theta = theta;
@@ -130,7 +130,7 @@ impl NodeCore {
     pub fn new(cfg: NodeConfig) -> NodeCore {
         let rng = stream_rng(cfg.seed, Stream::NodeClock, cfg.id as u64);
         NodeCore {
-            problem: LocalProblem::empty(cfg.anchor),
+            problem: LocalStep::new(&cfg),
             u: cfg.init_u,
             theta: cfg.init_u,
             sample: 0,
@@ -171,13 +171,18 @@ impl NodeCore {
         self.cfg.id
     }
 
+    /// The run's dimension, 2 or 3 ([`NodeConfig::dim`]).
+    pub fn dim(&self) -> usize {
+        self.cfg.dim()
+    }
+
     /// Current `theta`.
-    pub fn theta(&self) -> Vec3 {
+    pub fn theta(&self) -> Coords {
         self.theta
     }
 
     /// Current `u`.
-    pub fn u(&self) -> Vec3 {
+    pub fn u(&self) -> Coords {
         self.u
     }
 
@@ -198,11 +203,11 @@ impl NodeCore {
         -u.ln() / rate_hz
     }
 
-    fn prox_step(&mut self) -> Result<(Vec3, Vec3), ProxError> {
+    fn prox_step(&mut self) -> Result<(Coords, Coords), ProxError> {
         let solver = self.cfg.solver.with_kappa(self.cfg.kappa);
-        let theta = prox(solver, &self.problem, &self.u, self.cfg.gamma)?;
+        let theta = self.problem.prox(solver, &self.u, self.cfg.gamma)?;
         self.counters.prox_solves += 1;
-        let r = 2.0 * theta - self.u;
+        let r = theta.reflect(&self.u);
         Ok((theta, r))
     }
 
@@ -269,15 +274,9 @@ impl NodeCore {
                 sigmas,
             } => {
                 self.sample = sample;
-                self.problem = LocalProblem::build_weighted(
-                    self.cfg.anchor,
-                    &self.cfg.transmitters,
-                    self.cfg.omega,
-                    &meas,
-                    self.cfg.noise_weights.then_some(&sigmas),
-                );
+                self.problem.build(&self.cfg, &meas, &sigmas);
                 if self.cfg.first_fix && !self.started {
-                    self.u = self.problem.first_fix(&self.cfg.transmitters);
+                    self.u = self.problem.first_fix();
                     self.theta = self.u;
                 }
                 self.started = true;
@@ -715,21 +714,23 @@ impl NodeCore {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimators::local::LocalProblem;
     use crate::estimators::prox::LocalSolver;
     use crate::model::measure::{NodeMeasurements, Sigmas};
+    use crate::model::xy::Pt;
 
     fn config(solver: LocalSolver, kappa: usize) -> NodeConfig {
         NodeConfig {
             id: 1,
             n_nodes: 3,
-            anchor: Vec2::new(1.0, 2.0),
-            transmitters: vec![Vec2::new(0.0, 0.0)],
+            anchor: Pt::xy(1.0, 2.0),
+            transmitters: vec![Pt::xy(0.0, 0.0)],
             neighbours: vec![0, 2],
             omega: 1.0,
             gamma: 1e-3,
             solver,
             kappa,
-            init_u: Vec3::zeros(),
+            init_u: Coords::zeros(3),
             first_fix: false,
             noise_weights: false,
             seed: 7,
@@ -775,7 +776,7 @@ mod tests {
     fn samples_sent_ahead_wait_until_the_current_sample_is_done_and_give_the_same_state() {
         let mut cfg = config(LocalSolver::Gtrs, 1);
         cfg.mode = NodeMode::AsyncLogical;
-        let partner_r = |k: u64| Vec3::new(3.0 + k as f64, 4.0, 5.0);
+        let partner_r = |k: u64| Coords::from([3.0 + k as f64, 4.0, 5.0]);
         let reflect = |k: u64| {
             Input::Peer(PeerMsg::Reflect {
                 from: 0,
@@ -840,7 +841,7 @@ mod tests {
                 &mut out,
             );
             for (seq, from) in [(0, 0), (1, 2)] {
-                let r = Vec3::new(3.0, 4.0, 5.0);
+                let r = Coords::from([3.0, 4.0, 5.0]);
                 node.handle(Input::Peer(PeerMsg::Reflect { from, seq, r }), &mut out);
             }
             assert!(!node.busy(), "both steps done");
@@ -863,14 +864,15 @@ mod tests {
     fn a_first_fix_node_starts_from_its_first_sample_and_only_that_one() {
         let mut cfg = config(LocalSolver::Gtrs, 1);
         cfg.first_fix = true;
-        cfg.init_u = Vec3::new(7.0, 7.0, 7.0);
+        cfg.init_u = Coords::from([7.0, 7.0, 7.0]);
         let mut node = NodeCore::new(cfg.clone());
         assert_eq!(node.u(), cfg.init_u);
         let mut out = Vec::new();
         node.handle(sample(0), &mut out);
-        let want =
-            LocalProblem::<2, 3>::build(cfg.anchor, &cfg.transmitters, cfg.omega, &meas(10.0))
-                .first_fix(&cfg.transmitters);
+        let tx: Vec<_> = cfg.transmitters.iter().map(|t| t.point::<2>()).collect();
+        let want = LocalProblem::<2, 3>::build(cfg.anchor.point(), &tx, cfg.omega, &meas(10.0))
+            .first_fix(&tx);
+        let want = Coords::of(&want);
         assert_eq!(node.u(), want);
         assert_eq!(node.theta(), want);
         node.handle(sample(1), &mut out);
@@ -885,7 +887,7 @@ mod tests {
             .map(|id| {
                 let mut cfg = config(LocalSolver::Relaxed, 1);
                 cfg.id = id;
-                cfg.anchor = Vec2::new(id as f64, 2.0 * id as f64);
+                cfg.anchor = Pt::xy(id as f64, 2.0 * id as f64);
                 NodeCore::new(cfg)
             })
             .collect();
@@ -1019,7 +1021,7 @@ mod tests {
             Input::Peer(PeerMsg::Accept {
                 from: to,
                 seq,
-                r: Vec3::new(1.0, 2.0, 3.0),
+                r: Coords::from([1.0, 2.0, 3.0]),
             }),
             &mut o,
         );
@@ -1050,7 +1052,7 @@ mod tests {
             let mut cfg = config(LocalSolver::Relaxed, 1);
             cfg.id = id;
             cfg.n_nodes = n;
-            cfg.anchor = Vec2::new(id as f64, 2.0 * id as f64);
+            cfg.anchor = Pt::xy(id as f64, 2.0 * id as f64);
             cfg.round_timeout_s = Some(2.0);
             let mut node = NodeCore::new(cfg);
             let mut o = Vec::new();
@@ -1186,7 +1188,7 @@ mod tests {
         let late = PeerMsg::Reflect {
             from: 0,
             seq: 4,
-            r: Vec3::new(1.0, 1.0, 1.0),
+            r: Coords::from([1.0, 1.0, 1.0]),
         };
         o.clear();
         node.handle(Input::Peer(late), &mut o);
@@ -1196,7 +1198,7 @@ mod tests {
         let ok = PeerMsg::Reflect {
             from: 2,
             seq: 9,
-            r: Vec3::new(1.0, 1.0, 1.0),
+            r: Coords::from([1.0, 1.0, 1.0]),
         };
         node.handle(Input::Peer(ok), &mut o);
         assert_eq!(node.counters.updates, 1);
@@ -1232,8 +1234,8 @@ mod tests {
         o.clear();
         node.handle(sample(1), &mut o);
         assert!(ck(&o).is_empty(), "sample 1 is not");
-        node.u = Vec3::new(3.0, -4.0, 5.0);
-        node.theta = Vec3::new(1.0, 2.0, 3.0);
+        node.u = Coords::from([3.0, -4.0, 5.0]);
+        node.theta = Coords::from([1.0, 2.0, 3.0]);
         node.handle(sample(2), &mut o);
         let saved = ck(&o);
         assert_eq!(saved, vec![(2, node.u, node.theta)]);

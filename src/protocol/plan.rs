@@ -11,6 +11,7 @@ use super::EngineKind;
 use crate::estimators::gossip::{self, Mode};
 use crate::model::graph::Graph;
 use crate::model::rng::{SonarRng, Stream, stream_rng};
+use crate::model::xy::Pt;
 use crate::protocol::EngineError;
 use crate::protocol::config::RunConfig;
 use crate::protocol::{NodeConfig, NodeMode, SYNC_ROOT};
@@ -79,8 +80,8 @@ pub struct RunPlan {
 pub struct ChannelPlan {
     /// Its parameters (validated).
     pub cfg: crate::model::channel::AcousticCfg,
-    /// Node positions (the receivers).
-    pub positions: Vec<crate::model::geometry::Vec2>,
+    /// Node positions (the receivers), in the run's dimension.
+    pub positions: Vec<Pt>,
     /// `links[i]`: the nodes that node `i`'s transmissions reach (its
     /// gossip neighbours).
     pub links: Vec<Vec<u32>>,
@@ -100,7 +101,10 @@ impl RunPlan {
     /// The plan of `sc` (with its own seed `sc.seed`) as `cfg` asks (a
     /// [`Clock`] alone: in-process on that clock). A combination that
     /// cannot run is [`EngineError::Refused`] ([`RunConfig::resolve`]).
-    pub fn new(sc: &Scenario, cfg: impl Into<RunConfig>) -> Result<RunPlan, EngineError> {
+    pub fn new<const D: usize>(
+        sc: &Scenario<D>,
+        cfg: impl Into<RunConfig>,
+    ) -> Result<RunPlan, EngineError> {
         let (engine, clock) = cfg.into().resolve(sc)?;
         let mode = sc.algorithm.mode;
         let (node_mode, realtime) = match clock {
@@ -165,10 +169,10 @@ impl RunPlan {
         let channel = match sc.channel.acoustic() {
             None => None,
             Some(cfg) => {
-                let positions = sc.geometry.receivers.clone();
+                let positions: Vec<Pt> = sc.geometry.receivers.iter().map(Pt::of).collect();
                 let links: Vec<Vec<u32>> = nodes.iter().map(|c| c.neighbours.clone()).collect();
                 // A Request and its Accept carry a reflected point each.
-                let fields = crate::protocol::PeerMsg::MAX_VALUES;
+                let fields = crate::protocol::PeerMsg::max_values(D);
                 let timeout = cfg.exchange_timeout(&positions, &links, fields);
                 // Sync rounds talk to and from the root; async steps along
                 // the gossip links.
@@ -237,6 +241,11 @@ impl RunPlan {
         self.nodes.len()
     }
 
+    /// The run's dimension, 2 or 3 (its nodes').
+    pub fn dim(&self) -> usize {
+        self.nodes.first().map_or(2, NodeConfig::dim)
+    }
+
     /// A fresh async scheduler for this plan.
     pub fn scheduler(&self) -> Scheduler<'_> {
         Scheduler::new(self)
@@ -250,7 +259,7 @@ impl RunPlan {
 /// otherwise that of the drawn schedule (`v` uniform, then a uniform
 /// neighbour; the realtime clock draws the same, every node waking at one
 /// rate and calling a uniform neighbour), [`gossip::computing_probabilities`].
-fn prox_steps_of(sc: &Scenario) -> Vec<f64> {
+fn prox_steps_of<const D: usize>(sc: &Scenario<D>) -> Vec<f64> {
     let a = &sc.algorithm;
     let n = sc.graph.len();
     let p = match (a.mode, &a.schedule) {
@@ -262,18 +271,23 @@ fn prox_steps_of(sc: &Scenario) -> Vec<f64> {
 }
 
 /// The configuration of node `id` in `sc` (what the node is allowed to know).
-fn node_config(sc: &Scenario, id: usize, mode: NodeMode, gamma: f64) -> NodeConfig {
+fn node_config<const D: usize>(
+    sc: &Scenario<D>,
+    id: usize,
+    mode: NodeMode,
+    gamma: f64,
+) -> NodeConfig {
     NodeConfig {
         id: id as u32,
         n_nodes: sc.graph.len() as u32,
-        anchor: sc.geometry.receivers[id],
-        transmitters: sc.geometry.transmitters.clone(),
+        anchor: Pt::of(&sc.geometry.receivers[id]),
+        transmitters: sc.geometry.transmitters.iter().map(Pt::of).collect(),
         neighbours: sc.graph.neighbours(id).iter().map(|&w| w as u32).collect(),
         omega: sc.measurements.omega,
         gamma,
         solver: sc.algorithm.local_solver,
         kappa: sc.algorithm.kappa,
-        init_u: sc.algorithm.init_u_of::<3>(id),
+        init_u: sc.algorithm.init_u_coords(id, D),
         first_fix: sc.algorithm.init == crate::scenario::InitMode::FirstFix,
         noise_weights: sc.algorithm.row_weights == RowWeights::Noise,
         seed: sc.seed,

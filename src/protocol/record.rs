@@ -1,14 +1,14 @@
 //! What the coordinator recorded of a run: every node's `theta` per sample,
 //! the schedule, the counters, the deaths ([`RunRecord`]).
 
-use crate::model::geometry::Vec3;
+use crate::model::coords::Coords;
 use crate::protocol::Counters;
 
 /// What the coordinator recorded of a run, complete or not.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunRecord {
     /// `thetas[k][i]`: node `i`'s `theta` after sample `k` (only completed samples).
-    pub thetas: Vec<Vec<Vec3>>,
+    pub thetas: Vec<Vec<Coords>>,
     /// The async schedule used, `(v, w)` per iteration (empty in sync mode).
     pub schedule: Vec<(usize, usize)>,
     /// DR iterations completed (rounds in sync mode).
@@ -26,7 +26,7 @@ pub struct RunRecord {
     pub deaths: Vec<(u32, u32, String)>,
     /// `--trace-iterations`: `(iteration, sample, node, theta)` for every node
     /// updated by every iteration (sync: every node every round), in order.
-    pub iteration_trace: Vec<(u64, u32, u32, Vec3)>,
+    pub iteration_trace: Vec<(u64, u32, u32, Coords)>,
 }
 
 impl RunRecord {
@@ -39,7 +39,7 @@ impl RunRecord {
     }
 
     /// The nodes counted in `theta_bar` at sample `k`.
-    pub fn alive_thetas(&self, k: usize) -> Vec<Vec3> {
+    pub fn alive_thetas(&self, k: usize) -> Vec<Coords> {
         match self.alive.get(k) {
             Some(mask) => self.thetas[k]
                 .iter()

@@ -51,7 +51,16 @@ impl Counters {
 impl Report {
     /// What this report says, in words.
     pub fn in_words(&self) -> String {
-        let xy = |t: &crate::model::geometry::Vec3| format!("({:.2}, {:.2})", t[0], t[1]);
+        // The position part of theta: (x, y) in 2-D, (x, y, z) in 3-D.
+        let xy = |t: &crate::model::coords::Coords| {
+            let p: Vec<String> = t
+                .position()
+                .as_slice()
+                .iter()
+                .map(|v| format!("{v:.2}"))
+                .collect();
+            format!("({})", p.join(", "))
+        };
         match self {
             Report::SampleDone {
                 sample,
@@ -92,7 +101,7 @@ pub fn log_line(who: &str, text: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::geometry::Vec3;
+    use crate::model::coords::Coords;
 
     #[test]
     fn every_command_and_report_reads_as_one_line_of_words() {
@@ -114,7 +123,7 @@ mod tests {
             Report::SampleDone {
                 node: 1,
                 sample: 2,
-                theta: Vec3::new(1.0, 2.0, 0.0),
+                theta: Coords::from([1.0, 2.0, 0.0]),
                 counters: c,
             },
             Report::Failed {

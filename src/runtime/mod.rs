@@ -15,7 +15,7 @@ pub mod preflight;
 pub mod processes;
 
 use crate::engine::{Progress, RunOutcome, des, run_inprocess, threads};
-use crate::model::synth::Realization;
+use crate::model::synth::Feed;
 use crate::protocol::{Clock, Driver, EngineError, RunPlan};
 
 /// The one entry point of the engines: run `plan` on `real` on the engine
@@ -26,7 +26,7 @@ use crate::protocol::{Clock, Driver, EngineError, RunPlan};
 /// wall time.
 pub fn run(
     plan: &RunPlan,
-    real: &Realization,
+    real: Feed<'_>,
     popts: &processes::ProcessOptions,
     progress: Progress<'_>,
 ) -> RunOutcome {

@@ -27,7 +27,7 @@ use crate::engine::Network;
 use crate::engine::layout::{NetworkLayout, network_layout};
 use crate::engine::outcome::{ProcessStats, RunOutcome};
 use crate::engine::water::{ChannelClock, Water};
-use crate::model::synth::Realization;
+use crate::model::synth::Feed;
 use crate::protocol::EngineError;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Timing};
@@ -198,7 +198,7 @@ impl Processes {
                 checked: Instant::now(),
             },
             inbox: Inbox {
-                decoder: ReportDecoder::default(),
+                decoder: ReportDecoder::new(configs[0].dim()),
                 frames: Vec::new(),
                 encoded: Vec::new(),
                 events: Vec::new(),
@@ -635,7 +635,7 @@ impl Network for Processes {
 /// connected.
 pub fn run_processes(
     plan: &RunPlan,
-    real: &Realization,
+    real: Feed<'_>,
     opts: &ProcessOptions,
     progress: crate::engine::Progress<'_>,
 ) -> RunOutcome {

@@ -150,6 +150,13 @@ impl Algorithm {
         let u = &self.init_u[id];
         Lifted::<L>::from_fn(|i, _| u.get(i).copied().unwrap_or(0.0))
     }
+
+    /// Node `id`'s initial `u` in a `D`-dimensional scenario: `D + 1`
+    /// numbers, as [`Algorithm::init_u_of`] reads them.
+    pub fn init_u_coords(&self, id: usize, dim: usize) -> crate::model::coords::Coords {
+        let u = &self.init_u[id];
+        crate::model::coords::Coords::from_fn(dim + 1, |i| u.get(i).copied().unwrap_or(0.0))
+    }
 }
 
 /// A validated scenario in `D` = 2 or 3 dimensions (decided by its

@@ -178,7 +178,7 @@ impl Channel {
             Carrier::Acoustic(m) => {
                 2.0 * m
                     .cfg()
-                    .transmission_s(m.cfg().frame_bits(PeerMsg::MAX_VALUES))
+                    .transmission_s(m.cfg().frame_bits(PeerMsg::max_values(m.dim())))
             }
             Carrier::Ideal(_) => 0.0,
         }
@@ -329,8 +329,9 @@ fn ideal(to: u32, msg: PeerMsg) -> InFlight {
 mod tests {
     use super::{Channel, InFlight};
     use crate::model::channel::{AcousticCfg, Medium, Reason};
+    use crate::model::coords::Coords;
     use crate::model::fault::FaultKind;
-    use crate::model::geometry::{Vec2, Vec3};
+    use crate::model::xy::Pt;
     use crate::protocol::PeerMsg;
     use crate::world::time::at;
     use approx::assert_relative_eq;
@@ -340,18 +341,14 @@ mod tests {
         PeerMsg::Reflect {
             from,
             seq,
-            r: Vec3::new(1.0, 2.0, 3.0),
+            r: Coords::from([1.0, 2.0, 3.0]),
         }
     }
 
     /// Three nodes: 1500 m (1 s) from node 0 to node 1, 3000 m to node 2,
     /// every node in reach of node 0.
     fn acoustic() -> Channel {
-        let pos = vec![
-            Vec2::new(0.0, 0.0),
-            Vec2::new(1500.0, 0.0),
-            Vec2::new(0.0, 3000.0),
-        ];
+        let pos = vec![Pt::xy(0.0, 0.0), Pt::xy(1500.0, 0.0), Pt::xy(0.0, 3000.0)];
         let links = vec![vec![1, 2], vec![0], vec![0]];
         Channel::acoustic(Medium::new(AcousticCfg::default(), 7, pos, &links), 7)
     }
@@ -454,7 +451,7 @@ mod tests {
     fn the_overlap_horizon_is_two_airtimes_of_the_largest_frame() {
         let ch = acoustic();
         let cfg = AcousticCfg::default();
-        let airtime = cfg.transmission_s(cfg.frame_bits(PeerMsg::MAX_VALUES));
+        let airtime = cfg.transmission_s(cfg.frame_bits(PeerMsg::max_values(2)));
         assert_relative_eq!(ch.overlap_horizon_s(), 2.0 * airtime);
     }
 }

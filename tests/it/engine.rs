@@ -345,7 +345,7 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
         let out = with_watchdog(
             "threads run",
             std::time::Duration::from_secs(120),
-            move || sonarnet::engine::threads::run_threads(&plan, &real2, &mut |_, _| {}),
+            move || sonarnet::engine::threads::run_threads(&plan, real2.feed(), &mut |_, _| {}),
         );
         if let Some(e) = out.error {
             panic!("{mode:?}: {e}");
@@ -374,7 +374,7 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
 fn the_discrete_event_engine_on_a_logical_clock_gives_the_in_process_numbers() {
     for mode in [Mode::Async, Mode::Sync] {
         let (real, want, plan) = spiral15(mode);
-        let out = sonarnet::engine::des::run_des(&plan, &real, &mut |_, _| {});
+        let out = sonarnet::engine::des::run_des(&plan, real.feed(), &mut |_, _| {});
         if let Some(e) = out.error {
             panic!("{mode:?}: {e}");
         }

@@ -407,7 +407,7 @@ fn node_processes_restart_a_node_from_its_checkpoint_file_and_leave_nothing_behi
         let ck = dir.join("checkpoints").join("node-2.json");
         assert_eq!(ck.exists(), checkpoint, "{v}");
         if checkpoint {
-            let c = sonarnet::engine::checkpoint::Checkpoint::read(&ck, 2)
+            let c = sonarnet::engine::checkpoint::Checkpoint::read(&ck, 2, 2)
                 .unwrap()
                 .unwrap();
             assert_eq!(c.sample, 99, "the last sample's checkpoint");

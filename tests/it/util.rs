@@ -63,7 +63,7 @@ pub fn run_inprocess(sc: &Scenario, out: &Path) -> Outcome {
 /// The engine record of `sc` run in-process with logical clocks on `real`.
 pub fn record(sc: &Scenario, real: &Realization) -> (RunRecord, Result<(), EngineError>) {
     let plan = RunPlan::new(sc, Clock::Logical).expect("plan");
-    let out = sonarnet::engine::run_inprocess(&plan, real, &mut |_, _| {});
+    let out = sonarnet::engine::run_inprocess(&plan, real.feed(), &mut |_, _| {});
     (out.record, out.error.map_or(Ok(()), Err))
 }
 

@@ -1,7 +1,7 @@
 //! The coordinator's side of the codec: the frames of every node decoded
 //! into [`CoordinatorInput`]s.
 
-use super::{DecodeError, Timing, decode_peer, kind, v3};
+use super::{DecodeError, Timing, coords, decode_peer, kind};
 use crate::estimators::prox::gtrs::ProxFailure;
 use crate::protocol::{Counters, PeerMsg, Report};
 use crate::transport::wire::Frame;
@@ -64,12 +64,21 @@ pub enum CoordinatorInput {
 }
 
 /// Reassembles the reports of all nodes at the coordinator.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct ReportDecoder {
     counters: std::collections::HashMap<u32, Counters>,
+    dim: usize,
 }
 
 impl ReportDecoder {
+    /// The decoder of a `dim`-dimensional run's reports (2 or 3).
+    pub fn new(dim: usize) -> ReportDecoder {
+        ReportDecoder {
+            counters: std::collections::HashMap::new(),
+            dim,
+        }
+    }
+
     /// Feed one frame; returns a complete input when one is finished.
     pub fn feed(&mut self, f: &Frame) -> Result<Option<CoordinatorInput>, DecodeError> {
         use kind::{
@@ -93,19 +102,19 @@ impl ReportDecoder {
                 );
                 Ok(None)
             }
-            REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
-                Ok(decode_peer(f).map(|msg| CoordinatorInput::Channel {
+            REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => Ok(decode_peer(f, self.dim).map(
+                |msg| CoordinatorInput::Channel {
                     msg,
                     to: f.aux,
                     t_send: f.data[4],
-                }))
-            }
+                },
+            )),
             LATE => {
                 let probe = Frame {
                     kind: f.sample,
                     ..*f
                 };
-                let Some(m) = decode_peer(&probe) else {
+                let Some(m) = decode_peer(&probe, self.dim) else {
                     return Err(DecodeError::UnknownKind(f.sample));
                 };
                 Ok(Some(CoordinatorInput::Late {
@@ -126,19 +135,19 @@ impl ReportDecoder {
             SAMPLE_DONE => Ok(Some(CoordinatorInput::Report(Report::SampleDone {
                 node: f.from,
                 sample: f.sample,
-                theta: v3(&f.data),
+                theta: coords(&f.data, self.dim + 1),
                 counters: counters(self),
             }))),
             SNAPSHOT_REPLY => Ok(Some(CoordinatorInput::Report(Report::Snapshot {
                 node: f.from,
                 sample: f.sample,
-                theta: v3(&f.data),
+                theta: coords(&f.data, self.dim + 1),
                 counters: counters(self),
             }))),
             ITER_DONE => Ok(Some(CoordinatorInput::Report(Report::IterationDone {
                 node: f.from,
                 iteration: f.seq,
-                theta: v3(&f.data),
+                theta: coords(&f.data, self.dim + 1),
             }))),
             FAILED => Ok(Some(CoordinatorInput::Report(Report::Failed {
                 node: f.from,
