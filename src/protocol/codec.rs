@@ -783,6 +783,41 @@ mod tests {
     }
 
     #[test]
+    fn a_3d_run_carries_four_numbers_per_point_and_three_per_average() {
+        let r = Coords::from([1.0 / 3.0, -2e-300, -150.25, 5e10]);
+        for m in [
+            PeerMsg::Reflect { from: 1, seq: 7, r },
+            PeerMsg::Accept { from: 3, seq: 1, r },
+            PeerMsg::Average {
+                from: 0,
+                seq: 12,
+                a: Coords::from([-1.5, 2.25, -300.0]),
+            },
+        ] {
+            assert_eq!(
+                m.values() as usize,
+                if m.kind() == "average" { 3 } else { 4 }
+            );
+            let f = encode_peer(&m);
+            assert_eq!(
+                NodeDecoder::new(3).feed(&f).unwrap(),
+                Some(NodeInput::Peer(m))
+            );
+        }
+        let mut frames = Vec::new();
+        let done = Report::SampleDone {
+            node: 2,
+            sample: 4,
+            theta: r,
+            counters: Counters::default(),
+        };
+        encode_report(&done, &mut frames);
+        let mut dec = ReportDecoder::new(3);
+        let got: Vec<_> = frames.iter().filter_map(|f| dec.feed(f).unwrap()).collect();
+        assert_eq!(got, vec![CoordinatorInput::Report(done)]);
+    }
+
+    #[test]
     fn peer_messages_and_reports_survive_a_round_trip() {
         let r = Coords::from([1.0 / 3.0, -2e-300, 5e10]);
         for m in [

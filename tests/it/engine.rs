@@ -301,20 +301,6 @@ fn gtrs_l0_separates_one_nlos_bistatic_range_per_node_that_derails_gtrs() {
     }
 }
 
-/// Run `f` on its own thread; panic if it takes longer than `limit`.
-fn with_watchdog<T: Send + 'static>(
-    what: &str,
-    limit: std::time::Duration,
-    f: impl FnOnce() -> T + Send + 'static,
-) -> T {
-    let (send, recv) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = send.send(f());
-    });
-    recv.recv_timeout(limit)
-        .unwrap_or_else(|_| panic!("watchdog: {what} did not finish within {limit:?}"))
-}
-
 /// The spiral of 15 samples in `mode`: its realization, its in-process
 /// record on the logical clock, and its plan.
 fn spiral15(
@@ -342,7 +328,7 @@ fn node_threads_over_the_in_memory_transport_give_the_in_process_numbers() {
     for mode in [Mode::Async, Mode::Sync] {
         let (real, want, plan) = spiral15(mode);
         let real2 = real.clone();
-        let out = with_watchdog(
+        let out = crate::util::with_watchdog(
             "threads run",
             std::time::Duration::from_secs(120),
             move || sonarnet::engine::threads::run_threads(&plan, real2.feed(), &mut |_, _| {}),

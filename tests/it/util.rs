@@ -505,3 +505,17 @@ pub fn spiral_3d() -> String {
     assert_eq!(depth, 6, "the six receivers got a depth");
     out
 }
+
+/// Run `f` on its own thread; panic if it takes longer than `limit`.
+pub fn with_watchdog<T: Send + 'static>(
+    what: &str,
+    limit: std::time::Duration,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> T {
+    let (send, recv) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = send.send(f());
+    });
+    recv.recv_timeout(limit)
+        .unwrap_or_else(|_| panic!("watchdog: {what} did not finish within {limit:?}"))
+}
