@@ -37,7 +37,7 @@ use crate::estimators::track::{
     SdpSolver, Sparsity, TrackProblem, TrackRun, run_track,
 };
 use crate::model::error::KeyError;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::measure::Geometry;
 use crate::model::synth::Realization;
 use serde::{Deserialize, Serialize};
@@ -313,15 +313,15 @@ impl BaselineCfg {
             _ => {}
         }
         // The solvers' builders check their own parameters.
-        self.plan().map(|_| ())
+        self.plan::<D>().map(|_| ())
     }
 
     /// How this baseline is computed: a solver of the seam
     /// ([`crate::estimators::track`]) built from the parameters (which its
     /// builders validate), the ML reference track, or a run of the engine.
-    fn plan(&self) -> Result<Plan, KeyError> {
+    fn plan<const D: usize>(&self) -> Result<Plan<D>, KeyError> {
         let robust =
-            |m| -> Result<Plan, KeyError> { Ok(Plan::Solver(Box::new(RobustSolver::new(m)?))) };
+            |m| -> Result<Plan<D>, KeyError> { Ok(Plan::Solver(Box::new(RobustSolver::new(m)?))) };
         match self {
             BaselineCfg::Ogd { step, init, .. } => Ok(Plan::Solver(Box::new(
                 OnlineSolver::new(OnlineRule::Ogd(*step))?.with_init(*init),
@@ -360,9 +360,9 @@ impl BaselineCfg {
 }
 
 /// How one baseline is computed ([`BaselineCfg::plan`]).
-enum Plan {
+enum Plan<const D: usize> {
     /// A sequential solver, driven by [`run_track`].
-    Solver(Box<dyn SampleSolver>),
+    Solver(Box<dyn SampleSolver<D>>),
     /// The centralised ML reference track, already solved.
     Reference,
     /// The Douglas-Rachford engine with other settings.
@@ -371,7 +371,7 @@ enum Plan {
 
 /// The estimate of one baseline at every sample, and what it cost.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BaselineTrack {
+pub struct BaselineTrack<const D: usize = 2> {
     /// Track name.
     pub name: String,
     /// The kind (`ogd`, `l0os`, ...).
@@ -379,7 +379,7 @@ pub struct BaselineTrack {
     /// The estimates, failures and cost as [`run_track`] records them
     /// (`est[k]` is `None` where the estimator failed; online trackers keep
     /// their previous estimate).
-    pub run: TrackRun,
+    pub run: TrackRun<D>,
 }
 
 /// What the `distributed` baseline changes in the scenario's own run (each
@@ -398,23 +398,24 @@ pub struct DistributedRun {
 /// these changes over the first `samples` samples: `theta_bar` per sample
 /// (`None` past a failure) and the failure, if any. The run pipeline, which
 /// sits above the engine, supplies it ([`crate::pipeline::evaluate`]).
-pub type EngineRun<'a> = &'a dyn Fn(DistributedRun, usize) -> (Vec<Option<Vec2>>, Option<String>);
+pub type EngineRun<'a, const D: usize = 2> =
+    &'a dyn Fn(DistributedRun, usize) -> (Vec<Option<Point<D>>>, Option<String>);
 
 /// Run one baseline over the first `samples` samples of a realization.
 /// `ml` is the centralised ML reference track of those samples and the
 /// seconds it took (the `ml` baseline reuses it instead of solving again);
 /// `engine` runs the DR engine for the `distributed` kind.
-pub fn run_baseline(
+pub fn run_baseline<const D: usize>(
     cfg: &BaselineCfg,
-    geometry: &Geometry,
-    real: &Realization,
+    geometry: &Geometry<D>,
+    real: &Realization<D>,
     samples: usize,
-    ml: (&[Vec2], f64),
-    engine: EngineRun<'_>,
-) -> BaselineTrack {
+    ml: (&[Point<D>], f64),
+    engine: EngineRun<'_, D>,
+) -> BaselineTrack<D> {
     let mut run = TrackRun::default();
     if samples > 0 {
-        match cfg.plan() {
+        match cfg.plan::<D>() {
             Ok(Plan::Solver(mut solver)) => {
                 let problem = TrackProblem {
                     geometry,

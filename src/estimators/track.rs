@@ -17,7 +17,7 @@ use crate::estimators::bounds::{self, Region};
 use crate::estimators::online::{self, NewtonDamping, StepSize, Tracker};
 use crate::estimators::robust;
 use crate::model::error::KeyError;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::measure::{Geometry, SampleMeasurements};
 use std::time::Instant;
 
@@ -56,13 +56,13 @@ fn refuse(key: &'static str, reason: impl Into<String>) -> KeyError {
 /// geometry, and the true first position when a truth file gives it (the
 /// trackers' exact initialisation, Pun-So 2022 Sec. V, needs it).
 #[derive(Debug, Clone, Copy)]
-pub struct TrackProblem<'a> {
+pub struct TrackProblem<'a, const D: usize = 2> {
     /// Sensor positions.
-    pub geometry: &'a Geometry,
+    pub geometry: &'a Geometry<D>,
     /// The measurements of each sample, in order.
     pub samples: &'a [SampleMeasurements],
     /// The true position at the first sample, if known.
-    pub truth0: Option<Vec2>,
+    pub truth0: Option<Point<D>>,
 }
 
 /// A sequential position estimator: one [`SampleSolver::solve`] per sample.
@@ -70,27 +70,27 @@ pub struct TrackProblem<'a> {
 /// The contract [`run_track`] relies on: `start` is called once before the
 /// first sample; `solve` returns a finite estimate or the reason it has none;
 /// after a failed `solve` the track records [`SampleSolver::on_failure`].
-pub trait SampleSolver {
+pub trait SampleSolver<const D: usize = 2> {
     /// Prepare the track (e.g. choose `x_0`). An error here leaves every
     /// sample without an estimate.
-    fn start(&mut self, _problem: &TrackProblem<'_>) -> Result<(), SolveError> {
+    fn start(&mut self, _problem: &TrackProblem<'_, D>) -> Result<(), SolveError> {
         Ok(())
     }
     /// The estimate held before the next `solve`, for estimators that carry
     /// one (Pun-So 2020's `x_t` in `f_t(x_t)`, eq. (2)); `None` otherwise.
-    fn prior(&self) -> Option<Vec2> {
+    fn prior(&self) -> Option<Point<D>> {
         None
     }
     /// Estimate sample `k` (0-based).
     fn solve(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         k: usize,
-    ) -> Result<Vec2, SolveError>;
+    ) -> Result<Point<D>, SolveError>;
     /// What the track holds where `solve` failed: nothing by default; an
     /// online tracker keeps its previous estimate.
-    fn on_failure(&self) -> Option<Vec2> {
+    fn on_failure(&self) -> Option<Point<D>> {
         None
     }
     /// Samples whose solve ended feasible, for estimators that report it (POCS).
@@ -101,11 +101,11 @@ pub trait SampleSolver {
 
 /// What [`run_track`] records of a solver's run.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct TrackRun {
+pub struct TrackRun<const D: usize = 2> {
     /// Estimate per sample (`None` where the solver has none).
-    pub est: Vec<Option<Vec2>>,
+    pub est: Vec<Option<Point<D>>>,
     /// [`SampleSolver::prior`] before each sample, when the solver has one.
-    pub before: Option<Vec<Vec2>>,
+    pub before: Option<Vec<Point<D>>>,
     /// Samples without a fresh estimate (all of them if `start` failed).
     pub failures: usize,
     /// The first failure's message.
@@ -116,7 +116,7 @@ pub struct TrackRun {
     pub feasible: Option<usize>,
 }
 
-impl TrackRun {
+impl<const D: usize> TrackRun<D> {
     /// Count a failure; the first reason is kept.
     pub fn fail(&mut self, why: String) {
         self.failures += 1;
@@ -132,34 +132,37 @@ impl TrackRun {
 /// [`run_track`] counts it as a failure (a finite one stays the track's
 /// estimate; a non-finite one is replaced as a solver failure is).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Scene {
+pub struct Scene<const D: usize = 2> {
     /// Centre of the bounding box.
-    pub center: Vec2,
+    pub center: Point<D>,
     /// Its diagonal (at least 1 m).
     pub diameter: f64,
 }
 
-impl Scene {
+impl<const D: usize> Scene<D> {
     /// How many diameters from the centre an estimate may lie.
     pub const EXPLODED: f64 = 100.0;
 
     /// The scene of `geometry` (and `truth0`).
-    pub fn of(geometry: &Geometry, truth0: Option<Vec2>) -> Scene {
+    pub fn of(geometry: &Geometry<D>, truth0: Option<Point<D>>) -> Scene<D> {
         let pts = geometry
             .transmitters
             .iter()
             .chain(&geometry.receivers)
             .copied()
             .chain(truth0)
-            .filter(|p| p.x.is_finite() && p.y.is_finite());
-        let (mut lo, mut hi) = (Vec2::repeat(f64::INFINITY), Vec2::repeat(f64::NEG_INFINITY));
+            .filter(|p| p.iter().all(|v| v.is_finite()));
+        let (mut lo, mut hi) = (
+            Point::<D>::repeat(f64::INFINITY),
+            Point::<D>::repeat(f64::NEG_INFINITY),
+        );
         for p in pts {
             lo = lo.inf(&p);
             hi = hi.sup(&p);
         }
-        if !lo.x.is_finite() {
+        if !lo[0].is_finite() {
             return Scene {
-                center: Vec2::zeros(),
+                center: Point::<D>::zeros(),
                 diameter: 1.0,
             };
         }
@@ -170,15 +173,17 @@ impl Scene {
     }
 
     /// Whether `x` is a sane estimate (finite, within the limit).
-    pub fn holds(&self, x: &Vec2) -> bool {
-        x.x.is_finite()
-            && x.y.is_finite()
+    pub fn holds(&self, x: &Point<D>) -> bool {
+        x.iter().all(|v| v.is_finite())
             && (x - self.center).norm() <= Self::EXPLODED * self.diameter
     }
 }
 
 /// Drive `solver` along every sample of `problem` (the executor of the seam).
-pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> TrackRun {
+pub fn run_track<const D: usize>(
+    problem: &TrackProblem<'_, D>,
+    solver: &mut dyn SampleSolver<D>,
+) -> TrackRun<D> {
     let n = problem.samples.len();
     let mut run = TrackRun {
         est: Vec::with_capacity(n),
@@ -207,15 +212,15 @@ pub fn run_track(problem: &TrackProblem<'_>, solver: &mut dyn SampleSolver) -> T
         run.step_seconds += start.elapsed().as_secs_f64();
         match r {
             Ok(x) if scene.holds(&x) => run.est.push(Some(x)),
-            Ok(x) if x.x.is_finite() && x.y.is_finite() => {
+            Ok(x) if x.iter().all(|v| v.is_finite()) => {
                 // Exploded: a failure, the estimate kept as made (its error
                 // is the track's; plots clip it, tables print it in
                 // engineering notation).
+                let at: Vec<String> = x.iter().map(|v| format!("{v:.3e}")).collect();
                 run.fail(format!(
-                    "sample {k}: the estimate exploded to ({:.3e}, {:.3e}), beyond {} scene diameters",
-                    x.x,
-                    x.y,
-                    Scene::EXPLODED
+                    "sample {k}: the estimate exploded to ({}), beyond {} scene diameters",
+                    at.join(", "),
+                    Scene::<D>::EXPLODED
                 ));
                 run.est.push(Some(x));
             }
@@ -246,20 +251,20 @@ pub enum OnlineRule {
 /// An online tracker of Pun-So 2022 and 2020 as a [`SampleSolver`]: `x_0` from its
 /// [`online::Init`], then one update per sample, keeping its estimate where a
 /// step fails.
-pub struct OnlineSolver {
+pub struct OnlineSolver<const D: usize = 2> {
     rule: OnlineRule,
     init: online::Init,
-    tracker: Option<Box<dyn Tracker>>,
+    tracker: Option<Box<dyn Tracker<D>>>,
 }
 
-impl OnlineSolver {
+impl<const D: usize> OnlineSolver<D> {
     /// A tracker with the given rule, validated here (exact initialisation).
     pub fn new(rule: OnlineRule) -> Result<Self, KeyError> {
         match rule {
-            OnlineRule::Ogd(step) => online::OgdTracker::new(Vec2::zeros(), step)
+            OnlineRule::Ogd(step) => online::OgdTracker::<D>::new(Point::<D>::zeros(), step)
                 .map(|_| ())
                 .map_err(|e| refuse("step", e.to_string()))?,
-            OnlineRule::Onm(d) => online::OnmTracker::new(Vec2::zeros(), d)
+            OnlineRule::Onm(d) => online::OnmTracker::<D>::new(Point::<D>::zeros(), d)
                 .map(|_| ())
                 .map_err(|e| refuse("damping", e.to_string()))?,
         }
@@ -277,8 +282,8 @@ impl OnlineSolver {
     }
 }
 
-impl SampleSolver for OnlineSolver {
-    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), SolveError> {
+impl<const D: usize> SampleSolver<D> for OnlineSolver<D> {
+    fn start(&mut self, problem: &TrackProblem<'_, D>) -> Result<(), SolveError> {
         let x0 = match (self.init, problem.truth0) {
             (online::Init::Exact, None) => {
                 return Err(SolveError::NoTruth);
@@ -287,11 +292,11 @@ impl SampleSolver for OnlineSolver {
                 .initial_estimate(
                     problem.geometry,
                     &problem.samples[0],
-                    t0.unwrap_or_else(Vec2::zeros),
+                    t0.unwrap_or_else(Point::<D>::zeros),
                 )
                 .map_err(SolveError::Init)?,
         };
-        let tracker: Box<dyn Tracker> = match self.rule {
+        let tracker: Box<dyn Tracker<D>> = match self.rule {
             OnlineRule::Ogd(step) => Box::new(online::OgdTracker::new(x0, step)?),
             OnlineRule::Onm(d) => Box::new(online::OnmTracker::new(x0, d)?),
         };
@@ -299,21 +304,21 @@ impl SampleSolver for OnlineSolver {
         Ok(())
     }
 
-    fn prior(&self) -> Option<Vec2> {
+    fn prior(&self) -> Option<Point<D>> {
         self.tracker.as_ref().map(|t| t.estimate())
     }
 
     fn solve(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         k: usize,
-    ) -> Result<Vec2, SolveError> {
+    ) -> Result<Point<D>, SolveError> {
         let t = self.tracker.as_mut().ok_or(SolveError::NotStarted)?;
         Ok(t.step(geometry, sample, k + 1)?)
     }
 
-    fn on_failure(&self) -> Option<Vec2> {
+    fn on_failure(&self) -> Option<Point<D>> {
         self.prior()
     }
 }
@@ -366,13 +371,13 @@ impl RobustSolver {
     }
 }
 
-impl SampleSolver for RobustSolver {
+impl<const D: usize> SampleSolver<D> for RobustSolver {
     fn solve(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, SolveError> {
+    ) -> Result<Point<D>, SolveError> {
         let links = robust::links_from_sample(sample);
         let r = match self.method {
             RobustMethod::Ls => robust::ls(geometry, &links, &Default::default()),
@@ -427,25 +432,25 @@ pub fn regions_of<const D: usize>(
 /// POCS onto the farthest disc or ellipse (Gholami 2015 eq. (18)), each sample
 /// started from the previous estimate (the first from the sensors' centroid).
 #[derive(Debug, Clone, PartialEq)]
-pub struct PocsSolver {
+pub struct PocsSolver<const D: usize = 2> {
     max_iter: usize,
     tol: f64,
-    x: Vec2,
+    x: Point<D>,
     feasible: usize,
 }
 
-impl Default for PocsSolver {
+impl<const D: usize> Default for PocsSolver<D> {
     fn default() -> Self {
         PocsSolver {
             max_iter: 1000,
             tol: 1e-9,
-            x: Vec2::zeros(),
+            x: Point::<D>::zeros(),
             feasible: 0,
         }
     }
 }
 
-impl PocsSolver {
+impl<const D: usize> PocsSolver<D> {
     /// At most `max_iter >= 1` projections per sample (default 1000).
     pub fn with_max_iter(mut self, max_iter: usize) -> Result<Self, KeyError> {
         if max_iter == 0 {
@@ -465,8 +470,8 @@ impl PocsSolver {
     }
 }
 
-impl SampleSolver for PocsSolver {
-    fn start(&mut self, problem: &TrackProblem<'_>) -> Result<(), SolveError> {
+impl<const D: usize> SampleSolver<D> for PocsSolver<D> {
+    fn start(&mut self, problem: &TrackProblem<'_, D>) -> Result<(), SolveError> {
         self.x = problem.geometry.centroid();
         self.feasible = 0;
         Ok(())
@@ -474,10 +479,10 @@ impl SampleSolver for PocsSolver {
 
     fn solve(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, SolveError> {
+    ) -> Result<Point<D>, SolveError> {
         let regions = regions_of(geometry, sample, 0.0);
         let p = bounds::pocs(&regions, self.x, self.max_iter, self.tol)?;
         self.feasible += usize::from(p.feasible);
@@ -496,24 +501,24 @@ impl SampleSolver for PocsSolver {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SdpSolver;
 
-impl SampleSolver for SdpSolver {
+impl<const D: usize> SampleSolver<D> for SdpSolver {
     fn solve(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, SolveError> {
-        let anchors: Vec<([f64; 2], f64)> = sample
+    ) -> Result<Point<D>, SolveError> {
+        let anchors: Vec<([f64; D], f64)> = sample
             .nodes
             .iter()
             .zip(&geometry.receivers)
-            .filter_map(|(node, r)| node.range.map(|d| ([r.x, r.y], d)))
+            .filter_map(|(node, r)| node.range.map(|d| ((*r).into(), d)))
             .collect();
         if anchors.len() < 3 {
             return Err(SolveError::TooFewRanges(anchors.len()));
         }
         let e = bounds::sdp_toa(&anchors)?;
-        Ok(Vec2::new(e.x[0], e.x[1]))
+        Ok(Point::<D>::from(e.x))
     }
 }
 
@@ -521,13 +526,13 @@ impl SampleSolver for SdpSolver {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LlsSolver;
 
-impl SampleSolver for LlsSolver {
+impl<const D: usize> SampleSolver<D> for LlsSolver {
     fn solve(
         &mut self,
-        geometry: &Geometry,
+        geometry: &Geometry<D>,
         sample: &SampleMeasurements,
         _k: usize,
-    ) -> Result<Vec2, SolveError> {
+    ) -> Result<Point<D>, SolveError> {
         Ok(online::ols_position(geometry, sample)?)
     }
 }
@@ -535,6 +540,7 @@ impl SampleSolver for LlsSolver {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::geometry::Vec2;
     use approx::assert_abs_diff_eq;
 
     /// Mourya 2017's network and a target moving 11 m per sample, measured
@@ -694,6 +700,72 @@ mod tests {
     }
 
     #[test]
+    fn noise_free_3d_samples_are_recovered_by_every_per_sample_solver_and_the_trackers() {
+        use crate::model::geometry::Point;
+        let p3 = |x, y, z| Point::<3>::new(x, y, z);
+        let g = Geometry {
+            transmitters: vec![
+                p3(-500.0, -500.0, -10.0),
+                p3(500.0, -500.0, -20.0),
+                p3(500.0, 500.0, -15.0),
+                p3(-500.0, 500.0, -5.0),
+            ],
+            receivers: vec![
+                p3(-400.0, 0.0, -300.0),
+                p3(400.0, 0.0, -600.0),
+                p3(0.0, -400.0, -150.0),
+                p3(0.0, 400.0, -450.0),
+            ],
+        };
+        let truth: Vec<Point<3>> = (0..6)
+            .map(|k| {
+                p3(
+                    40.0 + 10.0 * k as f64,
+                    -30.0 - 5.0 * k as f64,
+                    -200.0 - 3.0 * k as f64,
+                )
+            })
+            .collect();
+        let samples: Vec<SampleMeasurements> = truth
+            .iter()
+            .map(|x| SampleMeasurements::noise_free(&g, x, false, true))
+            .collect();
+        let problem = TrackProblem {
+            geometry: &g,
+            samples: &samples,
+            truth0: Some(truth[0]),
+        };
+        let mut solvers: Vec<(&str, Box<dyn SampleSolver<3>>)> = vec![
+            ("lls", Box::new(LlsSolver)),
+            ("ls", Box::new(RobustSolver::new(RobustMethod::Ls).unwrap())),
+            (
+                "lad",
+                Box::new(RobustSolver::new(RobustMethod::Lad).unwrap()),
+            ),
+            ("sdp", Box::new(SdpSolver)),
+            (
+                "pocs",
+                Box::new(PocsSolver::<3>::default().with_tol(1e-9).unwrap()),
+            ),
+            (
+                "onm",
+                Box::new(
+                    OnlineSolver::<3>::new(OnlineRule::Onm(NewtonDamping::default())).unwrap(),
+                ),
+            ),
+        ];
+        for (name, s) in &mut solvers {
+            let run = run_track(&problem, s.as_mut());
+            assert_eq!(run.failures, 0, "{name}: {:?}", run.first_failure);
+            for (k, (e, x)) in run.est.iter().zip(&truth).enumerate() {
+                let e = e.unwrap();
+                let tol = if *name == "onm" { 1.0 } else { 1e-2 };
+                assert!((e - x).norm() < tol, "{name} sample {k}: {e:?} vs {x:?}");
+            }
+        }
+    }
+
+    #[test]
     fn the_builders_refuse_bad_parameters_by_name() {
         let key = |r: Result<PocsSolver, KeyError>| r.unwrap_err().key;
         assert_eq!(key(PocsSolver::default().with_max_iter(0)), "max_iter");
@@ -705,11 +777,11 @@ mod tests {
         }
         let e = RobustSolver::new(RobustMethod::L0os(Sparsity::Fraction(1.5))).unwrap_err();
         assert_eq!(e.key, "p");
-        let e = OnlineSolver::new(OnlineRule::Ogd(StepSize::Constant { eta: -1.0 })).err();
+        let e = OnlineSolver::<2>::new(OnlineRule::Ogd(StepSize::Constant { eta: -1.0 })).err();
         assert_eq!(e.map(|e| e.key), Some("step".to_string()));
         assert!(RobustSolver::new(RobustMethod::LqIrls(1.5)).is_ok());
         assert!(
-            PocsSolver::default()
+            PocsSolver::<2>::default()
                 .with_max_iter(1)
                 .and_then(|p| p.with_tol(0.0))
                 .is_ok()

@@ -156,9 +156,8 @@ fn a_3d_run_gives_the_same_numbers_on_every_engine_and_tracks_the_helix() {
         // Tracking in 3-D: after a few samples the network mean is within
         // tens of metres of the target, depth included.
         let truth = sc.realize().truth.expect("synthetic");
-        for k in 6..12 {
-            let est = sonarnet::model::metrics::theta_bar::<3>(&want.record.thetas[k]);
-            let e = est - truth[k];
+        for (k, (thetas, x)) in want.record.thetas.iter().zip(&truth).enumerate().skip(6) {
+            let e = sonarnet::model::metrics::theta_bar::<3>(thetas) - x;
             assert!(e.norm() < 60.0, "{mode:?} sample {k}: error {e:?}");
             assert!(
                 e[2].abs() < 40.0,
