@@ -27,19 +27,15 @@ pub fn pair_average(r_a: &Coords, r_b: &Coords) -> Coords {
 /// reflected points, summed in node-id order (each coordinate summed from
 /// zero, then divided by the count).
 pub fn mean_position<'a>(rs: impl Iterator<Item = &'a Coords>) -> Coords {
-    let mut s: Option<Coords> = None;
+    let mut ps = rs.map(Coords::position).peekable();
+    let mut s = Coords::zeros(ps.peek().map_or(2, Coords::len));
     let mut n = 0usize;
-    for r in rs {
-        let p = r.position();
-        s = Some(match s {
-            None => Coords::zeros(p.len()).zip(&p, |a, b| a + b),
-            Some(s) => s.zip(&p, |a, b| a + b),
-        });
+    for p in ps {
+        s = s.zip(&p, |a, b| a + b);
         n += 1;
     }
-    let s = s.unwrap_or_else(|| Coords::zeros(2));
     let n = n.max(1) as f64;
-    s.zip(&s, |a, _| a / n)
+    s.map(|a| a / n)
 }
 
 /// The DR update `u += z - theta` with `z = (a, r[D])` (Mourya 2017 eq. 7 / 11).

@@ -72,7 +72,7 @@ impl Coords {
     /// The first `L` numbers as a lifted vector (a missing one read as 0;
     /// callers hold a `Coords` of length `L`).
     pub fn lifted<const L: usize>(&self) -> Lifted<L> {
-        Lifted::<L>::from_fn(|i, _| self.c.get(i).copied().unwrap_or(0.0))
+        self.point::<L>()
     }
 
     /// The first `D` numbers as a point (the position part of a lifted
@@ -122,6 +122,11 @@ impl Coords {
     /// Every number is finite.
     pub fn is_finite(&self) -> bool {
         self.as_slice().iter().all(|x| x.is_finite())
+    }
+
+    /// `f(self_i)` for each `i`.
+    pub fn map(&self, f: impl Fn(f64) -> f64) -> Coords {
+        Coords::from_fn(self.len(), |i| f(self.c[i]))
     }
 
     /// `f(self_i, other_i)` for each `i` of `self`.

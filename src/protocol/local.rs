@@ -33,7 +33,7 @@ impl<const D: usize, const L: usize> Step<D, L> {
 
     fn build(&mut self, cfg: &NodeConfig, meas: &NodeMeasurements, sigmas: &Sigmas) {
         self.problem = LocalProblem::build_weighted(
-            cfg.anchor.point::<D>(),
+            self.problem.anchor,
             &self.transmitters,
             cfg.omega,
             meas,
