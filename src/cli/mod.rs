@@ -3,7 +3,7 @@
 
 use crate::estimators::gossip::ProxScaling;
 use crate::pipeline::{self, Clock, EngineKind, RunOptions};
-use crate::scenario::Scenario;
+use crate::scenario::{AnyScenario, Scenario};
 use std::path::PathBuf;
 
 mod args;
@@ -95,18 +95,19 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
     }
 }
 
-/// Load the scenario (every selected variant) and apply the command-line overrides.
-pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
+/// Load the scenario (every selected variant, 2-D or 3-D as the file is)
+/// and apply the command-line overrides.
+pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<AnyScenario>, CliError> {
     let overrides = args
         .set
         .iter()
         .map(|s| crate::scenario::Override::parse(s))
         .collect::<Result<Vec<_>, _>>()?;
-    let all = Scenario::load_all_with(&args.scenario, &overrides, &args.variant)?;
+    let all = AnyScenario::load_all_with(&args.scenario, &overrides, &args.variant)?;
     let cli = std::path::Path::new("<command line>");
     for v in &args.variant {
-        if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
-            let names: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+        if !all.iter().any(|s| s.variant() == Some(v.as_str())) {
+            let names: Vec<&str> = all.iter().filter_map(AnyScenario::variant).collect();
             return Err(crate::model::error::InputError::at(
                 cli,
                 "--variant",
@@ -143,62 +144,74 @@ pub fn resolve_scenarios(args: &RunArgs) -> Result<Vec<Scenario>, CliError> {
         ),
     };
     let mut out = Vec::new();
-    for mut sc in all {
+    for sc in all {
         if !args.variant.is_empty()
             && !args
                 .variant
                 .iter()
-                .any(|v| sc.variant.as_deref() == Some(v.as_str()))
+                .any(|v| sc.variant() == Some(v.as_str()))
         {
             continue;
         }
-        if let Some(s) = args.seed {
-            sc = sc.with_seed(s);
-        }
-        if let Some(p) = args.prox_scaling {
-            sc = sc.with_prox_scaling(p);
-        }
-        if let Some(m) = args.mode() {
-            sc = sc.with_mode(m)?;
-        }
-        if let Some(s) = args.local_solver {
-            sc = sc.with_local_solver(s);
-        }
-        if let Some(k) = args.kappa {
-            sc = sc.with_kappa(k);
-        }
-        if args.local_solver.is_some() || args.kappa.is_some() {
-            sc.check_kappa().map_err(|e| match args.kappa {
-                // The value came from the command line: say so.
-                Some(_) => crate::model::error::InputError::at(
-                    std::path::Path::new("<command line>"),
-                    "--kappa",
-                    e.reason,
-                ),
-                None => e,
-            })?;
-        }
-        if let Some(n) = args.iterations_per_sample {
-            sc = sc.with_iterations_per_sample(n)?;
-        }
-        if let Some(n) = args.samples {
-            sc = sc.with_samples(n)?;
-        }
-        if let Some(b) = &baselines {
-            sc = sc.with_baselines(b.clone())?;
-        }
-        sc = sc.with_trials(args.trials)?;
-        for flag in &args.faults {
-            sc = sc.with_fault_flag(flag)?;
-        }
-        if let Some(kinds) = &args.nemesis {
-            sc = sc.with_nemesis(kinds, args.nemesis_interval_s)?;
-        }
-        let sc = sc.with_trace_iterations(args.trace_iterations);
-        sc.check_size_cli()?;
-        out.push(sc);
+        out.push(match sc {
+            AnyScenario::Plane(sc) => AnyScenario::Plane(with_flags(args, sc, &baselines)?),
+            AnyScenario::Space(sc) => AnyScenario::Space(with_flags(args, sc, &baselines)?),
+        });
     }
     Ok(out)
+}
+
+/// One scenario with the command line's flags applied.
+fn with_flags<const D: usize>(
+    args: &RunArgs,
+    mut sc: Scenario<D>,
+    baselines: &Option<Vec<crate::estimators::baselines::BaselineCfg>>,
+) -> Result<Scenario<D>, CliError> {
+    if let Some(s) = args.seed {
+        sc = sc.with_seed(s);
+    }
+    if let Some(p) = args.prox_scaling {
+        sc = sc.with_prox_scaling(p);
+    }
+    if let Some(m) = args.mode() {
+        sc = sc.with_mode(m)?;
+    }
+    if let Some(s) = args.local_solver {
+        sc = sc.with_local_solver(s);
+    }
+    if let Some(k) = args.kappa {
+        sc = sc.with_kappa(k);
+    }
+    if args.local_solver.is_some() || args.kappa.is_some() {
+        sc.check_kappa().map_err(|e| match args.kappa {
+            // The value came from the command line: say so.
+            Some(_) => crate::model::error::InputError::at(
+                std::path::Path::new("<command line>"),
+                "--kappa",
+                e.reason,
+            ),
+            None => e,
+        })?;
+    }
+    if let Some(n) = args.iterations_per_sample {
+        sc = sc.with_iterations_per_sample(n)?;
+    }
+    if let Some(n) = args.samples {
+        sc = sc.with_samples(n)?;
+    }
+    if let Some(b) = baselines {
+        sc = sc.with_baselines(b.clone())?;
+    }
+    sc = sc.with_trials(args.trials)?;
+    for flag in &args.faults {
+        sc = sc.with_fault_flag(flag)?;
+    }
+    if let Some(kinds) = &args.nemesis {
+        sc = sc.with_nemesis(kinds, args.nemesis_interval_s)?;
+    }
+    let sc = sc.with_trace_iterations(args.trace_iterations);
+    sc.check_size_cli()?;
+    Ok(sc)
 }
 
 fn run_command(args: RunArgs) -> Result<(), CliError> {
@@ -212,15 +225,13 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     let mut failed_checks = Vec::new();
     let mut failed_variants = Vec::new();
     for sc in scenarios {
-        let label = sc.variant.clone();
+        let label = sc.variant().map(str::to_owned);
         if many {
             println!("== variant {}", label.as_deref().unwrap_or("(base)"));
         }
-        let trials = sc.trials.unwrap_or(1);
-        let res = if trials > 1 {
-            run_monte_carlo_command(&args, &sc, trials, many)
-        } else {
-            run_single(&args, &sc, many)
+        let res = match &sc {
+            AnyScenario::Plane(sc) => run_one(&args, sc, many),
+            AnyScenario::Space(sc) => run_one(&args, sc, many),
         };
         match res {
             Ok((dir, checks)) => {
@@ -265,6 +276,18 @@ fn run_command(args: RunArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// One scenario (one variant): its Monte Carlo trials, or a single run.
+fn run_one<const D: usize>(
+    args: &RunArgs,
+    sc: &Scenario<D>,
+    many: bool,
+) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
+    match sc.trials.unwrap_or(1) {
+        trials if trials > 1 => run_monte_carlo_command(args, sc, trials, many),
+        _ => run_single(args, sc, many),
+    }
+}
+
 /// The results directory must be writable before the run starts (exit 2
 /// otherwise, naming `--out`).
 fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
@@ -278,7 +301,12 @@ fn check_out(dir: &std::path::Path) -> Result<(), CliError> {
     })
 }
 
-fn default_dir(args: &RunArgs, sc: &Scenario, many: bool, tail: &str) -> PathBuf {
+fn default_dir<const D: usize>(
+    args: &RunArgs,
+    sc: &Scenario<D>,
+    many: bool,
+    tail: &str,
+) -> PathBuf {
     match &args.out {
         Some(o) if many => o.join(sc.variant.as_deref().unwrap_or("base")),
         Some(o) => o.clone(),
@@ -365,9 +393,9 @@ pub fn override_suffix(args: &RunArgs) -> String {
     }
 }
 
-fn run_monte_carlo_command(
+fn run_monte_carlo_command<const D: usize>(
     args: &RunArgs,
-    sc: &Scenario,
+    sc: &Scenario<D>,
     trials: usize,
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
@@ -430,7 +458,11 @@ fn run_monte_carlo_command(
 /// The engine and clock of a run of `sc` with `trials` trials as `args`
 /// ask ([`crate::protocol::RunConfig::resolve`]): a refusal names the flag
 /// (on the command line) or the scenario key (in its file).
-fn resolve(args: &RunArgs, sc: &Scenario, trials: usize) -> Result<(EngineKind, Clock), CliError> {
+fn resolve<const D: usize>(
+    args: &RunArgs,
+    sc: &Scenario<D>,
+    trials: usize,
+) -> Result<(EngineKind, Clock), CliError> {
     let cfg = crate::protocol::RunConfig {
         engine: args.engine(),
         clock: args.clock,
@@ -452,9 +484,9 @@ fn resolve(args: &RunArgs, sc: &Scenario, trials: usize) -> Result<(EngineKind, 
     })
 }
 
-fn run_single(
+fn run_single<const D: usize>(
     args: &RunArgs,
-    sc: &Scenario,
+    sc: &Scenario<D>,
     many: bool,
 ) -> Result<(PathBuf, Vec<pipeline::ExpectResult>), CliError> {
     let (engine, clock) = resolve(args, sc, 1)?;

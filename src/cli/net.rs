@@ -78,9 +78,9 @@ fn check_endpoints(flag: &str, endpoints: &[String]) -> Result<(), CliError> {
 }
 
 /// The network options of a run, checked before anything starts.
-pub(super) fn net_options(
+pub(super) fn net_options<const D: usize>(
     args: &RunArgs,
-    sc: &Scenario,
+    sc: &Scenario<D>,
     engine: EngineKind,
 ) -> Result<NetOptions, CliError> {
     if args.transport == crate::protocol::TransportKind::Iceoryx2 {

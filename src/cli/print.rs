@@ -178,7 +178,7 @@ pub fn eng(v: f64) -> String {
     }
 }
 
-pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
+pub(super) fn print_summary<const D: usize>(o: &pipeline::Outcome<D>, dir: &std::path::Path) {
     let m = &o.metrics;
     let driver = match o.run.driver {
         Some(crate::protocol::Driver::LockStep) => " (lock-step)",
@@ -186,8 +186,12 @@ pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
         _ => "",
     };
     println!(
-        "sonarnet run: {}{driver} / {} / {} clock, seed {}",
-        m.engine, m.mode, m.clock, m.seed
+        "sonarnet run: {}{}{driver} / {} / {} clock, seed {}",
+        if D == 3 { "3-D, " } else { "" },
+        m.engine,
+        m.mode,
+        m.clock,
+        m.seed
     );
     println!("  samples            {}/{}", m.samples_completed, m.samples);
     if m.samples <= 1 {
@@ -234,7 +238,7 @@ pub(super) fn print_summary(o: &pipeline::Outcome, dir: &std::path::Path) {
     println!("  results in {}", dir.display());
 }
 
-fn print_tracks(s: &crate::pipeline::score::Scored) {
+fn print_tracks<const D: usize>(s: &crate::pipeline::score::Scored<D>) {
     if s.tracks.len() <= 2 && s.tracks.iter().all(|t| t.bounds.is_empty()) {
         return;
     }
@@ -280,7 +284,10 @@ fn print_expect(checks: &[pipeline::ExpectResult]) {
     }
 }
 
-pub(super) fn print_mc_summary(sc: &Scenario, mc: &crate::pipeline::montecarlo::MonteCarloOutcome) {
+pub(super) fn print_mc_summary<const D: usize>(
+    sc: &Scenario<D>,
+    mc: &crate::pipeline::montecarlo::MonteCarloOutcome,
+) {
     println!(
         "sonarnet run: Monte Carlo, {} (seeds {}..{}), in-process / {}{}, {:.2} s",
         if mc.interrupted {

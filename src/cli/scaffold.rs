@@ -3,9 +3,9 @@
 use super::NewArgs;
 use crate::cli::errors::CliError;
 use crate::model::error::InputError;
-use crate::scenario::Scenario;
 use crate::scenario::scaffold::{Layout, MotionSpec, NetworkSpec, ScaffoldSpec};
 use crate::scenario::shipped;
+use crate::scenario::{AnyScenario, Scenario};
 use std::path::Path;
 use std::path::PathBuf;
 
@@ -87,7 +87,7 @@ fn copy_shipped(name: &str, file: &Path, force: bool) -> Result<(), CliError> {
         .map_err(|e| InputError::at(Path::new("<command line>"), "--from", e.reason))?;
     let text = shipped::text(name).unwrap_or_default();
     write_new(file, text, force)?;
-    let variants: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+    let variants: Vec<&str> = all.iter().filter_map(AnyScenario::variant).collect();
     println!(
         "wrote {} (a copy of the built-in {}{})",
         file.display(),
@@ -127,18 +127,22 @@ pub(super) fn list_command(dir: Option<&Path>) -> Result<(), CliError> {
         let file = p
             .file_name()
             .map_or(String::new(), |f| f.to_string_lossy().into_owned());
-        print_listed(&file, Scenario::load_all(p));
+        print_listed(&file, AnyScenario::load_all(p));
     }
     Ok(())
 }
 
 /// One entry of `sonarnet list`: the file, its description and variants.
-fn print_listed(file: &str, loaded: Result<Vec<Scenario>, InputError>) {
+fn print_listed(file: &str, loaded: Result<Vec<AnyScenario>, InputError>) {
     match loaded {
         Ok(all) if !all.is_empty() => {
             println!("{file}");
-            println!("    {}", one_line(&all[0].file.description));
-            let variants: Vec<&str> = all.iter().filter_map(|s| s.variant.as_deref()).collect();
+            println!(
+                "    {}{}",
+                if all[0].dim() == 3 { "[3-D] " } else { "" },
+                one_line(&all[0].file().description)
+            );
+            let variants: Vec<&str> = all.iter().filter_map(AnyScenario::variant).collect();
             if !variants.is_empty() {
                 println!("    variants: {}", variants.join(", "));
             }
@@ -157,9 +161,9 @@ pub(super) fn describe_command(
         .iter()
         .map(|s| crate::scenario::Override::parse(s))
         .collect::<Result<Vec<_>, _>>()?;
-    let all = Scenario::load_all_with(file, &overrides, variants)?;
+    let all = AnyScenario::load_all_with(file, &overrides, variants)?;
     for v in variants {
-        if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
+        if !all.iter().any(|s| s.variant() == Some(v.as_str())) {
             return Err(InputError::at(
                 Path::new("<command line>"),
                 "--variant",
@@ -170,11 +174,7 @@ pub(super) fn describe_command(
     }
     let mut first = true;
     for sc in &all {
-        if !variants.is_empty()
-            && !variants
-                .iter()
-                .any(|v| sc.variant.as_deref() == Some(v.as_str()))
-        {
+        if !variants.is_empty() && !variants.iter().any(|v| sc.variant() == Some(v.as_str())) {
             continue;
         }
         if !first {

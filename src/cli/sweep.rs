@@ -10,7 +10,7 @@ use crate::pipeline::EngineKind;
 use crate::pipeline::RunOptions;
 use crate::pipeline::sweep::{Axis, SweepPlan, metric_key, parse_seeds, run_sweep, summarise};
 use crate::scenario::Override;
-use crate::scenario::Scenario;
+use crate::scenario::{AnyScenario, Scenario};
 use std::path::PathBuf;
 
 pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
@@ -30,16 +30,15 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
             .iter()
             .map(|a| a.key.rsplit('.').next().unwrap_or(&a.key))
             .collect();
-        PathBuf::from("results").join(format!("{}-sweep-{}", first.name, keys.join("-")))
+        PathBuf::from("results").join(format!("{}-sweep-{}", first.name(), keys.join("-")))
     });
     check_out(&out)?;
     // Every run's machine check before any work (node processes).
     for (_, sc) in &plan.points {
-        let opts = RunOptions::inprocess()
-            .with_engine(engine)
-            .with_clock(pipeline::default_clock(sc))
-            .with_out_dir(&out);
-        pipeline::preflight(sc, &opts)?;
+        match sc {
+            AnyScenario::Plane(sc) => preflight(sc, engine, &out)?,
+            AnyScenario::Space(sc) => preflight(sc, engine, &out)?,
+        }
     }
     let jobs = args.jobs.map_or_else(
         || {
@@ -92,6 +91,19 @@ pub(super) fn sweep_command(args: &SweepArgs) -> Result<(), CliError> {
     report.map(drop).map_err(CliError::from)
 }
 
+/// The machine check of one grid point's runs on `engine`.
+fn preflight<const D: usize>(
+    sc: &Scenario<D>,
+    engine: EngineKind,
+    out: &std::path::Path,
+) -> Result<(), CliError> {
+    let opts = RunOptions::inprocess()
+        .with_engine(engine)
+        .with_clock(pipeline::default_clock(sc))
+        .with_out_dir(out);
+    Ok(pipeline::preflight(sc, &opts)?)
+}
+
 /// The sweep's plan from its flags: every `--set`, `--grid` axis and
 /// seed checked before any work; notes what it ignores.
 fn sweep_plan(args: &SweepArgs) -> Result<SweepPlan, CliError> {
@@ -108,15 +120,15 @@ fn sweep_plan(args: &SweepArgs) -> Result<SweepPlan, CliError> {
     let seeds = match &args.seeds {
         Some(s) => parse_seeds(s)?,
         None => {
-            let base = Scenario::load_all_with(&args.scenario, &sets, &args.variant)?;
-            vec![base.first().map_or(0, |s| s.seed)]
+            let base = AnyScenario::load_all_with(&args.scenario, &sets, &args.variant)?;
+            vec![base.first().map_or(0, AnyScenario::seed)]
         }
     };
     let plan = SweepPlan::new(&args.scenario, &sets, axes, seeds, &args.variant)?;
     if plan
         .points
         .iter()
-        .any(|(_, sc)| sc.file.monte_carlo.is_some())
+        .any(|(_, sc)| sc.file().monte_carlo.is_some())
     {
         eprintln!(
             "note: [monte_carlo] is ignored: a sweep runs each grid point once per --seeds seed"

@@ -12,7 +12,7 @@ use super::RunMetrics;
 use super::RunStatus;
 use crate::engine::RunOutcome;
 use crate::estimators::gossip::Mode;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::metrics;
 use crate::pipeline::RunOptions;
 use crate::pipeline::score;
@@ -29,12 +29,12 @@ use std::collections::BTreeMap;
 /// The `distributed` baseline: the DR engine again, in-process, on the same
 /// realization, with the baseline's own local solver, mode and iteration
 /// count (the scenario's where it gives none), and no fixed schedule.
-fn distributed_run(
+fn distributed_run<const D: usize>(
     changes: crate::estimators::baselines::DistributedRun,
-    sc: &Scenario,
-    real: &Realization,
+    sc: &Scenario<D>,
+    real: &Realization<D>,
     samples: usize,
-) -> (Vec<Option<Vec2>>, Option<String>) {
+) -> (Vec<Option<Point<D>>>, Option<String>) {
     let crate::estimators::baselines::DistributedRun {
         local_solver,
         mode,
@@ -57,19 +57,19 @@ fn distributed_run(
         Err(e) => RunOutcome::refused(alt.graph.len(), e),
     };
     let est = (0..samples)
-        .map(|k| run.record.thetas.get(k).map(|t| metrics::theta_bar::<2>(t)))
+        .map(|k| run.record.thetas.get(k).map(|t| metrics::theta_bar::<D>(t)))
         .collect();
     (est, run.error.as_ref().map(EngineError::in_full))
 }
 
 /// Every baseline of `sc` on the first `done` samples of `real` (`ml`: the
 /// centralised ML track and the seconds it took).
-fn run_baselines(
-    sc: &Scenario,
-    real: &Realization,
+fn run_baselines<const D: usize>(
+    sc: &Scenario<D>,
+    real: &Realization<D>,
     done: usize,
-    ml: (&[Vec2], f64),
-) -> Vec<crate::estimators::baselines::BaselineTrack> {
+    ml: (&[Point<D>], f64),
+) -> Vec<crate::estimators::baselines::BaselineTrack<D>> {
     sc.baselines
         .iter()
         .map(|b| {
@@ -80,7 +80,7 @@ fn run_baselines(
 }
 
 /// Why some metrics are missing: no truth, or no sample completed.
-fn note(real: &Realization, done: usize) -> Option<String> {
+fn note<const D: usize>(real: &Realization<D>, done: usize) -> Option<String> {
     if real.truth.is_none() {
         Some(
             "no truth file was given: error metrics (rmse, ctte, regret, ml_rmse, crlb, bound coverage) are not computed"
@@ -118,20 +118,20 @@ fn node_counters(run: &RunOutcome) -> Vec<NodeCounters> {
 }
 
 /// Run the baselines and score every track of a record (no I/O).
-pub fn evaluate(
-    sc: &Scenario,
-    real: &Realization,
+pub fn evaluate<const D: usize>(
+    sc: &Scenario<D>,
+    real: &Realization<D>,
     run: &RunOutcome,
     opts: &RunOptions,
-) -> (RunMetrics, Scored) {
+) -> (RunMetrics, Scored<D>) {
     let record = &run.record;
     let error = run.error.as_ref();
     let procs = run.processes.as_ref();
     let done = record.thetas.len();
     // theta_bar is the mean of the nodes alive at each sample: a dead node's
     // frozen estimate is left out from the sample its death was noticed.
-    let est: Vec<Vec2> = (0..done)
-        .map(|k| metrics::theta_bar::<2>(&record.alive_thetas(k)))
+    let est: Vec<Point<D>> = (0..done)
+        .map(|k| metrics::theta_bar::<D>(&record.alive_thetas(k)))
         .collect();
     // The centralised ML reference, solved once for the `ml` track and any
     // `ml` baseline.
@@ -148,7 +148,7 @@ pub fn evaluate(
     let ml = &scored.tracks[1].metrics;
     let crlbs: Vec<f64> = scored.crlb.iter().flatten().copied().collect();
     let max_dis = (0..done)
-        .map(|k| metrics::disagreement::<2>(&record.alive_thetas(k)))
+        .map(|k| metrics::disagreement::<D>(&record.alive_thetas(k)))
         .fold(0.0, f64::max);
     let status = match error {
         None => RunStatus::Ok,
@@ -215,7 +215,10 @@ pub fn evaluate(
 }
 
 /// Check the scenario's `[expect]` block against one run's metrics.
-pub fn check_expect(sc: &Scenario, flat: &BTreeMap<String, f64>) -> Vec<ExpectResult> {
+pub fn check_expect<const D: usize>(
+    sc: &Scenario<D>,
+    flat: &BTreeMap<String, f64>,
+) -> Vec<ExpectResult> {
     expect_results(crate::scenario::expect::check(&sc.expect, &|name: &str| {
         flat.get(name)
             .copied()

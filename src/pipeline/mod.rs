@@ -152,7 +152,7 @@ impl RunOptions {
 
 /// What [`Scenario::run`] returns: every result of the run in memory.
 #[derive(Debug)]
-pub struct Outcome {
+pub struct Outcome<const D: usize = 2> {
     /// The run's metrics (those of `metrics.json`), `[expect]` included.
     pub metrics: RunMetrics,
     /// What the engine returned: every node's `theta` per sample, the
@@ -161,14 +161,14 @@ pub struct Outcome {
     /// processes', channel's and faults' logs where they apply.
     pub run: RunOutcome,
     /// Every track (the distributed `theta_bar`, `ml`, the baselines), scored.
-    pub scored: Scored,
+    pub scored: Scored<D>,
     /// The truth and measurements the run was given.
-    pub real: Realization,
+    pub real: Realization<D>,
     /// When the run started (wall clock; recorded in `run.json`).
     pub started: std::time::SystemTime,
 }
 
-impl Outcome {
+impl<const D: usize> Outcome<D> {
     /// Every scalar metric by the names `[expect]` uses (`theta_bar.rmse`,
     /// `ml.rmse`, `ogd.ctte`, ...).
     pub fn flat(&self) -> BTreeMap<String, f64> {
@@ -177,12 +177,15 @@ impl Outcome {
 }
 
 impl Scenario {
-    /// Load a scenario file (the first of its variants when it has
-    /// `[[variants]]`; see [`Scenario::load_all`] for all of them).
+    /// Load a 2-D scenario file (the first of its variants when it has
+    /// `[[variants]]`; see [`Scenario::load_all`] for all of them, and
+    /// [`crate::scenario::AnyScenario`] for a file of either dimension).
     pub fn from_file(path: impl AsRef<Path>) -> Result<Scenario, InputError> {
         Scenario::load(path.as_ref())
     }
+}
 
+impl<const D: usize> Scenario<D> {
     /// Run this scenario with its seed and score it, writing nothing: the
     /// library's entry point for scenario-driven tests. The engine comes
     /// from `opts` (`[monte_carlo]` trials are not run here). An engine
@@ -200,13 +203,13 @@ impl Scenario {
     /// assert!(out.metrics.expect.iter().all(|c| c.holds));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
-    pub fn run(&self, opts: &RunOptions) -> Outcome {
+    pub fn run(&self, opts: &RunOptions) -> Outcome<D> {
         run(self, opts, &mut |_, _| {})
     }
 
     /// [`Scenario::run`], then write the results directory `opts.out_dir`
     /// exactly as `sonarnet run` does (CSVs and JSON; no plots).
-    pub fn run_and_write(&self, opts: &RunOptions) -> Result<Outcome, RunError> {
+    pub fn run_and_write(&self, opts: &RunOptions) -> Result<Outcome<D>, RunError> {
         // The directory must be writable before any work is done.
         check_out_dir(&opts.out_dir)?;
         let opts = &RunOptions {
@@ -223,7 +226,11 @@ impl Scenario {
 /// library's [`Scenario::run`]): [`execute`] it, run the baselines and score
 /// every track ([`evaluate`]), and check `[expect]` when `opts` asks for it
 /// and the run completed. Writes nothing ([`Outcome::write`] does).
-pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'_>) -> Outcome {
+pub fn run<const D: usize>(
+    sc: &Scenario<D>,
+    opts: &RunOptions,
+    progress: crate::engine::Progress<'_>,
+) -> Outcome<D> {
     let started = std::time::SystemTime::now();
     let Executed { real, mut run } = execute(sc, opts, progress);
     let (mut metrics, scored) = evaluate(sc, &real, &run, opts);
@@ -257,7 +264,7 @@ pub fn run(sc: &Scenario, opts: &RunOptions, progress: crate::engine::Progress<'
 /// engine ([`crate::runtime::preflight`]: node processes need shared memory,
 /// open files, process slots and memory in proportion to the receivers and
 /// the inbox size). An error names the scenario key most to blame.
-pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
+pub fn preflight<const D: usize>(sc: &Scenario<D>, opts: &RunOptions) -> Result<(), InputError> {
     if opts.engine != EngineKind::Processes {
         return Ok(());
     }
@@ -272,9 +279,9 @@ pub fn preflight(sc: &Scenario, opts: &RunOptions) -> Result<(), InputError> {
 
 /// What the engine side of one run produced.
 #[derive(Debug)]
-pub struct Executed {
+pub struct Executed<const D: usize = 2> {
     /// The truth and measurements of the run's seed.
-    pub real: Realization,
+    pub real: Realization<D>,
     /// What the engine returned.
     pub run: RunOutcome,
 }
@@ -284,11 +291,11 @@ pub struct Executed {
 /// with its seed, build its [`RunPlan`](crate::protocol::RunPlan) once and run it
 /// on the engine and clock of `opts`. `progress` hears of every completed
 /// sample.
-pub fn execute(
-    sc: &Scenario,
+pub fn execute<const D: usize>(
+    sc: &Scenario<D>,
     opts: &RunOptions,
     progress: crate::engine::Progress<'_>,
-) -> Executed {
+) -> Executed<D> {
     let real = sc.realize();
     let zenoh = matches!(
         opts.net.transport,

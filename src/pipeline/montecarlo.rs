@@ -87,7 +87,12 @@ fn kept_indices(samples: usize) -> Vec<usize> {
     idx
 }
 
-fn trial_of(i: usize, seed: u64, out: &pipeline::Outcome, idx: &[usize]) -> Trial {
+fn trial_of<const D: usize>(
+    i: usize,
+    seed: u64,
+    out: &pipeline::Outcome<D>,
+    idx: &[usize],
+) -> Trial {
     let (m, scored) = (&out.metrics, &out.scored);
     let mut flat = m.flat();
     // One snapshot per trial: each track's error vector (estimate - truth,
@@ -96,8 +101,9 @@ fn trial_of(i: usize, seed: u64, out: &pipeline::Outcome, idx: &[usize]) -> Tria
         let truth = out.real.truth.as_ref().and_then(|t| t.first());
         for t in &scored.tracks {
             if let (Some(Some(e)), Some(x)) = (t.est.first(), truth) {
-                flat.insert(format!("{}.error_x", t.name), e.x - x.x);
-                flat.insert(format!("{}.error_y", t.name), e.y - x.y);
+                for (i, axis) in ["x", "y", "z"].iter().enumerate().take(D) {
+                    flat.insert(format!("{}.error_{axis}", t.name), e[i] - x[i]);
+                }
             }
         }
     }
@@ -214,8 +220,8 @@ fn band(columns: Vec<Vec<f64>>) -> Band {
 /// Run `trials` trials of `sc` (seeds `sc.seed + i`) on all cores, write the
 /// Monte Carlo outputs into `opts.out_dir`, and check `[expect]` on the means.
 /// `on_trial(done)` is called after every finished trial (progress).
-pub fn run_monte_carlo(
-    sc: &Scenario,
+pub fn run_monte_carlo<const D: usize>(
+    sc: &Scenario<D>,
     trials: usize,
     opts: &RunOptions,
     on_trial: &(dyn Fn(usize) + Sync),
@@ -343,8 +349,8 @@ fn curve_bands(trials: &[Trial], samples: usize) -> (BTreeMap<String, TrackBands
     (curves, crlb)
 }
 
-fn write_outputs(
-    sc: &Scenario,
+fn write_outputs<const D: usize>(
+    sc: &Scenario<D>,
     trials: &[Trial],
     idx: &[usize],
     opts: &RunOptions,

@@ -79,6 +79,7 @@ const FILES: &[&str] = &[
 /// Plot names (`NAME.svg`, `NAME.png`).
 const PLOTS: &[&str] = &[
     "tracks",
+    "depth",
     "error",
     "ctte",
     "consensus",

@@ -65,7 +65,7 @@ fn absolute(p: &Path) -> String {
 
 /// Absolute paths of a scenario's input files: `scenario`, and `trace`,
 /// `truth`, `schedule` when it names them.
-pub fn input_paths(sc: &Scenario) -> BTreeMap<String, String> {
+pub fn input_paths<const D: usize>(sc: &Scenario<D>) -> BTreeMap<String, String> {
     let mut m = BTreeMap::new();
     m.insert("scenario".to_string(), absolute(&sc.path));
     let base = sc.path.parent().unwrap_or(Path::new("."));

@@ -17,7 +17,8 @@
 //!   `CTTE(t)/t` at `t = T/2, 3T/4, T` (a decreasing sequence is sublinear
 //!   growth); `regret_slope_first_tenth` / `_last_tenth` are the mean regret
 //!   increments per sample over the first and the last tenth of the run.
-//! * **Bounds** (Gholami 2015): per sample, the discs and ellipses of all ranges
+//! * **Bounds** (Gholami 2015): per sample, the discs and ellipses (in 3-D balls
+//!   and spheroids) of all ranges
 //!   enlarged by `rho` (Remark 4) and the chosen bounds at each track's
 //!   estimate. `coverage` is the fraction of samples whose set is nonempty
 //!   and whose bound is at least the true error; `invalid_fraction` the
@@ -29,7 +30,7 @@ use crate::estimators::baselines::BaselineTrack;
 use crate::estimators::bounds::{BoundOutcome, Intersection};
 use crate::estimators::online::{self, XHatOptions};
 use crate::estimators::track::regions_of;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::measure::{Geometry, SampleMeasurements, Sigmas};
 use crate::model::metrics;
 use crate::scenario::{BoundKind, Realization, Scenario};
@@ -109,11 +110,11 @@ pub struct TrackMetrics {
 
 /// One scored track with its per-sample series.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ScoredTrack {
+pub struct ScoredTrack<const D: usize = 2> {
     /// `theta_bar`, `ml` or a baseline name.
     pub name: String,
     /// Estimate per sample.
-    pub est: Vec<Option<Vec2>>,
+    pub est: Vec<Option<Point<D>>>,
     /// Error per sample (with truth).
     pub error: Option<Vec<Option<f64>>>,
     /// Running CTTE per sample (with truth).
@@ -131,18 +132,18 @@ pub struct ScoredTrack {
 /// A scored run: `tracks[0]` is `theta_bar`, `tracks[1]` the ML reference,
 /// then the baselines in scenario order.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Scored {
+pub struct Scored<const D: usize = 2> {
     /// Every track.
-    pub tracks: Vec<ScoredTrack>,
+    pub tracks: Vec<ScoredTrack<D>>,
     /// CRLB per sample (with truth).
     pub crlb: Vec<Option<f64>>,
     /// `x_hat_k` solves that did not reach the gradient tolerance.
     pub x_hat_not_converged: usize,
 }
 
-impl Scored {
+impl<const D: usize> Scored<D> {
     /// The track called `name`.
-    pub fn track(&self, name: &str) -> Option<&ScoredTrack> {
+    pub fn track(&self, name: &str) -> Option<&ScoredTrack<D>> {
         self.tracks.iter().find(|t| t.name == name)
     }
 }
@@ -191,14 +192,14 @@ fn slopes(curve: &[f64]) -> (Option<f64>, Option<f64>) {
 /// Score everything for the first `done` samples of a run: `theta_bar`, the
 /// centralised ML reference track `ml` ([`crate::estimators::central::ml_track`]) and the
 /// baselines.
-pub fn score(
-    sc: &Scenario,
-    real: &Realization,
-    theta_bar: &[Vec2],
-    ml: Vec<Vec2>,
-    baselines: Vec<BaselineTrack>,
+pub fn score<const D: usize>(
+    sc: &Scenario<D>,
+    real: &Realization<D>,
+    theta_bar: &[Point<D>],
+    ml: Vec<Point<D>>,
+    baselines: Vec<BaselineTrack<D>>,
     done: usize,
-) -> Scored {
+) -> Scored<D> {
     let geometry = &sc.geometry;
     let meas = &real.measurements[..done];
     let truth = real.truth.as_ref().map(|t| &t[..done]);
@@ -218,10 +219,11 @@ pub fn score(
         }
         _ => (None, 0),
     };
-    let regret_curve = |est: &[Option<Vec2>]| regret_curve(geometry, meas, x_hats.as_deref()?, est);
+    let regret_curve =
+        |est: &[Option<Point<D>>]| regret_curve(geometry, meas, x_hats.as_deref()?, est);
     // The certified-bound feasible sets, one per sample.
     let bound_cfg = sc.bounds.as_ref();
-    let sets: Vec<Option<Intersection>> = match bound_cfg {
+    let sets: Vec<Option<Intersection<D>>> = match bound_cfg {
         Some(b) => (0..done)
             .map(|k| {
                 feasible_set(
@@ -234,7 +236,7 @@ pub fn score(
         None => Vec::new(),
     };
 
-    let mut raw: Vec<(String, Vec<Option<Vec2>>, Option<BaselineTrack>)> = vec![
+    let mut raw: Vec<(String, Vec<Option<Point<D>>>, Option<BaselineTrack<D>>)> = vec![
         (
             "theta_bar".into(),
             theta_bar.iter().map(|x| Some(*x)).collect(),
@@ -267,7 +269,7 @@ pub fn score(
             .as_ref()
             .and_then(|b| b.run.before.as_ref())
             .and_then(|before| {
-                let v: Vec<Option<Vec2>> = before.iter().map(|x| Some(*x)).collect();
+                let v: Vec<Option<Point<D>>> = before.iter().map(|x| Some(*x)).collect();
                 regret_curve(&v)
             });
         if let Some(r) = &regret_pred {
@@ -312,11 +314,11 @@ pub fn score(
 }
 
 /// The CRLB of one sample's measurements at the true position `truth`.
-fn crlb_of(
-    geometry: &Geometry,
+fn crlb_of<const D: usize>(
+    geometry: &Geometry<D>,
     meas: &SampleMeasurements,
     sigmas: &Sigmas,
-    truth: &Vec2,
+    truth: &Point<D>,
 ) -> Option<f64> {
     let obs = crate::estimators::central::observations(geometry, meas);
     crate::estimators::central::crlb(&obs, sigmas, truth)
@@ -325,7 +327,11 @@ fn crlb_of(
 /// The certified-bound feasible set of one sample: the intersection of its
 /// measurement regions widened by `rho` (`None` without regions, or when
 /// they do not intersect).
-fn feasible_set(geometry: &Geometry, meas: &SampleMeasurements, rho: f64) -> Option<Intersection> {
+fn feasible_set<const D: usize>(
+    geometry: &Geometry<D>,
+    meas: &SampleMeasurements,
+    rho: f64,
+) -> Option<Intersection<D>> {
     let regions = regions_of(geometry, meas, rho);
     if regions.is_empty() {
         return None;
@@ -336,11 +342,11 @@ fn feasible_set(geometry: &Geometry, meas: &SampleMeasurements, rho: f64) -> Opt
 /// The best fixed point `x_hat` of every sample with regret terms (the
 /// comparator of Pun-So 2022's regret), and how many of them did not
 /// converge.
-fn x_hats(
-    geometry: &Geometry,
+fn x_hats<const D: usize>(
+    geometry: &Geometry<D>,
     meas: &[SampleMeasurements],
-    truth: &[Vec2],
-) -> (Vec<Option<online::XHat>>, usize) {
+    truth: &[Point<D>],
+) -> (Vec<Option<online::XHat<D>>>, usize) {
     let mut not_converged = 0;
     let xh = meas
         .iter()
@@ -361,11 +367,11 @@ fn x_hats(
 
 /// The running regret of track `est` against the `x_hat` of every sample
 /// (`None` if a sample with regret terms has no estimate or a term fails).
-fn regret_curve(
-    geometry: &Geometry,
+fn regret_curve<const D: usize>(
+    geometry: &Geometry<D>,
     meas: &[SampleMeasurements],
-    x_hats: &[Option<online::XHat>],
-    est: &[Option<Vec2>],
+    x_hats: &[Option<online::XHat<D>>],
+    est: &[Option<Point<D>>],
 ) -> Option<Vec<f64>> {
     let mut terms = Vec::with_capacity(meas.len());
     for k in 0..meas.len() {
@@ -410,10 +416,10 @@ fn error_metrics(err: &[Option<f64>], burn_in: usize, m: &mut TrackMetrics) -> O
 /// Bound `kind`'s radius around every estimate of a track (`None` where
 /// the sample has no feasible set or no estimate, or the bound fails), and
 /// the mean seconds per instance.
-fn bound_series(
+fn bound_series<const D: usize>(
     kind: BoundKind,
-    sets: &[Option<Intersection>],
-    est: &[Option<Vec2>],
+    sets: &[Option<Intersection<D>>],
+    est: &[Option<Point<D>>],
 ) -> (Vec<Option<f64>>, f64) {
     let mut radii = Vec::with_capacity(est.len());
     let start = Instant::now();

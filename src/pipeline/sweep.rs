@@ -6,7 +6,7 @@
 use crate::model::error::InputError;
 use crate::pipeline::{self, RunError, RunOptions, RunStatus};
 use crate::protocol::EngineKind;
-use crate::scenario::{Override, Scenario};
+use crate::scenario::{AnyScenario, Override, Scenario};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -132,7 +132,7 @@ pub struct SweepPlan {
     /// The grid axes.
     pub axes: Vec<Axis>,
     /// Every grid point with its scenario (before the seed is set).
-    pub points: Vec<(Point, Scenario)>,
+    pub points: Vec<(Point, AnyScenario)>,
     /// The seeds, each run at every point.
     pub seeds: Vec<u64>,
     /// Whether the points carry a variant.
@@ -181,29 +181,30 @@ impl SweepPlan {
             for (k, v) in &values {
                 ov.push(Override::parse_for("--grid", &format!("{k}={v}"))?);
             }
-            let all = Scenario::load_all_with(file, &ov, variants)?;
+            let all = AnyScenario::load_all_with(file, &ov, variants)?;
             for v in variants {
-                if !all.iter().any(|s| s.variant.as_deref() == Some(v.as_str())) {
+                if !all.iter().any(|s| s.variant() == Some(v.as_str())) {
                     return Err(cli_error(
                         "--variant",
                         format!("no variant {v:?} in {}", file.display()),
                     ));
                 }
             }
-            for mut sc in all {
+            for sc in all {
                 if !variants.is_empty()
-                    && !variants
-                        .iter()
-                        .any(|v| sc.variant.as_deref() == Some(v.as_str()))
+                    && !variants.iter().any(|v| sc.variant() == Some(v.as_str()))
                 {
                     continue;
                 }
                 // A sweep draws its own seeds: one run per seed.
-                sc.trials = None;
-                sc.overrides = ov.iter().map(|o| o.text.clone()).collect();
+                let texts = ov.iter().map(|o| o.text.clone()).collect();
+                let sc = match sc {
+                    AnyScenario::Plane(sc) => AnyScenario::Plane(for_sweep(sc, texts)),
+                    AnyScenario::Space(sc) => AnyScenario::Space(for_sweep(sc, texts)),
+                };
                 let p = Point {
                     values: values.clone(),
-                    variant: sc.variant.clone(),
+                    variant: sc.variant().map(str::to_owned),
                 };
                 points.push((p, sc));
             }
@@ -288,8 +289,28 @@ pub fn run_sweep(
     }
 }
 
+/// A grid point's scenario: no Monte Carlo trials (a sweep draws its own
+/// seeds), and the overrides that made it.
+fn for_sweep<const D: usize>(mut sc: Scenario<D>, overrides: Vec<String>) -> Scenario<D> {
+    sc.trials = None;
+    sc.overrides = overrides;
+    sc
+}
+
 fn run_one(plan: &SweepPlan, p: usize, seed: u64, engine: EngineKind, out: &Path) -> SweepRun {
-    let sc = plan.points[p].1.clone().with_seed(seed);
+    match &plan.points[p].1 {
+        AnyScenario::Plane(sc) => run_point(sc.clone().with_seed(seed), p, engine, out),
+        AnyScenario::Space(sc) => run_point(sc.clone().with_seed(seed), p, engine, out),
+    }
+}
+
+fn run_point<const D: usize>(
+    sc: Scenario<D>,
+    p: usize,
+    engine: EngineKind,
+    out: &Path,
+) -> SweepRun {
+    let seed = sc.seed;
     let dir = out.join("runs").join(format!("p{p:03}-seed{seed}"));
     let opts = RunOptions {
         command_line: std::env::args().collect(),

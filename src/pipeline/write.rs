@@ -5,7 +5,7 @@
 use super::RunJson;
 use super::RunStatus;
 use crate::engine::RunOutcome;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::pipeline::FaultOutcome;
 use crate::pipeline::Outcome;
 use crate::pipeline::RunError;
@@ -21,10 +21,11 @@ use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 
-impl Outcome {
+impl<const D: usize> Outcome<D> {
     /// Write the results directory `opts.out_dir` of this run of `sc`. Always
-    /// writes what there is, even for a run that stopped early.
-    pub fn write(&self, sc: &Scenario, opts: &RunOptions) -> Result<(), RunError> {
+    /// writes what there is, even for a run that stopped early. A 3-D run's
+    /// position columns have a `z` after `x` and `y`.
+    pub fn write(&self, sc: &Scenario<D>, opts: &RunOptions) -> Result<(), RunError> {
         let Outcome {
             metrics: m,
             run,
@@ -54,12 +55,18 @@ impl Outcome {
             sc.seed,
         )?;
         if let Some(t) = real.truth.as_ref().map(|t| &t[..done]) {
+            let mut header = vec!["sample"];
+            header.extend(AXES[..D].iter());
+            header.push("seed");
             write_csv(
                 &dir.join("truth.csv"),
-                &["sample", "x", "y", "seed"],
-                t.iter()
-                    .enumerate()
-                    .map(|(k, p)| vec![k.to_string(), num(p.x), num(p.y), sc.seed.to_string()]),
+                &header,
+                t.iter().enumerate().map(|(k, p)| {
+                    let mut row = vec![k.to_string()];
+                    row.extend(p.iter().map(|v| num(*v)));
+                    row.push(sc.seed.to_string());
+                    row
+                }),
             )?;
         }
         write_json(&dir.join("metrics.json"), m)?;
@@ -69,12 +76,18 @@ impl Outcome {
 
 /// Write `nodes.csv`: every node's `theta` after every completed sample,
 /// whether it was alive, and (with faults) whether it was paused.
-fn write_nodes_csv(path: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), RunError> {
+fn write_nodes_csv<const D: usize>(
+    path: &Path,
+    sc: &Scenario<D>,
+    run: &RunOutcome,
+) -> Result<(), RunError> {
     let record = &run.record;
     // With faults, a `paused` column (before `seed`); without, the file
     // is as it always was.
     let faults = sc.has_faults();
-    let mut header = vec!["sample", "node", "x", "y", "d", "alive"];
+    let mut header = vec!["sample", "node"];
+    header.extend(AXES[..D].iter());
+    header.extend(["d", "alive"]);
     if faults {
         header.push("paused");
     }
@@ -87,14 +100,9 @@ fn write_nodes_csv(path: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), R
             let paused = run.paused(k);
             ts.iter().enumerate().map(move |(i, t)| {
                 let up = alive.and_then(|m| m.get(i)).copied().unwrap_or(true);
-                let mut row = vec![
-                    k.to_string(),
-                    i.to_string(),
-                    num(t[0]),
-                    num(t[1]),
-                    num(t[2]),
-                    up.to_string(),
-                ];
+                let mut row = vec![k.to_string(), i.to_string()];
+                row.extend(t.iter().map(|v| num(*v)));
+                row.push(up.to_string());
                 if faults {
                     let p = paused.and_then(|m| m.get(i)).copied().unwrap_or(false);
                     row.push(p.to_string());
@@ -107,7 +115,11 @@ fn write_nodes_csv(path: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), R
 }
 
 /// Write `faults.csv`: every fault applied, its detection and recovery.
-fn write_faults_csv(path: &Path, sc: &Scenario, faults: &[FaultOutcome]) -> Result<(), RunError> {
+fn write_faults_csv<const D: usize>(
+    path: &Path,
+    sc: &Scenario<D>,
+    faults: &[FaultOutcome],
+) -> Result<(), RunError> {
     let opt = |v: Option<f64>| v.map(num).unwrap_or_default();
     write_csv(
         path,
@@ -143,7 +155,11 @@ fn write_faults_csv(path: &Path, sc: &Scenario, faults: &[FaultOutcome]) -> Resu
 /// Write the files a run has only when it has their rows: `schedule.csv`
 /// (async schedules), `messages.csv` (the acoustic channel) and
 /// `iterations.csv` (`--trace-iterations`).
-fn write_run_csvs(dir: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), RunError> {
+fn write_run_csvs<const D: usize>(
+    dir: &Path,
+    sc: &Scenario<D>,
+    run: &RunOutcome,
+) -> Result<(), RunError> {
     let record = &run.record;
     if !record.schedule.is_empty() {
         write_csv(
@@ -187,19 +203,17 @@ fn write_run_csvs(dir: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), Run
         )?;
     }
     if !record.iteration_trace.is_empty() {
+        let mut header = vec!["iteration", "sample", "node"];
+        header.extend(AXES[..D].iter());
+        header.extend(["d", "seed"]);
         write_csv(
             &dir.join("iterations.csv"),
-            &["iteration", "sample", "node", "x", "y", "d", "seed"],
+            &header,
             record.iteration_trace.iter().map(|(it, k, i, t)| {
-                vec![
-                    it.to_string(),
-                    k.to_string(),
-                    i.to_string(),
-                    num(t[0]),
-                    num(t[1]),
-                    num(t[2]),
-                    sc.seed.to_string(),
-                ]
+                let mut row = vec![it.to_string(), k.to_string(), i.to_string()];
+                row.extend(t.iter().map(|v| num(*v)));
+                row.push(sc.seed.to_string());
+                row
             }),
         )?;
     }
@@ -210,20 +224,21 @@ fn write_run_csvs(dir: &Path, sc: &Scenario, run: &RunOutcome) -> Result<(), Run
 /// `NAME_x,NAME_y,NAME_error,NAME_ctte,NAME_regret` (+ `NAME_regret_pred` for
 /// online trackers) and bound radii (`bound_B` on `theta_bar`, `NAME_bound_B`
 /// on a baseline; empty when the set was empty).
-pub fn write_track_csv(
+pub fn write_track_csv<const D: usize>(
     path: &Path,
-    sc: &Scenario,
-    real: &Realization,
-    scored: &Scored,
+    sc: &Scenario<D>,
+    real: &Realization<D>,
+    scored: &Scored<D>,
     done: usize,
 ) -> Result<(), RunError> {
     let truth = real.truth.as_ref().map(|t| &t[..done]);
-    let mut header: Vec<String> = [
-        "sample", "true_x", "true_y", "est_x", "est_y", "error", "ml_x", "ml_y", "crlb", "ctte",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .collect();
+    let axes = &AXES[..D];
+    let mut header: Vec<String> = vec!["sample".into()];
+    header.extend(axes.iter().map(|a| format!("true_{a}")));
+    header.extend(axes.iter().map(|a| format!("est_{a}")));
+    header.push("error".into());
+    header.extend(axes.iter().map(|a| format!("ml_{a}")));
+    header.extend(["crlb".into(), "ctte".into()]);
     let tb = &scored.tracks[0];
     let ml = &scored.tracks[1];
     if tb.regret.is_some() {
@@ -233,7 +248,7 @@ pub fn write_track_csv(
         header.push(format!("bound_{b}"));
     }
     for t in &scored.tracks[2..] {
-        for suffix in ["x", "y", "error", "ctte"] {
+        for suffix in axes.iter().chain(&["error", "ctte"]) {
             header.push(format!("{}_{suffix}", t.name));
         }
         if t.regret.is_some() {
@@ -250,22 +265,16 @@ pub fn write_track_csv(
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
     let rows = (0..done).map(|k| {
         let t = truth.map(|t| t[k]);
-        let e = |tr: &score::ScoredTrack| tr.error.as_ref().and_then(|e| e[k]);
-        let c = |tr: &score::ScoredTrack| tr.ctte.as_ref().map(|c| c[k]);
-        let est = tb.est[k].unwrap_or_else(Vec2::zeros);
-        let mlx = ml.est[k];
-        let mut row = vec![
-            k.to_string(),
-            opt(t.map(|p| p.x)),
-            opt(t.map(|p| p.y)),
-            num(est.x),
-            num(est.y),
-            opt(e(tb)),
-            opt(mlx.map(|p| p.x)),
-            opt(mlx.map(|p| p.y)),
-            opt(scored.crlb[k]),
-            opt(c(tb)),
-        ];
+        let e = |tr: &score::ScoredTrack<D>| tr.error.as_ref().and_then(|e| e[k]);
+        let c = |tr: &score::ScoredTrack<D>| tr.ctte.as_ref().map(|c| c[k]);
+        let est = tb.est[k].unwrap_or_else(Point::<D>::zeros);
+        let mut row = vec![k.to_string()];
+        row.extend(coords(t));
+        row.extend(est.iter().map(|v| num(*v)));
+        row.push(opt(e(tb)));
+        row.extend(coords(ml.est[k]));
+        row.push(opt(scored.crlb[k]));
+        row.push(opt(c(tb)));
         if let Some(r) = &tb.regret {
             row.push(num(r[k]));
         }
@@ -273,8 +282,7 @@ pub fn write_track_csv(
             row.push(opt(radii[k]));
         }
         for tr in &scored.tracks[2..] {
-            row.push(opt(tr.est[k].map(|p| p.x)));
-            row.push(opt(tr.est[k].map(|p| p.y)));
+            row.extend(coords(tr.est[k]));
             row.push(opt(e(tr)));
             row.push(opt(c(tr)));
             if let Some(r) = &tr.regret {
@@ -323,6 +331,16 @@ pub fn write_trace(
                     seed.to_string(),
                 ]);
             }
+            if let Some(v) = nm.elevation {
+                rows.push(vec![
+                    k.to_string(),
+                    n.to_string(),
+                    String::new(),
+                    "elevation".into(),
+                    num(v),
+                    seed.to_string(),
+                ]);
+            }
             if let Some(v) = nm.range {
                 rows.push(vec![
                     k.to_string(),
@@ -345,7 +363,11 @@ pub fn write_trace(
 
 /// `scenario.toml`: the run's resolved scenario
 /// ([`Scenario::resolved_toml`]), with the command that reproduces it.
-fn write_scenario_toml(dir: &Path, sc: &Scenario, opts: &RunOptions) -> Result<(), RunError> {
+fn write_scenario_toml<const D: usize>(
+    dir: &Path,
+    sc: &Scenario<D>,
+    opts: &RunOptions,
+) -> Result<(), RunError> {
     let path = dir.join("scenario.toml");
     let logical_async =
         opts.clock == Clock::Logical && sc.algorithm.mode == crate::scenario::Mode::Async;
@@ -368,9 +390,17 @@ fn write_scenario_toml(dir: &Path, sc: &Scenario, opts: &RunOptions) -> Result<(
     std::fs::write(&path, text).map_err(io_err(&path))
 }
 
+/// The names of the position columns, `x`, `y` and, in 3-D, `z`.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
 /// Shortest round-trip decimal form of a float (exact replay from CSV).
 fn num(x: f64) -> String {
     format!("{x:?}")
+}
+
+/// A point's coordinates as CSV fields; empty fields for `None`.
+fn coords<const D: usize>(p: Option<Point<D>>) -> impl Iterator<Item = String> {
+    (0..D).map(move |i| opt(p.map(|p| p[i])))
 }
 
 fn opt(x: Option<f64>) -> String {
@@ -429,9 +459,9 @@ pub fn write_json<T: Serialize>(path: &Path, v: &T) -> Result<(), RunError> {
     f.write_all(b"\n").map_err(io_err(path))
 }
 
-fn write_run_json(
+fn write_run_json<const D: usize>(
     dir: &Path,
-    sc: &Scenario,
+    sc: &Scenario<D>,
     opts: &RunOptions,
     status: RunStatus,
     run: &crate::engine::RunOutcome,

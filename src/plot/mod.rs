@@ -31,6 +31,8 @@ pub mod figures;
 mod render;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod three_d_tests;
 
 pub use data::{RunData, load_run};
 pub use figures::{comparison_figures, run_figures};

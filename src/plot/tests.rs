@@ -43,8 +43,12 @@ fn info() -> RunInfo {
     RunInfo {
         name: "unit".into(),
         run: run_json(),
-        transmitters: vec![[0.0, 0.0], [2000.0, 2000.0]],
-        receivers: vec![[-1000.0, -1000.0], [1500.0, -1000.0], [-1000.0, 1000.0]],
+        transmitters: vec![[0.0, 0.0, 0.0], [2000.0, 2000.0, 0.0]],
+        receivers: vec![
+            [-1000.0, -1000.0, 0.0],
+            [1500.0, -1000.0, 0.0],
+            [-1000.0, 1000.0, 0.0],
+        ],
         edges: vec![(0, 1), (0, 2)],
         burn_in: Some(1),
         ..RunInfo::default()
@@ -59,7 +63,7 @@ fn nodes() -> Vec<NodePoint> {
                 sample: s,
                 iteration: None,
                 node: n,
-                pos: [500.0 + s as f64 + n as f64 * 3.0, 490.0 - n as f64],
+                pos: [500.0 + s as f64 + n as f64 * 3.0, 490.0 - n as f64, 0.0],
             });
         }
     }
@@ -325,7 +329,7 @@ fn consensus_plot_uses_iterations_when_traced() {
                     sample: s,
                     iteration: Some(i),
                     node: n,
-                    pos: [i as f64, n as f64],
+                    pos: [i as f64, n as f64, 0.0],
                 });
             }
         }
@@ -588,7 +592,7 @@ mod clipping {
 fn a_diverging_track_is_clipped_at_the_scene_and_named_not_allowed_to_rescale_the_map() {
     let mut d = data();
     let ogd = d.track.tracks.iter_mut().find(|t| t.name == "ogd").unwrap();
-    ogd.pos[3] = Some([1.3e89, -2.0e88]);
+    ogd.pos[3] = Some([1.3e89, -2.0e88, 0.0]);
     let fig = tracks_figure(&d);
     let p = &fig.panels[0];
     // The scene is a few km: the axes stay within a few scene sizes.
@@ -716,7 +720,7 @@ fn the_comparison_tells_run_b_from_run_a_by_colour_as_well_as_dashes() {
 fn network_labels_move_off_a_transmitter_beside_their_node() {
     let mut d = data();
     // A transmitter just right of R1, where its label would go.
-    d.info.transmitters.push([1700.0, -1050.0]);
+    d.info.transmitters.push([1700.0, -1050.0, 0.0]);
     let fig = network_figure(&d);
     let p = &fig.panels[0];
     let r1 = p

@@ -118,7 +118,7 @@ mod tests {
         let track = |name: &str, kind, e: &[Option<f64>]| Track {
             name: name.into(),
             kind,
-            pos: vec![Some([0.0, 0.0]); 4],
+            pos: vec![Some([0.0, 0.0, 0.0]); 4],
             error: e.to_vec(),
             ctte: vec![None; 4],
             regret: None,
@@ -140,7 +140,7 @@ mod tests {
             ),
             track: TrackTable {
                 sample: vec![0.0, 1.0, 2.0, 3.0],
-                truth: vec![Some([0.0, 0.0]); 4],
+                truth: vec![Some([0.0, 0.0, 0.0]); 4],
                 tracks: vec![
                     track(THETA_BAR, TrackKind::Distributed, &errs),
                     track(ML, TrackKind::Reference, &errs),

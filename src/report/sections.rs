@@ -73,7 +73,12 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     add(
         "geometry",
         Some(format!(
-            "{} transmitters, {} receivers, {} network links",
+            "{}{} transmitters, {} receivers, {} network links",
+            if d.dim() == 3 {
+                "3-D (x, y, z; z up), "
+            } else {
+                "2-D, "
+            },
             i.transmitters.len(),
             i.receivers.len(),
             i.edges.len()
@@ -103,6 +108,18 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
         }
     }
     if !meas.is_empty() {
+        if d.dim() == 3 && meas.contains(&"DOA") {
+            meas = meas
+                .into_iter()
+                .map(|m| {
+                    if m == "DOA" {
+                        "DOA (azimuth and elevation)"
+                    } else {
+                        m
+                    }
+                })
+                .collect();
+        }
         add("measurements", Some(meas.join(", ")));
     }
     add(
@@ -112,6 +129,10 @@ pub fn scenario_summary(d: &RunData) -> Vec<(String, String)> {
     add(
         "DOA noise",
         noise_in(get(sc, &["measurements", "doa_noise"]), " rad"),
+    );
+    add(
+        "elevation noise",
+        noise_in(get(sc, &["measurements", "elevation_noise"]), " rad"),
     );
     add("channel", channel_row(get(sc, &["channel"])));
     add("mode", i.run.mode.clone());

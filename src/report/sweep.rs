@@ -146,7 +146,7 @@ pub fn write_sweep_report(
         source: e,
     })?;
     let mut s = page_head("sonarnet sweep", 1);
-    let name = plan.points.first().map_or("", |(_, sc)| sc.name.as_str());
+    let name = plan.points.first().map_or("", |(_, sc)| sc.name());
     let _ = write!(
         s,
         "<h1>Sweep of {}</h1>\n<p class=\"sub\">{} runs of {} grid points × {} seeds{}</p>\n",

@@ -86,7 +86,7 @@ fn metres(x: f64) -> String {
     }
 }
 
-impl Scenario {
+impl<const D: usize> Scenario<D> {
     /// What this scenario runs, one `(topic, text)` per line.
     pub fn describe(&self) -> Vec<(String, String)> {
         let mut out: Vec<(String, String)> = Vec::new();
@@ -112,7 +112,8 @@ impl Scenario {
         put(
             "nodes",
             format!(
-                "{} receivers (one node process each), {} transmitters",
+                "{}{} receivers (one node process each), {} transmitters",
+                if D == 3 { "3-D (x, y, z; z up): " } else { "" },
                 g.receivers.len(),
                 g.transmitters.len()
             ),
@@ -168,7 +169,7 @@ impl Scenario {
             .iter()
             .map(|&(a, b)| {
                 let (p, q) = (g.receivers[a], g.receivers[b]);
-                (a, b, ((p.x - q.x).powi(2) + (p.y - q.y).powi(2)).sqrt())
+                (a, b, (p - q).norm())
             })
             .collect();
         let mut sorted: Vec<f64> = lens.iter().map(|l| l.2).collect();
@@ -233,8 +234,13 @@ impl Scenario {
         }
         if m.doa {
             what.push(format!(
-                "{} directions of arrival (weight omega {})",
+                "{} directions of arrival{} (weight omega {})",
                 g.receivers.len(),
+                if D == 3 {
+                    " as azimuth and elevation"
+                } else {
+                    ""
+                },
                 m.omega
             ));
         }
@@ -248,13 +254,18 @@ impl Scenario {
     fn noise_in_words(&self) -> String {
         let m = &self.measurements;
         format!(
-            "ranges: {}; directions: {}{}",
+            "ranges: {}; directions: {}{}{}",
             m.range_noise
                 .as_ref()
                 .map_or("none".into(), |n| in_words_with(n, " m")),
             m.doa_noise
                 .as_ref()
                 .map_or("none".into(), |n| in_words_with(n, " rad")),
+            match &m.elevation_noise {
+                Some(n) => format!("; elevation: {}", in_words_with(n, " rad")),
+                None if D == 3 && m.doa => "; elevation: as the azimuth".into(),
+                None => String::new(),
+            },
             if m.nlos_links == Default::default() {
                 String::new()
             } else {

@@ -133,6 +133,54 @@ impl AnyScenario {
         })
     }
 
+    /// The scenario's name.
+    pub fn name(&self) -> &str {
+        match self {
+            AnyScenario::Plane(sc) => &sc.name,
+            AnyScenario::Space(sc) => &sc.name,
+        }
+    }
+
+    /// The run seed.
+    pub fn seed(&self) -> u64 {
+        match self {
+            AnyScenario::Plane(sc) => sc.seed,
+            AnyScenario::Space(sc) => sc.seed,
+        }
+    }
+
+    /// The scenario file as parsed.
+    pub fn file(&self) -> &ScenarioFile {
+        match self {
+            AnyScenario::Plane(sc) => &sc.file,
+            AnyScenario::Space(sc) => &sc.file,
+        }
+    }
+
+    /// What this scenario runs, in words ([`Scenario::describe`]).
+    pub fn describe(&self) -> Vec<(String, String)> {
+        match self {
+            AnyScenario::Plane(sc) => sc.describe(),
+            AnyScenario::Space(sc) => sc.describe(),
+        }
+    }
+
+    /// The variant's name, for a file with `[[variants]]`.
+    pub fn variant(&self) -> Option<&str> {
+        match self {
+            AnyScenario::Plane(sc) => sc.variant.as_deref(),
+            AnyScenario::Space(sc) => sc.variant.as_deref(),
+        }
+    }
+
+    /// The scenario's warnings ([`Scenario::warnings`]).
+    pub fn warnings(&self) -> Vec<String> {
+        match self {
+            AnyScenario::Plane(sc) => sc.warnings(),
+            AnyScenario::Space(sc) => sc.warnings(),
+        }
+    }
+
     /// 2 or 3.
     pub fn dim(&self) -> usize {
         match self {

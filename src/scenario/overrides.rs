@@ -237,53 +237,90 @@ impl Scenario {
         overrides: &[Override],
         only: &[String],
     ) -> Result<Vec<Scenario>, InputError> {
-        if overrides.is_empty() {
-            return Self::load_all(path);
-        }
+        load_all_with::<2>(path, overrides, only)
+    }
+}
+
+impl super::AnyScenario {
+    /// [`Scenario::load_all_with`] for a file of either dimension (decided
+    /// by the file's coordinates; a variant or override keeps it).
+    pub fn load_all_with(
+        path: &Path,
+        overrides: &[Override],
+        only: &[String],
+    ) -> Result<Vec<super::AnyScenario>, InputError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
-        // The file alone must parse: its own errors keep their line numbers.
         let file: ScenarioFile =
             toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
-        let table: toml::Table =
-            toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
-        let names: Vec<&str> = file.variants.iter().map(|v| v.name.trim()).collect();
-        if let Some(v) = only.iter().find(|v| !names.contains(&v.as_str())) {
-            return Err(cli_error(
-                "--variant",
-                if names.is_empty() {
-                    format!("{} has no [[variants]]", path.display())
-                } else {
-                    format!("no variant {v:?} (the file has: {})", names.join(", "))
-                },
-            ));
-        }
-        let build = |k: usize| Self::all_from_table(&file, &table, path, &overrides[..k], only);
-        match build(overrides.len()) {
-            Ok(v) => Ok(v),
-            Err(e) => {
-                if build(0).is_err() {
-                    return Err(e);
-                }
-                for k in 1..=overrides.len() {
-                    if let Err(ek) = build(k) {
-                        return Err(overrides[k - 1].blame(ek));
-                    }
-                }
-                Err(e)
+        Ok(match super::sections::dimension(path, &file)? {
+            3 => load_all_with::<3>(path, overrides, only)?
+                .into_iter()
+                .map(super::AnyScenario::Space)
+                .collect(),
+            _ => load_all_with::<2>(path, overrides, only)?
+                .into_iter()
+                .map(super::AnyScenario::Plane)
+                .collect(),
+        })
+    }
+}
+
+/// [`Scenario::load_all_with`] in `D` dimensions.
+fn load_all_with<const D: usize>(
+    path: &Path,
+    overrides: &[Override],
+    only: &[String],
+) -> Result<Vec<Scenario<D>>, InputError> {
+    if overrides.is_empty() {
+        return build::load_every::<D>(path);
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+    // The file alone must parse: its own errors keep their line numbers.
+    let file: ScenarioFile =
+        toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
+    let table: toml::Table =
+        toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
+    let names: Vec<&str> = file.variants.iter().map(|v| v.name.trim()).collect();
+    if let Some(v) = only.iter().find(|v| !names.contains(&v.as_str())) {
+        return Err(cli_error(
+            "--variant",
+            if names.is_empty() {
+                format!("{} has no [[variants]]", path.display())
+            } else {
+                format!("no variant {v:?} (the file has: {})", names.join(", "))
+            },
+        ));
+    }
+    let build =
+        |k: usize| Scenario::<D>::all_from_table(&file, &table, path, &overrides[..k], only);
+    match build(overrides.len()) {
+        Ok(v) => Ok(v),
+        Err(e) => {
+            if build(0).is_err() {
+                return Err(e);
             }
+            for k in 1..=overrides.len() {
+                if let Err(ek) = build(k) {
+                    return Err(overrides[k - 1].blame(ek));
+                }
+            }
+            Err(e)
         }
     }
+}
 
+impl<const D: usize> Scenario<D> {
     fn all_from_table(
         file: &ScenarioFile,
         table: &toml::Table,
         path: &Path,
         overrides: &[Override],
         only: &[String],
-    ) -> Result<Vec<Scenario>, InputError> {
+    ) -> Result<Vec<Scenario<D>>, InputError> {
         let texts: Vec<String> = overrides.iter().map(|o| o.text.clone()).collect();
-        let finish = |mut t: toml::Table| -> Result<Scenario, InputError> {
+        let finish = |mut t: toml::Table| -> Result<Scenario<D>, InputError> {
             let before = t.clone();
             for o in overrides {
                 o.apply(&mut t)?;

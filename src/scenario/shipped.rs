@@ -2,7 +2,7 @@
 //! works from any directory, and `sonarnet new FILE --from NAME` copies one
 //! out to edit. A test checks that this list is exactly the directory.
 
-use super::Scenario;
+use super::AnyScenario;
 use crate::model::error::InputError;
 use std::path::{Path, PathBuf};
 
@@ -27,6 +27,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
     (
         "mourya2017-spiral",
         include_str!("../../scenarios/mourya2017-spiral.toml"),
+    ),
+    (
+        "mourya2017-spiral-3d",
+        include_str!("../../scenarios/mourya2017-spiral-3d.toml"),
     ),
     (
         "mourya2017-spiral-acoustic",
@@ -86,8 +90,9 @@ pub fn path(name: &str) -> PathBuf {
     Path::new("scenarios").join(format!("{name}.toml"))
 }
 
-/// Every variant of the shipped scenario `name`, validated.
-pub fn load(name: &str) -> Result<Vec<Scenario>, InputError> {
+/// Every variant of the shipped scenario `name`, validated, in its
+/// dimension.
+pub fn load(name: &str) -> Result<Vec<AnyScenario>, InputError> {
     let text = text(name).ok_or_else(|| {
         InputError::file(
             Path::new(name),
@@ -97,7 +102,7 @@ pub fn load(name: &str) -> Result<Vec<Scenario>, InputError> {
             ),
         )
     })?;
-    Scenario::all_from_toml_str(text, &path(name))
+    AnyScenario::all_from_toml_str(text, &path(name))
 }
 
 /// The names of the shipped scenarios.

@@ -271,7 +271,7 @@ fn a_point_of_another_dimension_is_refused_with_exit_2_naming_its_key() {
 }
 
 #[test]
-fn a_3d_scenario_validates_as_3d_and_a_run_of_it_is_refused_with_exit_2_saying_why() {
+fn a_3d_scenario_validates_and_runs_as_3d_and_the_2d_library_reader_says_how_to_read_it() {
     let dir = TempDir::new("three-d");
     let file = dir.write("helix.toml", &crate::util::spiral_3d());
     let f = file.to_str().expect("utf-8");
@@ -279,11 +279,18 @@ fn a_3d_scenario_validates_as_3d_and_a_run_of_it_is_refused_with_exit_2_saying_w
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{out:?}");
     assert!(stdout.contains("ok (3-D, 6 receivers"), "{stdout}");
-    let err = refused(&["run", f]);
-    assert!(
-        err.contains("3-D") && err.contains("2-D scenarios only"),
-        "{err}"
+    let run = dir.path().join("run");
+    let out = crate::util::run_file(
+        &file,
+        &run,
+        &["--engine", "inprocess", "--samples", "12", "--quiet"],
+        std::time::Duration::from_secs(60),
     );
+    assert!(out.status.success(), "{out:?}");
+    assert!(run.join("depth.svg").is_file());
+    let e = sonarnet::scenario::Scenario::load(&file).expect_err("a 2-D reader");
+    assert_eq!(e.location.as_deref(), Some("geometry.receivers"));
+    assert!(e.reason.contains("AnyScenario"), "{e}");
     // A 2-D u in a 3-D scenario is named.
     let bad = dir.write(
         "bad-u.toml",

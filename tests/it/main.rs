@@ -19,6 +19,7 @@ mod report;
 mod scenarios;
 mod sweep;
 mod three_d;
+mod three_d_cli;
 mod transport;
 mod util;
 mod workflow;

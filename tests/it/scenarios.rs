@@ -3,7 +3,7 @@
 
 use crate::util::{TempDir, root, run_inprocess};
 use sonarnet::pipeline::{ExpectResult, RunOptions};
-use sonarnet::scenario::Scenario;
+use sonarnet::scenario::{AnyScenario, Scenario};
 
 fn describe(name: &str, checks: &[ExpectResult]) -> Vec<String> {
     checks
@@ -35,7 +35,7 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
     let mut count = 0;
     for path in scenario_files() {
         let file = path.file_name().unwrap().to_string_lossy().to_string();
-        let all = match Scenario::load_all(&path) {
+        let all = match AnyScenario::load_all(&path) {
             Ok(v) => v,
             Err(e) => {
                 failures.push(format!("{file}: does not validate: {e}"));
@@ -44,47 +44,14 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
         };
         for sc in all {
             count += 1;
-            let name = match &sc.variant {
+            let name = match sc.variant() {
                 Some(v) => format!("{file} [{v}]"),
                 None => file.clone(),
             };
-            let tmp = TempDir::new("scenario");
-            let checks = match sc.trials {
-                Some(n) if n > 1 => {
-                    let opts = RunOptions {
-                        command_line: vec!["test".into()],
-                        check_expect: false,
-                        ..RunOptions::inprocess().with_out_dir(tmp.path())
-                    };
-                    // A Monte Carlo run keeps every core busy: it holds the
-                    // machine; the single runs (virtual time, one thread)
-                    // leave room for the other tests.
-                    let _cpu = crate::util::cpu_exclusive();
-                    match sonarnet::pipeline::montecarlo::run_monte_carlo(&sc, n, &opts, &|_| {}) {
-                        Ok(mc) if mc.failed == 0 => mc.expect,
-                        Ok(mc) => {
-                            failures.push(format!("{name}: {} trials failed", mc.failed));
-                            continue;
-                        }
-                        Err(e) => {
-                            failures.push(format!("{name}: Monte Carlo failed: {e}"));
-                            continue;
-                        }
-                    }
-                }
-                _ => {
-                    let out = run_inprocess(&sc, tmp.path());
-                    if let Some(e) = &out.run.error {
-                        failures.push(format!("{name}: run failed: {e}"));
-                        continue;
-                    }
-                    out.metrics.expect
-                }
-            };
-            if checks.is_empty() {
-                failures.push(format!("{name}: has no [expect] checks"));
+            match &sc {
+                AnyScenario::Plane(sc) => check(&name, sc, &mut failures),
+                AnyScenario::Space(sc) => check(&name, sc, &mut failures),
             }
-            failures.extend(describe(&name, &checks));
         }
     }
     assert!(count >= 2, "expected at least two scenarios, found {count}");
@@ -93,4 +60,46 @@ fn every_scenario_validates_runs_and_meets_its_expect_block() {
         "scenario expectations failed:\n{}",
         failures.join("\n")
     );
+}
+
+/// Run one scenario (its Monte Carlo trials when it asks for them) and
+/// add what fails to `failures`.
+fn check<const D: usize>(name: &str, sc: &Scenario<D>, failures: &mut Vec<String>) {
+    let tmp = TempDir::new("scenario");
+    let checks = match sc.trials {
+        Some(n) if n > 1 => {
+            let opts = RunOptions {
+                command_line: vec!["test".into()],
+                check_expect: false,
+                ..RunOptions::inprocess().with_out_dir(tmp.path())
+            };
+            // A Monte Carlo run keeps every core busy: it holds the
+            // machine; the single runs (virtual time, one thread)
+            // leave room for the other tests.
+            let _cpu = crate::util::cpu_exclusive();
+            match sonarnet::pipeline::montecarlo::run_monte_carlo(sc, n, &opts, &|_| {}) {
+                Ok(mc) if mc.failed == 0 => mc.expect,
+                Ok(mc) => {
+                    failures.push(format!("{name}: {} trials failed", mc.failed));
+                    return;
+                }
+                Err(e) => {
+                    failures.push(format!("{name}: Monte Carlo failed: {e}"));
+                    return;
+                }
+            }
+        }
+        _ => {
+            let out = run_inprocess(sc, tmp.path());
+            if let Some(e) = &out.run.error {
+                failures.push(format!("{name}: run failed: {e}"));
+                return;
+            }
+            out.metrics.expect
+        }
+    };
+    if checks.is_empty() {
+        failures.push(format!("{name}: has no [expect] checks"));
+    }
+    failures.extend(describe(name, &checks));
 }

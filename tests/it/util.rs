@@ -50,7 +50,7 @@ impl Drop for TempDir {
 }
 
 /// Run a loaded scenario in-process and write its outputs to `out`.
-pub fn run_inprocess(sc: &Scenario, out: &Path) -> Outcome {
+pub fn run_inprocess<const D: usize>(sc: &Scenario<D>, out: &Path) -> Outcome<D> {
     let opts = RunOptions {
         command_line: vec!["test".into()],
         ..RunOptions::inprocess()

@@ -379,7 +379,7 @@ impl Intersection {
     /// plus the round-off allowance; never below the true maximum, and never
     /// above it by more than `ALLOWANCE * L` (plus `tol`'s share near a
     /// vertex).
-    pub fn upp_exact(&self, x_hat: &Vec2) -> Result<BoundOutcome, super::BoundError> {
+    pub(super) fn upp_exact_plane(&self, x_hat: &Vec2) -> Result<BoundOutcome, super::BoundError> {
         super::check_point(x_hat)?;
         let p = self.to_local(x_hat);
         let curves: Vec<Option<Curve>> = self.local.iter().map(Curve::of).collect();

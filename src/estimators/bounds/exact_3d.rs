@@ -137,7 +137,7 @@ impl Intersection<3> {
     /// `max_{x in B} ||x - x_hat||` plus the round-off allowance; never
     /// below the true maximum. [`BoundError::Unsupported`] when a region is
     /// a spheroid.
-    pub fn upp_exact(&self, x_hat: &P3) -> Result<BoundOutcome, BoundError> {
+    pub(super) fn upp_exact_space(&self, x_hat: &P3) -> Result<BoundOutcome, BoundError> {
         super::check_point(x_hat)?;
         let p = self.to_local(x_hat);
         let balls = self

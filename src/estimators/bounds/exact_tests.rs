@@ -7,6 +7,7 @@
 use super::region::EllipseGeom;
 use super::tests::{estimates, positive_error, random_instance};
 use super::*;
+use crate::model::geometry::Vec2;
 use crate::model::rng::SonarRng;
 use approx::assert_relative_eq;
 use proptest::prelude::*;

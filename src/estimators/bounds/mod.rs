@@ -61,7 +61,7 @@ pub use estimators::{PocsResult, pocs};
 pub use region::{Quadratic, Region};
 pub use sdp::{SdpEstimate, sdp_toa};
 
-use crate::model::geometry::{Point, Vec2};
+use crate::model::geometry::Point;
 
 /// Result of a bound: a number, or the statement that the feasible set is empty
 /// (no position is consistent with the measurements; no bound is meaningful).
@@ -337,6 +337,26 @@ impl<const D: usize> Intersection<D> {
             None => BoundOutcome::Empty,
         })
     }
+
+    /// `upp_exact` (beyond Gholami 2015): the exact worst-case error
+    /// `max_{x in B} ||x - x_hat||` plus a round-off allowance, never below
+    /// the true maximum. In 2-D from the vertices and the stationary points
+    /// of the boundary curves ([`exact`]); in 3-D over balls from the
+    /// farthest points of each sphere, of each circle where two meet and the
+    /// points where three meet (`exact_3d`; spheroids give
+    /// [`BoundError::Unsupported`]).
+    pub fn upp_exact(&self, x_hat: &Point<D>) -> Result<BoundOutcome, BoundError> {
+        let (set, x): (&dyn std::any::Any, &dyn std::any::Any) = (self, x_hat);
+        if let (Some(set), Some(x)) = (set.downcast_ref::<Intersection<2>>(), x.downcast_ref()) {
+            return set.upp_exact_plane(x);
+        }
+        if let (Some(set), Some(x)) = (set.downcast_ref::<Intersection<3>>(), x.downcast_ref()) {
+            return set.upp_exact_space(x);
+        }
+        Err(BoundError::Unsupported(
+            "upp_exact is implemented in 2-D and 3-D only",
+        ))
+    }
 }
 
 fn check_point<const D: usize>(x: &Point<D>) -> Result<(), BoundError> {
@@ -410,7 +430,10 @@ pub fn upp_minball<const D: usize>(
 /// `max_{x in B} ||x - x_hat||` in 2-D, from the vertices of the set and the
 /// stationary points of the distance on its boundary curves, plus a
 /// documented round-off allowance. Includes the emptiness check (one SOCP).
-pub fn upp_exact(regions: &[Region], x_hat: &Vec2) -> Result<BoundOutcome, BoundError> {
+pub fn upp_exact<const D: usize>(
+    regions: &[Region<D>],
+    x_hat: &Point<D>,
+) -> Result<BoundOutcome, BoundError> {
     with_intersection(regions, x_hat, |i, x| i.upp_exact(x))
 }
 

@@ -1,6 +1,7 @@
 //! Unit and property tests of the bounds against closed forms and brute force.
 
 use super::*;
+use crate::model::geometry::Vec2;
 use crate::model::rng::SonarRng;
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};

@@ -5,7 +5,7 @@ use super::loss_grad;
 use crate::estimators::online::TrackError;
 use crate::estimators::online::commit;
 use crate::estimators::online::loss;
-use crate::model::geometry::Vec2;
+use crate::model::geometry::Point;
 use crate::model::measure::Geometry;
 use crate::model::measure::SampleMeasurements;
 use serde::Deserialize;
@@ -36,9 +36,9 @@ impl Default for XHatOptions {
 
 /// A least-squares estimate `x_hat_t`, the last GD iterate.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct XHat {
+pub struct XHat<const D: usize = 2> {
     /// The estimate.
-    pub x: Vec2,
+    pub x: Point<D>,
     /// `f_t(x_hat_t)`.
     pub value: f64,
     /// `||grad f_t(x_hat_t)||`.
@@ -52,12 +52,12 @@ pub struct XHat {
 /// `x_hat_t ~ argmin f_t` by gradient descent from `start` (Pun-So 2022 Sec. V-A
 /// uses the true position `x_t^*`), constant step, until the gradient norm is
 /// below `grad_tol` or `max_iter` iterations; the last iterate is returned.
-pub fn x_hat(
-    geometry: &Geometry,
+pub fn x_hat<const D: usize>(
+    geometry: &Geometry<D>,
     sample: &SampleMeasurements,
-    start: Vec2,
+    start: Point<D>,
     opts: &XHatOptions,
-) -> Result<XHat, TrackError> {
+) -> Result<XHat<D>, TrackError> {
     let mut x = start;
     let mut ev = loss_grad(geometry, sample, &x)?;
     let step = match opts.step {
@@ -97,11 +97,11 @@ pub fn x_hat(
 /// Pun-So 2020 evaluates `f_t` at the estimate made *before* sample `t`
 /// (`x_{t-1}` in this module's indexing). Can be slightly negative when
 /// `x_hat_t` is only a local or approximate minimiser.
-pub fn regret_term(
-    geometry: &Geometry,
+pub fn regret_term<const D: usize>(
+    geometry: &Geometry<D>,
     sample: &SampleMeasurements,
-    x: &Vec2,
-    x_hat: &XHat,
+    x: &Point<D>,
+    x_hat: &XHat<D>,
 ) -> Result<f64, TrackError> {
     Ok(loss(geometry, sample, x)? - x_hat.value)
 }
@@ -136,7 +136,7 @@ pub struct Ctte {
 
 impl Ctte {
     /// Add `||x - x_true||`; returns the running CTTE.
-    pub fn push(&mut self, x: &Vec2, x_true: &Vec2) -> f64 {
+    pub fn push<const D: usize>(&mut self, x: &Point<D>, x_true: &Point<D>) -> f64 {
         self.sum += (x - x_true).norm();
         self.count += 1;
         self.sum

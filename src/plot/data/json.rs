@@ -8,6 +8,7 @@ use crate::pipeline::RunJson;
 use crate::plot::data::BandCurve;
 use crate::plot::data::ML;
 use crate::plot::data::MonteCarlo;
+use crate::plot::data::Pos;
 use crate::plot::data::RunInfo;
 use crate::plot::data::THETA_BAR;
 use crate::plot::data::TrackCurves;
@@ -26,27 +27,45 @@ pub(super) fn str_at(v: &Value, path: &[&str]) -> Option<String> {
     }
 }
 
-pub(super) fn points(p: &Path, v: Option<&Value>, key: &str) -> Result<Vec<[f64; 2]>, InputError> {
+/// The points of `run.json` key `key`, `[x, y]` or `[x, y, z]` (`z` = 0 for
+/// the former), and their dimension (`None` when there are none).
+pub(super) fn points(
+    p: &Path,
+    v: Option<&Value>,
+    key: &str,
+) -> Result<(Vec<Pos>, Option<usize>), InputError> {
     let Some(v) = v else {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), None));
     };
     let arr = v
         .as_array()
-        .ok_or_else(|| InputError::at(p, key, "expected an array of [x, y] points"))?;
-    arr.iter()
+        .ok_or_else(|| InputError::at(p, key, "expected an array of [x, y] or [x, y, z] points"))?;
+    let mut dim = None;
+    let pts = arr
+        .iter()
         .enumerate()
         .map(|(i, q)| {
-            let a = q.as_array().filter(|a| a.len() == 2);
-            match a.map(|a| (a[0].as_f64(), a[1].as_f64())) {
-                Some((Some(x), Some(y))) if x.is_finite() && y.is_finite() => Ok([x, y]),
-                _ => Err(InputError::at(
+            let bad = || {
+                InputError::at(
                     p,
                     format!("{key}[{i}]"),
-                    "expected a point [x, y] of finite numbers",
-                )),
+                    "expected a point [x, y] or [x, y, z] of finite numbers, \
+                     all of one dimension",
+                )
+            };
+            let a = q
+                .as_array()
+                .filter(|a| (2..=3).contains(&a.len()) && dim.is_none_or(|d| d == a.len()))
+                .ok_or_else(bad)?;
+            dim = Some(a.len());
+            let mut out = [0.0; 3];
+            for (o, c) in out.iter_mut().zip(a) {
+                *o = c.as_f64().filter(|x| x.is_finite()).ok_or_else(bad)?;
             }
+            Ok(out)
         })
-        .collect()
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((pts, dim))
 }
 
 /// Parse `run.json` ([`RunJson`], the type the run was written with).
@@ -58,16 +77,26 @@ pub fn parse_run_json(p: &Path, v: &Value) -> Result<RunInfo, InputError> {
         serde_json::from_value(v.clone()).map_err(|e| InputError::file(p, e.to_string()))?;
     let sc = &r.scenario;
     let geometry = sc.get("geometry");
-    let transmitters = points(
+    let (transmitters, tx_dim) = points(
         p,
         geometry.and_then(|g| g.get("transmitters")),
         "scenario.geometry.transmitters",
     )?;
-    let receivers = points(
+    let (receivers, rx_dim) = points(
         p,
         geometry.and_then(|g| g.get("receivers")),
         "scenario.geometry.receivers",
     )?;
+    let dim = match (tx_dim, rx_dim) {
+        (Some(a), Some(b)) if a != b => {
+            return Err(InputError::at(
+                p,
+                "scenario.geometry",
+                format!("the transmitters are {a}-D but the receivers {b}-D"),
+            ));
+        }
+        (a, b) => a.or(b).unwrap_or(2),
+    };
     let edges = r.edges.clone().unwrap_or_default();
     if let Some(i) = edges
         .iter()
@@ -95,6 +124,7 @@ pub fn parse_run_json(p: &Path, v: &Value) -> Result<RunInfo, InputError> {
                 .unwrap_or_else(|| "run".into())
         }),
         description: str_at(sc, &["description"]),
+        dim,
         transmitters,
         receivers,
         edges,

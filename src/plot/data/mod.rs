@@ -8,10 +8,23 @@ mod tables;
 pub use json::{parse_run_json, parse_summary};
 pub use tables::{Csv, MessageRow, parse_messages, parse_node_points, parse_track_csv, read_csv};
 
+/// The distance between two positions of a `dim`-dimensional run.
+pub fn distance(a: &Pos, b: &Pos, dim: usize) -> f64 {
+    if dim == 3 {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    } else {
+        (a[0] - b[0]).hypot(a[1] - b[1])
+    }
+}
+
 use crate::model::error::InputError;
 use crate::pipeline::{NodeCounters, RunJson, RunMetrics};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
+
+/// A position `[x, y, z]` in metres; `z` is 0 in a 2-D run
+/// ([`RunInfo::dim`]).
+pub type Pos = [f64; 3];
 
 /// Name of the distributed estimate `theta_bar` in track lists and in
 /// `summary.json` curves.
@@ -38,7 +51,7 @@ pub struct Track {
     /// Kind of track.
     pub kind: TrackKind,
     /// Estimated position per row (`None` where the cell is empty).
-    pub pos: Vec<Option<[f64; 2]>>,
+    pub pos: Vec<Option<Pos>>,
     /// Error `||x_k - x_k*||` per row (m): the `error`/`NAME_error` column,
     /// else computed from the truth.
     pub error: Vec<Option<f64>>,
@@ -77,7 +90,9 @@ pub struct TrackTable {
     /// Sample index per row.
     pub sample: Vec<f64>,
     /// True position per row, when known.
-    pub truth: Vec<Option<[f64; 2]>>,
+    pub truth: Vec<Option<Pos>>,
+    /// 3 when `track.csv` has `z` columns (`true_z`, `est_z`, ...), else 2.
+    pub dim: usize,
     /// Every estimated track: `theta_bar` first, then `ml`, then baselines in
     /// column order.
     pub tracks: Vec<Track>,
@@ -104,8 +119,8 @@ pub struct NodePoint {
     pub iteration: Option<u64>,
     /// Node id.
     pub node: usize,
-    /// `theta[0:2]`.
-    pub pos: [f64; 2],
+    /// The node's position estimate (`theta` without `d`).
+    pub pos: Pos,
 }
 
 /// A run's `run.json` ([`RunJson`]) with the facts the plots and the report
@@ -118,10 +133,12 @@ pub struct RunInfo {
     pub name: String,
     /// Scenario description.
     pub description: Option<String>,
+    /// 2 or 3: the dimension of the scenario's points.
+    pub dim: usize,
     /// Transmitter positions (m).
-    pub transmitters: Vec<[f64; 2]>,
+    pub transmitters: Vec<Pos>,
     /// Receiver (node) positions (m).
-    pub receivers: Vec<[f64; 2]>,
+    pub receivers: Vec<Pos>,
     /// Network edges.
     pub edges: Vec<(usize, usize)>,
     /// Samples excluded from `rmse_after_burn_in`.
@@ -224,6 +241,16 @@ pub struct RunData {
 }
 
 impl RunData {
+    /// 3 for a 3-D run (its scenario's points or `track.csv` have a `z`),
+    /// else 2.
+    pub fn dim(&self) -> usize {
+        if self.info.dim == 3 || self.track.dim == 3 {
+            3
+        } else {
+            2
+        }
+    }
+
     /// Per-node counters of `metrics.json` (`nodes` array).
     pub fn node_counters(&self) -> &[NodeCounters] {
         self.metrics.as_ref().map_or(&[], |m| &m.nodes)

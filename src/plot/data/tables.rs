@@ -5,6 +5,7 @@ use crate::model::error::InputError;
 use crate::plot::data::BoundSeries;
 use crate::plot::data::ML;
 use crate::plot::data::NodePoint;
+use crate::plot::data::Pos;
 use crate::plot::data::THETA_BAR;
 use crate::plot::data::Track;
 use crate::plot::data::TrackKind;
@@ -84,11 +85,18 @@ pub fn read_csv(p: &Path) -> Result<Csv, InputError> {
     Ok(Csv { header, rows })
 }
 
-pub(super) fn xy(x: &[Option<f64>], y: &[Option<f64>]) -> Vec<Option<[f64; 2]>> {
+/// Positions from coordinate columns; without a `z` column, `z` is 0.
+pub(super) fn xyz(
+    x: &[Option<f64>],
+    y: &[Option<f64>],
+    z: Option<&[Option<f64>]>,
+) -> Vec<Option<Pos>> {
     x.iter()
         .zip(y)
-        .map(|(a, b)| match (a, b) {
-            (Some(a), Some(b)) => Some([*a, *b]),
+        .enumerate()
+        .map(|(i, (a, b))| match (a, b, z.map(|z| z[i])) {
+            (Some(a), Some(b), None) => Some([*a, *b, 0.0]),
+            (Some(a), Some(b), Some(Some(c))) => Some([*a, *b, c]),
             _ => None,
         })
         .collect()
@@ -106,11 +114,15 @@ pub(super) fn running_sum(e: &[Option<f64>]) -> Vec<Option<f64>> {
         .collect()
 }
 
-pub(super) fn distances(pos: &[Option<[f64; 2]>], truth: &[Option<[f64; 2]>]) -> Vec<Option<f64>> {
+pub(super) fn distances(
+    pos: &[Option<Pos>],
+    truth: &[Option<Pos>],
+    dim: usize,
+) -> Vec<Option<f64>> {
     pos.iter()
         .zip(truth)
         .map(|(p, t)| match (p, t) {
-            (Some(p), Some(t)) => Some((p[0] - t[0]).hypot(p[1] - t[1])),
+            (Some(p), Some(t)) => Some(super::distance(p, t, dim)),
             _ => None,
         })
         .collect()
@@ -119,7 +131,8 @@ pub(super) fn distances(pos: &[Option<[f64; 2]>], truth: &[Option<[f64; 2]>]) ->
 /// Split a parsed `track.csv` into tracks (the generic column convention:
 /// `est_*` and the plain `error,ctte,regret` are `theta_bar`; `ml_*` is the
 /// ML reference; any other `NAME_x,NAME_y` pair is a baseline with optional
-/// `NAME_error,NAME_ctte,NAME_regret`; `bound_NAME` is a bound radius).
+/// `NAME_error,NAME_ctte,NAME_regret`; `bound_NAME` is a bound radius). A
+/// 3-D run's file has `true_z`/`est_z` and a `_z` beside every `_y`.
 pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
     let j = csv.col("sample").ok_or_else(|| {
         InputError::at(p, "line 1", "no `sample` column: this is not a track.csv")
@@ -137,7 +150,24 @@ pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
     let get = |name: &str| -> Result<Vec<Option<f64>>, InputError> {
         Ok(csv.numbers_of(p, name)?.unwrap_or_else(none))
     };
-    let truth = xy(&get("true_x")?, &get("true_y")?);
+    let dim = if csv.col("true_z").is_some() || csv.col("est_z").is_some() {
+        3
+    } else {
+        2
+    };
+    let coords = |prefix: &str| -> Result<Vec<Option<Pos>>, InputError> {
+        let z = if dim == 3 {
+            Some(get(&format!("{prefix}_z"))?)
+        } else {
+            None
+        };
+        Ok(xyz(
+            &get(&format!("{prefix}_x"))?,
+            &get(&format!("{prefix}_y"))?,
+            z.as_deref(),
+        ))
+    };
+    let truth = coords("true")?;
     let mut names: Vec<(String, TrackKind)> = Vec::new();
     if csv.col("est_x").is_some() && csv.col("est_y").is_some() {
         names.push(("est".into(), TrackKind::Distributed));
@@ -155,7 +185,7 @@ pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
     }
     let mut tracks = Vec::new();
     for (prefix, kind) in &names {
-        let pos = xy(&get(&format!("{prefix}_x"))?, &get(&format!("{prefix}_y"))?);
+        let pos = coords(prefix)?;
         let (err_col, ctte_col, regret_col) = if *kind == TrackKind::Distributed {
             (
                 "error".to_string(),
@@ -171,7 +201,7 @@ pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
         };
         let error = match csv.numbers_of(p, &err_col)? {
             Some(e) => e,
-            None => distances(&pos, &truth),
+            None => distances(&pos, &truth, dim),
         };
         let ctte = match csv.numbers_of(p, &ctte_col)? {
             Some(c) => c,
@@ -195,7 +225,7 @@ pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
     let claimed = |h: &str| {
         names.iter().any(|(b, k)| {
             *k == TrackKind::Baseline
-                && ["_x", "_y", "_error", "_ctte", "_regret"]
+                && ["_x", "_y", "_z", "_error", "_ctte", "_regret"]
                     .iter()
                     .any(|s| h == format!("{b}{s}"))
         })
@@ -225,6 +255,7 @@ pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
     Ok(TrackTable {
         sample,
         truth,
+        dim,
         tracks,
         crlb: get("crlb")?,
         bounds,
@@ -232,7 +263,8 @@ pub fn parse_track_csv(p: &Path, csv: &Csv) -> Result<TrackTable, InputError> {
 }
 
 /// Parse `nodes.csv` (`sample,node,x,y,...`) or, with `iterations`,
-/// `iterations.csv` (`iteration,sample,node,x,y,...`).
+/// `iterations.csv` (`iteration,sample,node,x,y,...`); a `z` column (3-D
+/// runs) is read when present.
 pub fn parse_node_points(
     p: &Path,
     csv: &Csv,
@@ -252,9 +284,14 @@ pub fn parse_node_points(
             )
         })?);
     }
+    let z_col = csv.col("z");
+    if let Some(j) = z_col {
+        cols.push(j);
+        need.push("z");
+    }
     let mut out = Vec::with_capacity(csv.rows.len());
     for (i, r) in csv.rows.iter().enumerate() {
-        let mut v = [0.0; 5];
+        let mut v = [0.0; 6];
         for (k, &j) in cols.iter().enumerate() {
             v[k] = csv
                 .cell(p, i, j, r.get(j).map_or("", String::as_str))?
@@ -280,7 +317,15 @@ pub fn parse_node_points(
         out.push(NodePoint {
             sample: index(v[0], "sample")? as usize,
             node: index(v[1], "node")? as usize,
-            pos: [v[2], v[3]],
+            pos: [
+                v[2],
+                v[3],
+                if z_col.is_some() {
+                    v[need.len() - 1]
+                } else {
+                    0.0
+                },
+            ],
             iteration: if iterations {
                 Some(index(v[4], "iteration")?)
             } else {

@@ -9,6 +9,7 @@ use crate::plot::Series;
 use crate::plot::Style;
 use crate::plot::Swatch;
 use crate::plot::data::NodePoint;
+use crate::plot::data::Pos;
 use crate::plot::data::RunData;
 use crate::plot::data::THETA_BAR;
 use crate::plot::figures::BLACK;
@@ -67,7 +68,7 @@ pub fn consensus_figure(data: &RunData) -> Figure {
         }
     };
     let n_nodes = pts.iter().map(|p| p.node + 1).max().unwrap_or(0);
-    let mut per_node: Vec<Vec<(f64, [f64; 2])>> = vec![Vec::new(); n_nodes];
+    let mut per_node: Vec<Vec<(f64, Pos)>> = vec![Vec::new(); n_nodes];
     for p in pts {
         per_node[p.node].push((xpos(p), p.pos));
     }
@@ -75,11 +76,12 @@ pub fn consensus_figure(data: &RunData) -> Figure {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
     let xs: Vec<f64> = pts.iter().map(xpos).collect();
-    let bar = mean_and_disagreement(pts, &xs, n_nodes);
+    let bar = mean_and_disagreement(pts, &xs, n_nodes, data.dim());
     let truth_pts = truth_points(data, &keys, by_iteration);
     let mut legend = Vec::new();
-    let mut panels: Vec<Panel> = [(0usize, "x (m)"), (1, "y (m)")]
+    let mut panels: Vec<Panel> = [(0usize, "x (m)"), (1, "y (m)"), (2, "z (m)")]
         .into_iter()
+        .take(data.dim())
         .map(|(axis, label)| {
             let lines = Lines {
                 per_node: &per_node,
@@ -121,22 +123,21 @@ fn mean_and_disagreement(
     pts: &[NodePoint],
     xs: &[f64],
     n_nodes: usize,
-) -> Vec<(f64, [f64; 2], f64)> {
-    let mut by_x: std::collections::BTreeMap<u64, Vec<[f64; 2]>> = Default::default();
+    dim: usize,
+) -> Vec<(f64, Pos, f64)> {
+    let mut by_x: std::collections::BTreeMap<u64, Vec<Pos>> = Default::default();
     for (p, x) in pts.iter().zip(xs) {
         by_x.entry(x.to_bits()).or_default().push(p.pos);
     }
-    let mut bar: Vec<(f64, [f64; 2], f64)> = by_x
+    let mut bar: Vec<(f64, Pos, f64)> = by_x
         .into_iter()
         .filter(|(_, v)| v.len() == n_nodes && n_nodes > 0)
         .map(|(x, v)| {
-            let m = [
-                v.iter().map(|p| p[0]).sum::<f64>() / v.len() as f64,
-                v.iter().map(|p| p[1]).sum::<f64>() / v.len() as f64,
-            ];
+            let m: Pos =
+                std::array::from_fn(|i| v.iter().map(|p| p[i]).sum::<f64>() / v.len() as f64);
             let d = v
                 .iter()
-                .map(|p| (p[0] - m[0]).hypot(p[1] - m[1]))
+                .map(|p| crate::plot::data::distance(p, &m, dim))
                 .fold(0.0, f64::max);
             (f64::from_bits(x), m, d)
         })
@@ -147,15 +148,15 @@ fn mean_and_disagreement(
 
 /// The true position per sample; with iterations (`keys`: every
 /// `(sample, iteration)` in order), a step over the sample's iterations.
-fn truth_points(data: &RunData, keys: &[(u64, u64)], by_iteration: bool) -> Vec<(f64, [f64; 2])> {
-    let truth_at = |s: usize| -> Option<[f64; 2]> {
+fn truth_points(data: &RunData, keys: &[(u64, u64)], by_iteration: bool) -> Vec<(f64, Pos)> {
+    let truth_at = |s: usize| -> Option<Pos> {
         data.track
             .sample
             .iter()
             .position(|k| (*k - s as f64).abs() < 0.5)
             .and_then(|i| data.track.truth[i])
     };
-    let mut truth_pts: Vec<(f64, [f64; 2])> = Vec::new();
+    let mut truth_pts: Vec<(f64, Pos)> = Vec::new();
     if by_iteration {
         for (i, k) in keys.iter().enumerate() {
             if let Some(t) = truth_at(k.0 as usize) {
@@ -174,9 +175,9 @@ fn truth_points(data: &RunData, keys: &[(u64, u64)], by_iteration: bool) -> Vec<
 
 /// The lines of a coordinate panel: every node's, `theta_bar`'s, the truth's.
 struct Lines<'a> {
-    per_node: &'a [Vec<(f64, [f64; 2])>],
-    bar: &'a [(f64, [f64; 2], f64)],
-    truth: &'a [(f64, [f64; 2])],
+    per_node: &'a [Vec<(f64, Pos)>],
+    bar: &'a [(f64, Pos, f64)],
+    truth: &'a [(f64, Pos)],
 }
 
 /// The panel of coordinate `axis` (0: x, 1: y); the first one adds the
@@ -249,7 +250,7 @@ fn coordinate_panel(
 /// The disagreement panel (log-scaled when it spans decades).
 fn disagreement_panel(
     x_label: &str,
-    bar: &[(f64, [f64; 2], f64)],
+    bar: &[(f64, Pos, f64)],
     legend: &mut Vec<LegendItem>,
 ) -> Panel {
     let mut dis = Panel::new(300, x_label, "disagreement (m)");

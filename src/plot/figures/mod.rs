@@ -2,6 +2,7 @@
 
 mod channel;
 mod consensus;
+mod depth;
 mod network;
 mod series;
 mod snapshot;
@@ -9,6 +10,7 @@ mod sweep;
 mod tracks;
 pub use channel::{SEQUENCE_FRAMES, channel_figure, messages_figure};
 pub use consensus::consensus_figure;
+pub use depth::depth_figure;
 pub use network::{MAX_LABELLED_NODES, network_figure};
 pub use series::{MAX_BANDS, ctte_figure, error_figure};
 use series::{burn_in_line, fault_spans, finish_series_panel};
@@ -117,7 +119,7 @@ pub fn segments(xs: &[f64], ys: &[Option<f64>], positive: bool) -> Vec<Vec<(f64,
     out
 }
 
-fn point_segments(pos: &[Option<[f64; 2]>]) -> Vec<Vec<(f64, f64)>> {
+fn point_segments(pos: &[Option<crate::plot::data::Pos>]) -> Vec<Vec<(f64, f64)>> {
     let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
     let mut cur = Vec::new();
     for p in pos {
@@ -314,25 +316,29 @@ fn draw_geometry(data: &RunData, panel: &mut Panel, legend: &mut Vec<LegendItem>
     }
 }
 
-/// The figures of a run, in report order: tracks, error, consensus, ctte,
-/// network, and on the acoustic channel messages and channel.
+/// The figures of a run, in report order: tracks (the plan view of a 3-D
+/// run, followed by its depth figure), error, consensus, ctte, network, and
+/// on the acoustic channel messages and channel.
 pub fn run_figures(data: &RunData) -> Vec<Figure> {
     if is_snapshot(data) {
         // One snapshot per trial: distributions across the trials, not
         // curves over a one-point time axis.
-        let mut figs = vec![tracks_figure(data), error_cdf_figure(data)];
+        let mut figs = vec![tracks_figure(data)];
+        figs.extend(depth_figure(data));
+        figs.push(error_cdf_figure(data));
         figs.extend(tightness_cdf_figure(data));
         figs.extend(scatter_figure(data));
         figs.push(network_figure(data));
         return figs;
     }
-    let mut figs = vec![
-        tracks_figure(data),
+    let mut figs = vec![tracks_figure(data)];
+    figs.extend(depth_figure(data));
+    figs.extend([
         error_figure(data),
         consensus_figure(data),
         ctte_figure(data),
         network_figure(data),
-    ];
+    ]);
     figs.extend(messages_figure(data));
     figs.extend(channel_figure(data));
     figs

@@ -158,7 +158,11 @@ fn label_box(l: &Label, offset: (i32, i32)) -> (f64, f64, f64, f64) {
 /// Put each receiver's label on the side of its marker where it covers no
 /// transmitter or receiver marker and no label placed before it (right,
 /// then left, above or below); the first side if none is free.
-pub(crate) fn place_labels(panel: &mut Panel, transmitters: &[[f64; 2]], receivers: &[[f64; 2]]) {
+pub(crate) fn place_labels(
+    panel: &mut Panel,
+    transmitters: &[crate::plot::data::Pos],
+    receivers: &[crate::plot::data::Pos],
+) {
     let (pw, ph) = crate::plot::render::plot_area(WIDTH, panel.height);
     let sx = pw / (panel.x_range.1 - panel.x_range.0).max(1e-300);
     let sy = ph / (panel.y_range.1 - panel.y_range.0).max(1e-300);

@@ -117,7 +117,11 @@ pub fn tracks_figure(data: &RunData) -> Figure {
     dedup_legend(&mut legend);
     Figure {
         name: "tracks".into(),
-        title: format!("Tracks — {}", data.title()),
+        title: if data.dim() == 3 {
+            format!("Tracks in plan view (x, y) — {}", data.title())
+        } else {
+            format!("Tracks — {}", data.title())
+        },
         width: WIDTH,
         panels,
         legend,
@@ -154,7 +158,11 @@ fn bound_discs(data: &RunData, tracks: &mut Panel, legend: &mut Vec<LegendItem>)
 }
 
 /// The true track, a line with a dot at every sample.
-fn truth_line(truth: &[Option<[f64; 2]>], tracks: &mut Panel, legend: &mut Vec<LegendItem>) {
+fn truth_line(
+    truth: &[Option<crate::plot::data::Pos>],
+    tracks: &mut Panel,
+    legend: &mut Vec<LegendItem>,
+) {
     let truth = point_segments(truth);
     if !truth.is_empty() {
         let st = Style {
