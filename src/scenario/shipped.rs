@@ -9,6 +9,10 @@ use std::path::{Path, PathBuf};
 /// (name, TOML text) of every shipped scenario, by name.
 pub const SHIPPED: &[(&str, &str)] = &[
     (
+        "gholami-3d",
+        include_str!("../../scenarios/gholami-3d.toml"),
+    ),
+    (
         "gholami-gaussian",
         include_str!("../../scenarios/gholami-gaussian.toml"),
     ),
