@@ -130,5 +130,49 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// The bounds in 3-D on eight balls (the cube corners of Gholami 2015
+/// Table 2, scaled to a 100 m cube), at the POCS estimate.
+fn bench_3d(c: &mut Criterion) {
+    type P3 = sonarnet::model::geometry::Point<3>;
+    let x_true = P3::new(37.0, 61.0, 22.0);
+    let err = [0.3, 1.1, 0.05, 2.4, 0.7, 6.5, 0.2, 1.6];
+    let balls: Vec<Region<3>> = (0..8)
+        .map(|k| {
+            let a = P3::new(
+                100.0 * f64::from(k & 1),
+                100.0 * f64::from((k >> 1) & 1),
+                100.0 * f64::from((k >> 2) & 1),
+            );
+            Region::from_range(a, (x_true - a).norm() + err[k as usize], 0.0)
+        })
+        .collect();
+    let x_hat = pocs(&balls, P3::repeat(50.0), 10_000, 1e-9)
+        .expect("finite")
+        .x;
+    let mut g = c.benchmark_group("8 balls (3-D)");
+    g.bench_function("upp_rbbox", |b| {
+        b.iter(|| upp_rbbox(black_box(&balls), black_box(&x_hat)))
+    });
+    g.bench_function("upp_bbox", |b| {
+        b.iter(|| upp_bbox(black_box(&balls), black_box(&x_hat)))
+    });
+    g.bench_function("upp_minball", |b| {
+        b.iter(|| upp_minball(black_box(&balls), black_box(&x_hat)))
+    });
+    g.bench_function("upp_maxdis", |b| {
+        b.iter(|| upp_maxdis(black_box(&balls), black_box(&x_hat)))
+    });
+    g.bench_function("upp_exact", |b| {
+        b.iter(|| upp_exact(black_box(&balls), black_box(&x_hat)))
+    });
+    let inter = Intersection::new(&balls)
+        .expect("solver")
+        .expect("nonempty");
+    g.bench_function("exact_on_checked_intersection", |b| {
+        b.iter(|| inter.upp_exact(black_box(&x_hat)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_3d);
 criterion_main!(benches);
