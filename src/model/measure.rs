@@ -21,6 +21,25 @@ pub struct NodeMeasurements {
 }
 
 impl NodeMeasurements {
+    /// Drop what no receiver of a network with `transmitters` transmitters
+    /// can have measured: a bistatic range naming an unknown transmitter,
+    /// and any value that is not finite (what a corrupted or hostile frame
+    /// could carry). Returns how many values were dropped; measurements the
+    /// coordinator synthesized or read from a checked trace lose nothing.
+    pub fn retain_valid(&mut self, transmitters: usize) -> usize {
+        let before = self.bistatic.len();
+        self.bistatic
+            .retain(|&(m, v)| m < transmitters && v.is_finite());
+        let mut dropped = before - self.bistatic.len();
+        for v in [&mut self.doa, &mut self.elevation, &mut self.range] {
+            if v.is_some_and(|x| !x.is_finite()) {
+                *v = None;
+                dropped += 1;
+            }
+        }
+        dropped
+    }
+
     /// True when the receiver measured nothing at this sample.
     pub fn is_empty(&self) -> bool {
         self.bistatic.is_empty()
@@ -148,6 +167,19 @@ pub struct Sigmas {
     pub elevation: f64,
 }
 
+impl Sigmas {
+    /// These sigmas with any value that is not finite and `>= 0` (what a
+    /// corrupted frame could carry) set to 0, which weights nothing.
+    pub fn valid(self) -> Sigmas {
+        let ok = |v: f64| if v.is_finite() && v >= 0.0 { v } else { 0.0 };
+        Sigmas {
+            range: ok(self.range),
+            doa: ok(self.doa),
+            elevation: ok(self.elevation),
+        }
+    }
+}
+
 /// Noise-free bistatic range `||x - t|| + ||x - r||`.
 pub fn bistatic_range<const D: usize>(x: &Point<D>, t: &Point<D>, r: &Point<D>) -> f64 {
     (x - t).norm() + (x - r).norm()
@@ -242,6 +274,36 @@ mod tests {
                 .nodes
                 .iter()
                 .all(|n| n.elevation.is_none())
+        );
+    }
+
+    #[test]
+    fn a_measurement_no_receiver_can_have_made_is_dropped_and_the_rest_kept_bit_for_bit() {
+        let mut m = NodeMeasurements {
+            bistatic: vec![(0, 1500.0), (255, 10.0), (1, f64::NAN), (1, 2100.5)],
+            doa: Some(f64::INFINITY),
+            elevation: Some(0.25),
+            range: Some(900.0),
+        };
+        assert_eq!(m.retain_valid(2), 3);
+        assert_eq!(m.bistatic.len(), 2);
+        assert_eq!(m.bistatic[0].1.to_bits(), 1500.0f64.to_bits());
+        assert_eq!(m.bistatic[1].1.to_bits(), 2100.5f64.to_bits());
+        assert!(m.doa.is_none());
+        assert!(m.elevation.is_some() && m.range.is_some());
+        // A valid set loses nothing.
+        let mut ok = m.clone();
+        assert_eq!(ok.retain_valid(2), 0);
+        assert_eq!(ok, m);
+        let s = Sigmas {
+            range: f64::NAN,
+            doa: -1.0,
+            elevation: 0.2,
+        }
+        .valid();
+        assert_eq!(
+            [s.range, s.doa, s.elevation].map(f64::to_bits),
+            [0.0, 0.0, 0.2].map(f64::to_bits)
         );
     }
 }

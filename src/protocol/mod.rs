@@ -270,10 +270,15 @@ impl NodeCore {
         match c {
             Command::Sample {
                 sample,
-                meas,
+                mut meas,
                 sigmas,
             } => {
                 self.sample = sample;
+                // A frame of the wire may name a transmitter this run does
+                // not have, or carry a non-finite value: neither reaches the
+                // cost.
+                meas.retain_valid(self.cfg.transmitters.len());
+                let sigmas = sigmas.valid();
                 self.problem.build(&self.cfg, &meas, &sigmas);
                 if self.cfg.first_fix && !self.started {
                     self.u = self.problem.first_fix();
