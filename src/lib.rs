@@ -36,6 +36,7 @@ extern crate dense_lapack;
 pub mod cli;
 pub mod engine;
 pub mod estimators;
+pub mod fuzz;
 pub mod model;
 pub mod pipeline;
 pub mod plot;

@@ -9,6 +9,7 @@ mod docs;
 mod engine;
 mod faults;
 mod first_hour;
+mod fuzz_corpus;
 mod golden;
 mod interrupt;
 mod layers;

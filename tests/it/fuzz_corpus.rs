@@ -1,0 +1,89 @@
+//! The fuzz targets' kept inputs as ordinary tests: every file of
+//! `fuzz/corpus/TARGET/` and `fuzz/regressions/TARGET/` runs through the
+//! harness the target calls (`sonarnet::fuzz`), so a crash once found and
+//! fixed stays fixed without a fuzzer on the machine.
+
+use crate::util::root;
+use sonarnet::fuzz;
+use sonarnet::model::coords::Coords;
+use sonarnet::protocol::codec::{Control, encode_control, encode_peer};
+use sonarnet::protocol::{Command, PeerMsg};
+use sonarnet::scenario::Scenario;
+
+/// The frames a node of the spiral receives in its first sample: its
+/// measurements, a sync round plan and a few gossip messages.
+fn real_frames() -> Vec<sonarnet::transport::wire::Frame> {
+    let sc = Scenario::load(&crate::util::scenario("mourya2017-spiral.toml")).expect("spiral");
+    let real = sc.realize();
+    let mut out = Vec::new();
+    let sample = Command::Sample {
+        sample: 0,
+        meas: real.measurements[0].nodes[3].clone(),
+        sigmas: real.sigmas[0],
+    };
+    encode_control(&Control::Command(sample), &mut out);
+    encode_control(
+        &Control::Command(Command::SyncRounds {
+            sample: 0,
+            first_round: 0,
+            rounds: 2,
+        }),
+        &mut out,
+    );
+    let r = Coords::from([480.0, 510.0, 1700.0]);
+    for m in [
+        PeerMsg::Reflect { from: 2, seq: 0, r },
+        PeerMsg::Request { from: 4, seq: 1, r },
+        PeerMsg::Decline { from: 5, seq: 2 },
+    ] {
+        out.push(encode_peer(&m));
+    }
+    out
+}
+
+#[test]
+fn real_frames_survive_the_harness_byte_layout_unchanged() {
+    let frames = real_frames();
+    let bytes = fuzz::bytes_of(&frames);
+    assert_eq!(bytes.len(), frames.len() * fuzz::FRAME_BYTES);
+    let back = fuzz::frames_of(&bytes);
+    assert_eq!(back.len(), frames.len());
+    for (a, b) in frames.iter().zip(&back) {
+        assert_eq!(
+            (a.kind, a.from, a.sample, a.aux, a.seq),
+            (b.kind, b.from, b.sample, b.aux, b.seq)
+        );
+        assert_eq!(a.data.map(f64::to_bits), b.data.map(f64::to_bits));
+    }
+    // The seed of the node_frames corpus is exactly these frames.
+    let seed = root().join("fuzz/corpus/node_frames/spiral-sample-0");
+    if std::env::var_os("SONARNET_WRITE_FUZZ_SEEDS").is_some() {
+        std::fs::create_dir_all(seed.parent().expect("dir")).expect("corpus dir");
+        std::fs::write(&seed, &bytes).expect("write seed");
+    }
+    assert_eq!(std::fs::read(&seed).expect("the seed is kept"), bytes);
+    fuzz::node_frames(&bytes);
+}
+
+#[test]
+fn every_kept_fuzz_input_runs_through_its_harness_without_a_panic() {
+    let mut counts = Vec::new();
+    for target in fuzz::TARGETS {
+        let harness = fuzz::harness(target).expect("a harness per target");
+        let mut n = 0;
+        for dir in ["corpus", "regressions"] {
+            let Ok(entries) = std::fs::read_dir(root().join("fuzz").join(dir).join(target)) else {
+                continue;
+            };
+            for e in entries.flatten() {
+                let bytes = std::fs::read(e.path()).expect("read input");
+                harness(&bytes);
+                n += 1;
+            }
+        }
+        counts.push((target, n));
+    }
+    for (target, n) in counts {
+        assert!(n > 0, "fuzz/corpus/{target}/ has no input");
+    }
+}
