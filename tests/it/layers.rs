@@ -139,7 +139,7 @@ const LAYERS: [&[&str]; 10] = [
     &["runtime"],
     &["pipeline"],
     &["plot", "report"],
-    &["cli"],
+    &["cli", "fuzz"],
 ];
 
 fn layer(module: &str) -> Option<usize> {
