@@ -10,6 +10,10 @@
 //! * `iterations.csv`: `iteration,sample,node,x,y,d,seed` with `--trace-iterations`;
 //! * `truth.csv`: `sample,x,y,seed` when the truth is known;
 //! * `metrics.json`: the metrics, see [`RunMetrics`].
+//!
+//! A 3-D run (`Scenario<3>`) goes through the same functions: its position
+//! columns have a `z` after `x` and `y` (`true_z`, `est_z`, `ml_z`,
+//! `NAME_z`; `x,y,z,d` in `nodes.csv` and `iterations.csv`).
 
 pub mod bench;
 pub mod montecarlo;
