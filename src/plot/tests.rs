@@ -19,7 +19,7 @@ sample,true_x,true_y,est_x,est_y,error,ml_x,ml_y,crlb,ctte,ogd_x,ogd_y,ogd_error
 3,509,508,507,509,2.23606797749979,509,509,3.0,986.8156116943456,508,508,1,29.24703,7,510,509,9,,7
 ";
 
-fn csv_of(text: &str) -> Csv {
+pub(super) fn csv_of(text: &str) -> Csv {
     let mut rdr = csv::Reader::from_reader(text.as_bytes());
     Csv {
         header: rdr.headers().unwrap().iter().map(str::to_owned).collect(),

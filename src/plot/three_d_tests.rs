@@ -4,6 +4,7 @@
 
 use super::data::*;
 use super::figures::*;
+use super::tests::csv_of;
 use approx::assert_relative_eq;
 use serde_json::json;
 use std::path::Path;
@@ -19,17 +20,6 @@ sample,true_x,true_y,true_z,est_x,est_y,est_z,error,ml_x,ml_y,ml_z,crlb,ctte,ogd
 /// A position's bits, for exact comparisons.
 fn bits(p: Option<Pos>) -> Option<[u64; 3]> {
     p.map(|p| p.map(f64::to_bits))
-}
-
-fn csv_of(text: &str) -> Csv {
-    let mut rdr = csv::Reader::from_reader(text.as_bytes());
-    Csv {
-        header: rdr.headers().unwrap().iter().map(str::to_owned).collect(),
-        rows: rdr
-            .records()
-            .map(|r| r.unwrap().iter().map(str::to_owned).collect())
-            .collect(),
-    }
 }
 
 fn run_json_3d() -> serde_json::Value {

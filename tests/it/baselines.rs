@@ -1,7 +1,7 @@
 //! Baselines, bounds, variants and Monte Carlo through the real `sonarnet`
 //! binary: the outputs a user reads with pandas.
 
-use crate::util::{TempDir, read_rows, run_file, sonarnet};
+use crate::util::{TempDir, header, read_rows, run_file, sonarnet};
 use std::time::Duration;
 
 const TOA: &str = r#"
@@ -37,15 +37,6 @@ tracks = ["pocs"]
 [expect]
 holds = ["onm.rmse < 0.05", "pocs.bounds.upp_rbbox.coverage >= 0.9"]
 "#;
-
-fn header(path: &std::path::Path) -> Vec<String> {
-    let mut rdr = csv::Reader::from_path(path).expect("open csv");
-    rdr.headers()
-        .expect("header")
-        .iter()
-        .map(str::to_owned)
-        .collect()
-}
 
 #[test]
 fn baselines_and_bounds_get_their_own_track_columns_and_metrics() {

@@ -2,22 +2,13 @@
 //! the same commands as in 2-D, with a `z` beside every `x, y` in the
 //! outputs, a depth figure, and the dimension stated.
 
-use crate::util::{TempDir, read_rows, run_file, scenario, sonarnet};
+use crate::util::{TempDir, header, read_rows, run_file, scenario, sonarnet};
 use sonarnet::pipeline::RunOptions;
 use sonarnet::scenario::AnyScenario;
 use std::path::Path;
 use std::time::Duration;
 
 const LIMIT: Duration = Duration::from_secs(120);
-
-fn header(path: &Path) -> Vec<String> {
-    let mut rdr = csv::Reader::from_path(path).expect("open csv");
-    rdr.headers()
-        .expect("header")
-        .iter()
-        .map(str::to_owned)
-        .collect()
-}
 
 fn col(path: &Path, name: &str) -> Vec<f64> {
     let h = header(path);

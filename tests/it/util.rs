@@ -107,6 +107,16 @@ pub fn run_file(file: &Path, out: &Path, args: &[&str], limit: Duration) -> Outp
     sonarnet(&all, limit)
 }
 
+/// A CSV file's header.
+pub fn header(path: &Path) -> Vec<String> {
+    let mut rdr = csv::Reader::from_path(path).expect("open csv");
+    rdr.headers()
+        .expect("header")
+        .iter()
+        .map(str::to_owned)
+        .collect()
+}
+
 /// Read a results CSV as rows of strings (header dropped).
 pub fn read_rows(path: &Path) -> Vec<Vec<String>> {
     let mut rdr = csv::Reader::from_path(path).expect("open csv");
