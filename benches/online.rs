@@ -12,6 +12,7 @@ use std::hint::black_box;
 
 fn setup() -> (Geometry, SampleMeasurements) {
     let geometry = Geometry {
+        drift: Vec::new(),
         transmitters: vec![],
         receivers: vec![
             Vec2::new(0.5, 0.5),

@@ -532,6 +532,7 @@ mod tests {
 
     fn lone_node(checkpoint_every: Option<u32>) -> NodeConfig {
         NodeConfig {
+            drift: None,
             id: 0,
             n_nodes: 1,
             anchor: Pt::xy(1.0, 2.0),

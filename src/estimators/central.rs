@@ -246,14 +246,15 @@ pub fn ml_track<const D: usize>(
 ) -> Vec<Point<D>> {
     let mut out: Vec<Point<D>> = Vec::with_capacity(samples.len());
     for (k, s) in samples.iter().enumerate() {
-        let obs = observations(geometry, s);
+        let geometry = geometry.at(k);
+        let obs = observations(&geometry, s);
         let x = match out.last() {
-            None => ml_initial(geometry, &obs, &sigmas[k]),
+            None => ml_initial(&geometry, &obs, &sigmas[k]),
             Some(prev) => {
                 let warm = ml_estimate(&obs, &sigmas[k], *prev);
                 // Guard against a local minimum: compare with a cold start.
                 if ml_cost(&obs, &sigmas[k], &warm) > 4.0 * obs.len() as f64 + 100.0 {
-                    let cold = ml_initial(geometry, &obs, &sigmas[k]);
+                    let cold = ml_initial(&geometry, &obs, &sigmas[k]);
                     if ml_cost(&obs, &sigmas[k], &cold) < ml_cost(&obs, &sigmas[k], &warm) {
                         cold
                     } else {
@@ -388,6 +389,7 @@ mod tests {
     fn ocean() -> Geometry<3> {
         let p = |x: f64, y: f64, z: f64| Point::<3>::new(x, y, z);
         Geometry {
+            drift: Vec::new(),
             transmitters: vec![p(0.0, 0.0, 10.0), p(2000.0, 2000.0, 5.0)],
             receivers: vec![
                 p(-1000.0, -1000.0, 100.0),

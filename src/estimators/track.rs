@@ -53,7 +53,8 @@ fn refuse(key: &'static str, reason: impl Into<String>) -> KeyError {
 }
 
 /// The estimation problem of a track: every sample's measurements in one
-/// geometry, and the true first position when a truth file gives it (the
+/// geometry (each sample solved at its own positions, [`Geometry::at`], when
+/// receivers drift), and the true first position when a truth file gives it (the
 /// trackers' exact initialisation, Pun-So 2022 Sec. V, needs it).
 #[derive(Debug, Clone, Copy)]
 pub struct TrackProblem<'a, const D: usize = 2> {
@@ -208,7 +209,7 @@ pub fn run_track<const D: usize>(
             before.push(x);
         }
         let start = Instant::now();
-        let r = solver.solve(problem.geometry, s, k);
+        let r = solver.solve(&problem.geometry.at(k), s, k);
         run.step_seconds += start.elapsed().as_secs_f64();
         match r {
             Ok(x) if scene.holds(&x) => run.est.push(Some(x)),
@@ -704,6 +705,7 @@ mod tests {
         use crate::model::geometry::Point;
         let p3 = |x, y, z| Point::<3>::new(x, y, z);
         let g = Geometry {
+            drift: Vec::new(),
             transmitters: vec![
                 p3(-500.0, -500.0, -10.0),
                 p3(500.0, -500.0, -20.0),

@@ -49,7 +49,9 @@ impl NodeMeasurements {
     }
 }
 
+use crate::model::drift::Drift;
 use crate::model::geometry::{Point, Vec2};
+use std::borrow::Cow;
 
 /// Fixed positions of the network: transmitters `t_m` and receivers `r_n`
 /// (the receivers are the nodes of the gossip graph), in `D` = 2 or 3
@@ -58,11 +60,61 @@ use crate::model::geometry::{Point, Vec2};
 pub struct Geometry<const D: usize = 2> {
     /// Transmitter positions `t_m` (may be empty for a pure TOA network).
     pub transmitters: Vec<Point<D>>,
-    /// Receiver positions `r_n`.
+    /// Receiver positions `r_n` (at sample 0 for a receiver that drifts).
     pub receivers: Vec<Point<D>>,
+    /// How the receivers drift ([`crate::model::drift`]): empty when none
+    /// does, else one entry per receiver (`None`: it stays put). Positions
+    /// at a sample: [`Geometry::at`].
+    #[serde(skip)]
+    pub drift: Vec<Option<Drift>>,
 }
 
 impl<const D: usize> Geometry<D> {
+    /// Fixed transmitters and receivers.
+    pub fn new(transmitters: Vec<Point<D>>, receivers: Vec<Point<D>>) -> Self {
+        Geometry {
+            transmitters,
+            receivers,
+            drift: Vec::new(),
+        }
+    }
+
+    /// The same geometry with receivers drifting as `drift` says (one entry
+    /// per receiver, or empty: [`crate::model::drift::resolve`]).
+    pub fn with_drift(mut self, drift: Vec<Option<Drift>>) -> Self {
+        self.drift = drift;
+        self
+    }
+
+    /// Whether any receiver moves.
+    pub fn drifts(&self) -> bool {
+        self.drift.iter().any(Option::is_some)
+    }
+
+    /// Receiver `n`'s position at sample `k` (`r_n` if it does not drift).
+    pub fn receiver_at(&self, n: usize, k: usize) -> Point<D> {
+        match self.drift.get(n) {
+            Some(Some(d)) => d.position(&self.receivers[n], k),
+            _ => self.receivers[n],
+        }
+    }
+
+    /// The positions at sample `k`, as a fixed geometry: this one itself
+    /// when no receiver drifts. Everything that works on one sample
+    /// (measurement synthesis, the centralised estimators, the baselines,
+    /// the bounds, the CRLB) is given the geometry of that sample.
+    pub fn at(&self, k: usize) -> Cow<'_, Geometry<D>> {
+        if !self.drifts() {
+            return Cow::Borrowed(self);
+        }
+        Cow::Owned(Geometry::new(
+            self.transmitters.clone(),
+            (0..self.receivers.len())
+                .map(|n| self.receiver_at(n, k))
+                .collect(),
+        ))
+    }
+
     /// The centroid of every sensor, receivers and transmitters alike (the
     /// origin for an empty geometry): POCS's first starting point.
     pub fn centroid(&self) -> Point<D> {
@@ -101,9 +153,9 @@ impl Geometry<2> {
     /// and `(2000, 2000)` m, six receivers around them. The one copy of it for
     /// tests and benches (`scenarios/mourya2017-spiral.toml` states it too).
     pub fn mourya2017() -> Self {
-        Geometry {
-            transmitters: vec![Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)],
-            receivers: vec![
+        Geometry::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(2000.0, 2000.0)],
+            vec![
                 Vec2::new(-1000.0, -1000.0),
                 Vec2::new(1500.0, -1000.0),
                 Vec2::new(-1000.0, 1000.0),
@@ -111,7 +163,7 @@ impl Geometry<2> {
                 Vec2::new(1500.0, 2500.0),
                 Vec2::new(2500.0, 1500.0),
             ],
-        }
+        )
     }
 }
 
@@ -256,6 +308,7 @@ mod tests {
     #[test]
     fn a_3d_receiver_measures_an_elevation_only_with_a_doa() {
         let g = Geometry::<3> {
+            drift: Vec::new(),
             transmitters: vec![Point::<3>::new(0.0, 0.0, 0.0)],
             receivers: vec![Point::<3>::new(10.0, 0.0, 20.0)],
         };

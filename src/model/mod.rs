@@ -7,6 +7,7 @@
 
 pub mod channel;
 pub mod coords;
+pub mod drift;
 pub mod error;
 pub mod fault;
 pub mod geometry;

@@ -107,6 +107,21 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
+/// The point at arc length `s` along the polyline `pts` (segment lengths
+/// `seg`), clamped to its ends; the one implementation of a walk along
+/// waypoints (the target's [`Motion::Waypoints`], a receiver's
+/// [`crate::model::drift::Drift::Waypoints`]).
+pub fn point_along<const D: usize>(pts: &[Point<D>], seg: &[f64], mut s: f64) -> Point<D> {
+    for (i, &len) in seg.iter().enumerate() {
+        if s <= len || i + 1 == seg.len() {
+            let a = if len > 0.0 { (s / len).min(1.0) } else { 0.0 };
+            return pts[i] + (pts[i + 1] - pts[i]) * a;
+        }
+        s -= len;
+    }
+    pts[pts.len() - 1]
+}
+
 impl Motion {
     /// The model's points with their keys (under the motion's table), for
     /// the scenario's check that every point has its dimension; the
@@ -288,15 +303,7 @@ impl Motion {
                         } else {
                             0.0
                         };
-                        let mut s = frac * total;
-                        for (i, &len) in seg.iter().enumerate() {
-                            if s <= len || i + 1 == seg.len() {
-                                let a = if len > 0.0 { (s / len).min(1.0) } else { 0.0 };
-                                return pts[i] + (pts[i + 1] - pts[i]) * a;
-                            }
-                            s -= len;
-                        }
-                        pts[pts.len() - 1]
+                        point_along(&pts, &seg, frac * total)
                     })
                     .collect()
             }

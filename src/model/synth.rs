@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 /// `phi_n = atan2(theta_y - r_ny, theta_x - r_nx) + noise`; Pun-So 2022: one-way
 /// `||theta - r_n|| + noise`). In 3-D the DOA is an azimuth (as `phi_n`) and an
 /// elevation [`measure::elevation`], drawn after the azimuth with its own
-/// noise model (`elevation_noise`, the DOA's when not given).
+/// noise model (`elevation_noise`, the DOA's when not given). A drifting
+/// receiver measures from its position at each sample ([`Geometry::at`]).
 pub fn synthesize<const D: usize>(
     geometry: &Geometry<D>,
     truth: &[Point<D>],
@@ -37,6 +38,7 @@ pub fn synthesize<const D: usize>(
         .enumerate()
         .map(|(k, x)| SampleMeasurements {
             nodes: geometry
+                .at(k)
                 .receivers
                 .iter()
                 .zip(rngs.iter_mut())

@@ -9,6 +9,7 @@
 //! * `measurements.csv`: every measurement in the trace format (replayable);
 //! * `iterations.csv`: `iteration,sample,node,x,y,d,seed` with `--trace-iterations`;
 //! * `truth.csv`: `sample,x,y,seed` when the truth is known;
+//! * `receivers.csv`: `sample,node,x,y,drifts` when receivers drift (`[[geometry.drift]]`);
 //! * `metrics.json`: the metrics, see [`RunMetrics`].
 //!
 //! A 3-D run (`Scenario<3>`) goes through the same functions: its position

@@ -70,6 +70,7 @@ const FILES: &[&str] = &[
     "faults.csv",
     "measurements.csv",
     "truth.csv",
+    "receivers.csv",
     "trials.csv",
     "sweep.csv",
     "sweep-summary.csv",

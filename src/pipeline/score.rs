@@ -207,7 +207,7 @@ pub fn score<const D: usize>(
 
     let crlb: Vec<Option<f64>> = match truth {
         Some(t) => (0..done)
-            .map(|k| crlb_of(geometry, &meas[k], &real.sigmas[k], &t[k]))
+            .map(|k| crlb_of(&geometry.at(k), &meas[k], &real.sigmas[k], &t[k]))
             .collect(),
         None => vec![None; done],
     };
@@ -227,7 +227,7 @@ pub fn score<const D: usize>(
         Some(b) => (0..done)
             .map(|k| {
                 feasible_set(
-                    geometry,
+                    &geometry.at(k),
                     &meas[k],
                     b.rho + b.rho_sigmas * real.sigmas[k].range,
                 )
@@ -351,11 +351,12 @@ fn x_hats<const D: usize>(
     let xh = meas
         .iter()
         .zip(truth)
-        .map(|(m, t)| {
+        .enumerate()
+        .map(|(k, (m, t))| {
             if online::term_count(m) == 0 {
                 return None;
             }
-            let xh = online::x_hat(geometry, m, *t, &XHatOptions::default()).ok();
+            let xh = online::x_hat(&geometry.at(k), m, *t, &XHatOptions::default()).ok();
             if let Some(x) = &xh {
                 not_converged += usize::from(!x.converged);
             }
@@ -376,7 +377,7 @@ fn regret_curve<const D: usize>(
     let mut terms = Vec::with_capacity(meas.len());
     for k in 0..meas.len() {
         let term = match (&x_hats[k], est[k]) {
-            (Some(h), Some(x)) => online::regret_term(geometry, &meas[k], &x, h).ok()?,
+            (Some(h), Some(x)) => online::regret_term(&geometry.at(k), &meas[k], &x, h).ok()?,
             (None, _) => 0.0,
             (Some(_), None) => return None,
         };

@@ -1,6 +1,7 @@
 //! The results directory of one run: `run.json`, the CSVs (`track.csv`,
 //! `nodes.csv`, `schedule.csv`, `iterations.csv`, `messages.csv`, `faults.csv`,
-//! `measurements.csv`, `truth.csv`) and `metrics.json`.
+//! `measurements.csv`, `truth.csv`, `receivers.csv` when receivers drift) and
+//! `metrics.json`.
 
 use super::RunJson;
 use super::RunStatus;
@@ -69,9 +70,38 @@ impl<const D: usize> Outcome<D> {
                 }),
             )?;
         }
+        if sc.geometry.drifts() {
+            write_receivers_csv(&dir.join("receivers.csv"), sc, done)?;
+        }
         write_json(&dir.join("metrics.json"), m)?;
         Ok(())
     }
+}
+
+/// Write `receivers.csv` (a run whose receivers drift): every receiver's
+/// position at every completed sample, `sample,node,x,y[,z],drifts`.
+fn write_receivers_csv<const D: usize>(
+    path: &Path,
+    sc: &Scenario<D>,
+    done: usize,
+) -> Result<(), RunError> {
+    let mut header = vec!["sample", "node"];
+    header.extend(AXES[..D].iter());
+    header.push("drifts");
+    let g = &sc.geometry;
+    let n = g.receivers.len();
+    write_csv(
+        path,
+        &header,
+        (0..done).flat_map(|k| {
+            (0..n).map(move |i| {
+                let mut row = vec![k.to_string(), i.to_string()];
+                row.extend(g.receiver_at(i, k).iter().map(|v| num(*v)));
+                row.push(matches!(g.drift.get(i), Some(Some(_))).to_string());
+                row
+            })
+        }),
+    )
 }
 
 /// Write `nodes.csv`: every node's `theta` after every completed sample,

@@ -89,6 +89,7 @@ fn data() -> RunData {
         iterations: None,
         monte_carlo: None,
         messages: None,
+        receivers: None,
     }
 }
 

@@ -31,9 +31,13 @@ impl<const D: usize, const L: usize> Step<D, L> {
         }
     }
 
-    fn build(&mut self, cfg: &NodeConfig, meas: &NodeMeasurements, sigmas: &Sigmas) {
+    fn build(&mut self, cfg: &NodeConfig, sample: u32, meas: &NodeMeasurements, sigmas: &Sigmas) {
+        let anchor = match &cfg.drift {
+            Some(d) => d.position(&cfg.anchor.point::<D>(), sample as usize),
+            None => self.problem.anchor,
+        };
         self.problem = LocalProblem::build_weighted(
-            self.problem.anchor,
+            anchor,
             &self.transmitters,
             cfg.omega,
             meas,
@@ -68,11 +72,18 @@ impl LocalStep {
         }
     }
 
-    /// Replace the cost by that of this sample's measurements (eq. 9-10).
-    pub fn build(&mut self, cfg: &NodeConfig, meas: &NodeMeasurements, sigmas: &Sigmas) {
+    /// Replace the cost by that of sample `sample`'s measurements
+    /// (eq. 9-10), at the node's position of that sample.
+    pub fn build(
+        &mut self,
+        cfg: &NodeConfig,
+        sample: u32,
+        meas: &NodeMeasurements,
+        sigmas: &Sigmas,
+    ) {
         match self {
-            LocalStep::Plane(s) => s.build(cfg, meas, sigmas),
-            LocalStep::Space(s) => s.build(cfg, meas, sigmas),
+            LocalStep::Plane(s) => s.build(cfg, sample, meas, sigmas),
+            LocalStep::Space(s) => s.build(cfg, sample, meas, sigmas),
         }
     }
 

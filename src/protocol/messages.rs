@@ -5,6 +5,7 @@
 use crate::estimators::prox::LocalSolver;
 use crate::estimators::prox::gtrs::ProxFailure;
 use crate::model::coords::Coords;
+use crate::model::drift::Drift;
 use crate::model::measure::{NodeMeasurements, Sigmas};
 use crate::model::xy::Pt;
 
@@ -18,8 +19,13 @@ pub struct NodeConfig {
     pub id: u32,
     /// Number of nodes in the network (sync averaging divides by it).
     pub n_nodes: u32,
-    /// This receiver's position `r_v`; its dimension (2 or 3) is the run's.
+    /// This receiver's position `r_v` (at sample 0 if it drifts); its
+    /// dimension (2 or 3) is the run's.
     pub anchor: Pt,
+    /// How this receiver drifts, if it does: the node builds each sample's
+    /// cost at its position of that sample ([`Drift::position`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drift: Option<Drift>,
     /// All transmitter positions `t_m`, of the anchor's dimension.
     pub transmitters: Vec<Pt>,
     /// Sorted neighbour ids.

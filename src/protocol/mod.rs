@@ -279,7 +279,7 @@ impl NodeCore {
                 // cost.
                 meas.retain_valid(self.cfg.transmitters.len());
                 let sigmas = sigmas.valid();
-                self.problem.build(&self.cfg, &meas, &sigmas);
+                self.problem.build(&self.cfg, sample, &meas, &sigmas);
                 if self.cfg.first_fix && !self.started {
                     self.u = self.problem.first_fix();
                     self.theta = self.u;
@@ -726,6 +726,7 @@ mod tests {
 
     fn config(solver: LocalSolver, kappa: usize) -> NodeConfig {
         NodeConfig {
+            drift: None,
             id: 1,
             n_nodes: 3,
             anchor: Pt::xy(1.0, 2.0),

@@ -281,6 +281,7 @@ fn node_config<const D: usize>(
         id: id as u32,
         n_nodes: sc.graph.len() as u32,
         anchor: Pt::of(&sc.geometry.receivers[id]),
+        drift: sc.geometry.drift.get(id).cloned().flatten(),
         transmitters: sc.geometry.transmitters.iter().map(Pt::of).collect(),
         neighbours: sc.graph.neighbours(id).iter().map(|&w| w as u32).collect(),
         omega: sc.measurements.omega,

@@ -244,10 +244,9 @@ impl<const D: usize> Scenario<D> {
         }
         let (transmitters, mut receivers) = sections::points(path, &file)?;
         let graph = sections::network(path, &file, &mut receivers)?;
-        let geometry = Geometry {
-            transmitters,
-            receivers,
-        };
+        let drift = crate::model::drift::resolve(&file.geometry.drift, D, receivers.len())
+            .map_err(|e| e.in_file(path))?;
+        let geometry = Geometry::new(transmitters, receivers).with_drift(drift);
         sections::measurements(path, &file.measurements, &geometry)?;
         let (source, samples) = sections::data_source(path, base, &file, &geometry)?;
         let algorithm = sections::algorithm::<D>(path, base, &file, &graph, samples)?;
@@ -255,6 +254,15 @@ impl<const D: usize> Scenario<D> {
         if let Some(ch) = file.channel.acoustic() {
             ch.validate(geometry.receivers.len())
                 .map_err(|e| e.in_file(path))?;
+            if geometry.drifts() {
+                return Err(InputError::at(
+                    path,
+                    "geometry.drift",
+                    "the acoustic channel propagates between fixed positions, so drifting \
+                     receivers are not supported on it: run them on the ideal channel \
+                     (drop [channel] or set model = \"ideal\")",
+                ));
+            }
         }
         if let Some(d) = &file.deploy {
             d.validate(geometry.receivers.len())

@@ -118,6 +118,33 @@ impl<const D: usize> Scenario<D> {
                 g.transmitters.len()
             ),
         );
+        if g.drifts() {
+            let moving: Vec<String> = g
+                .drift
+                .iter()
+                .enumerate()
+                .filter_map(|(n, d)| {
+                    d.as_ref().map(|d| match d {
+                        crate::model::drift::Drift::Velocity { velocity } => {
+                            format!("R{n} at {:?} m/sample", velocity.coords())
+                        }
+                        crate::model::drift::Drift::Waypoints { points, speed } => {
+                            format!(
+                                "R{n} through {} waypoints at {speed} m/sample",
+                                points.len()
+                            )
+                        }
+                    })
+                })
+                .collect();
+            put(
+                "drift",
+                format!(
+                    "{} (each node solves at its own position of every sample; receivers.csv)",
+                    moving.join(", ")
+                ),
+            );
+        }
         put("links", self.links_in_words());
         put("samples", self.samples_in_words());
         put("measurements", self.measurements_in_words());

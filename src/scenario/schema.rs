@@ -222,6 +222,10 @@ pub struct GeometryCfg {
     /// are `[x, y, z]`.
     #[serde(default, with = "crate::model::xy::list")]
     pub receivers: Vec<crate::model::xy::Pt>,
+    /// Receivers that move (`[[geometry.drift]]`): a velocity, or waypoints
+    /// and a speed, per receiver ([`crate::model::drift`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub drift: Vec<crate::model::drift::DriftCfg>,
 }
 
 /// `[network]`: exactly one of `edges` and `generator`.

@@ -37,6 +37,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         include_str!("../../scenarios/mourya2017-spiral-3d.toml"),
     ),
     (
+        "mourya2017-spiral-3d-acoustic",
+        include_str!("../../scenarios/mourya2017-spiral-3d-acoustic.toml"),
+    ),
+    (
         "mourya2017-spiral-acoustic",
         include_str!("../../scenarios/mourya2017-spiral-acoustic.toml"),
     ),
@@ -80,6 +84,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
     (
         "shi-nlos-exponential",
         include_str!("../../scenarios/shi-nlos-exponential.toml"),
+    ),
+    (
+        "sonobuoy-drift-3d",
+        include_str!("../../scenarios/sonobuoy-drift-3d.toml"),
     ),
 ];
 

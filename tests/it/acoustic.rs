@@ -66,6 +66,50 @@ fn every_delivered_frame_takes_exactly_the_distance_over_the_sound_speed_plus_it
 }
 
 #[test]
+fn in_3d_every_delivered_frame_takes_the_3d_distance_over_the_sound_speed_plus_its_length() {
+    let tmp = TempDir::new("acoustic-3d");
+    let file = scenario("mourya2017-spiral-3d-acoustic.toml");
+    let Some(sonarnet::scenario::AnyScenario::Space(sc)) =
+        sonarnet::scenario::AnyScenario::load_all(&file)
+            .expect("loads")
+            .into_iter()
+            .next()
+    else {
+        panic!("the 3-D acoustic scenario is 3-D");
+    };
+    let sc = sc.with_samples(20).expect("20 samples");
+    let opts = RunOptions {
+        command_line: vec!["test".into()],
+        ..RunOptions::inprocess()
+            .with_out_dir(tmp.path())
+            .with_clock(pipeline::default_clock(&sc))
+    };
+    let out = sc.run_and_write(&opts).expect("writes");
+    assert!(out.run.error.is_none(), "{:?}", out.run.error);
+    let rows = read_rows(&tmp.path().join("messages.csv"));
+    let rx = &sc.geometry.receivers;
+    let (mut delivered, mut deeper) = (0, 0);
+    for r in rows.iter().filter(|r| r[6] == "delivered") {
+        let (from, to): (usize, usize) = (r[2].parse().unwrap(), r[3].parse().unwrap());
+        // A header, and 64 bits per value: a reflected point (x, y, z, d) has 4.
+        let bits: u64 = r[5].parse().unwrap();
+        let values = if r[4] == "decline" { 0 } else { 4 };
+        assert_eq!(bits, 48 + values * 64, "{r:?}");
+        let took = r[1].parse::<f64>().unwrap() - r[0].parse::<f64>().unwrap();
+        let d = (rx[from] - rx[to]).norm();
+        let want = d / 1500.0 + bits as f64 / 1000.0;
+        assert!((took - want).abs() < 1e-9, "{r:?}: {took} vs {want}");
+        let plan = (rx[from].xy() - rx[to].xy()).norm();
+        deeper += usize::from(d - plan > 1.0);
+        delivered += 1;
+    }
+    assert!(delivered > 100, "{delivered} delivered");
+    // The receivers sit at different depths: the delays are not the plan
+    // view's.
+    assert!(deeper > delivered / 2, "{deeper} of {delivered}");
+}
+
+#[test]
 fn the_discrete_event_engine_gives_identical_files_from_the_same_seed() {
     let tmp = TempDir::new("acoustic-determinism");
     let sc = variant("range-loss");

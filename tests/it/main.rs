@@ -6,6 +6,7 @@ mod bad_input;
 mod baselines;
 mod bounds_ref;
 mod docs;
+mod drift;
 mod engine;
 mod faults;
 mod first_hour;

@@ -597,6 +597,7 @@ mod tests {
     /// Pun-So 2022 / 001 Sec. V anchors.
     fn paper_geometry() -> Geometry {
         Geometry {
+            drift: Vec::new(),
             transmitters: vec![],
             receivers: vec![
                 Vec2::new(0.5, 0.5),
@@ -609,6 +610,7 @@ mod tests {
     /// Two transmitters, four receivers: bistatic at every receiver, one-way at two.
     fn mixed_geometry() -> Geometry {
         Geometry {
+            drift: Vec::new(),
             transmitters: vec![Vec2::new(-1.0, 0.3), Vec2::new(2.5, -0.7)],
             receivers: vec![
                 Vec2::new(0.0, 0.0),
@@ -749,7 +751,7 @@ mod tests {
             fallback in any::<bool>(),
         ) {
             let g = if collinear {
-                Geometry { transmitters: vec![], receivers: vec![
+                Geometry { drift: Vec::new(), transmitters: vec![], receivers: vec![
                     Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(2.0, 0.0)] }
             } else {
                 paper_geometry()
@@ -805,6 +807,7 @@ mod tests {
         assert_abs_diff_eq!(ev.grad.norm(), 0.0, epsilon = 1e-12);
         // Single one-way range: f = (||x - a|| - r)^2.
         let g1 = Geometry {
+            drift: Vec::new(),
             transmitters: vec![],
             receivers: vec![Vec2::new(1.0, 1.0)],
         };
@@ -1178,6 +1181,7 @@ mod tests {
         assert_abs_diff_eq!((x - truth).norm(), 0.0, epsilon = 1e-9);
         // One transmitter, many receivers.
         let g1 = Geometry {
+            drift: Vec::new(),
             transmitters: vec![gm.transmitters[0]],
             receivers: gm.receivers.clone(),
         };
@@ -1189,6 +1193,7 @@ mod tests {
         assert_abs_diff_eq!((x - truth).norm(), 0.0, epsilon = 1e-9);
         // Many transmitters, one receiver: the receiver-lifted system is used.
         let g2 = Geometry {
+            drift: Vec::new(),
             transmitters: gm.receivers.clone(),
             receivers: vec![gm.transmitters[1]],
         };
@@ -1267,6 +1272,7 @@ mod tests {
     #[test]
     fn ols_rejects_collinear_anchors_and_too_few_ranges() {
         let g = Geometry {
+            drift: Vec::new(),
             transmitters: vec![],
             receivers: vec![
                 Vec2::new(0.0, 0.0),

@@ -17,6 +17,7 @@ fn p3(x: f64, y: f64, z: f64) -> Point<3> {
 /// Two transmitters near the surface, five receivers at several depths.
 fn ocean() -> Geometry<3> {
     Geometry {
+        drift: Vec::new(),
         transmitters: vec![p3(0.0, 0.0, 5.0), p3(2000.0, 1800.0, 10.0)],
         receivers: vec![
             p3(-1000.0, -1000.0, 100.0),

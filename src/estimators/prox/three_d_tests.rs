@@ -359,6 +359,7 @@ fn in_3d_each_doa_row_is_weighted_by_its_own_angle_noise() {
     let meas = NodeMeasurements::clone(
         &crate::model::measure::SampleMeasurements::noise_free(
             &crate::model::measure::Geometry::<3> {
+                drift: Vec::new(),
                 transmitters: txs.to_vec(),
                 receivers: vec![anchor],
             },

@@ -157,6 +157,7 @@ pub struct Estimate<const D: usize = 2> {
 pub fn shi2024_geometry() -> Geometry {
     let v = |x: f64, y: f64| Vec2::new(x, y);
     Geometry {
+        drift: Vec::new(),
         transmitters: vec![
             v(-350.0, -200.0),
             v(-350.0, 200.0),
@@ -234,6 +235,7 @@ mod tests {
             )
         };
         Geometry {
+            drift: Vec::new(),
             transmitters: (0..m).map(|_| p()).collect(),
             receivers: (0..n).map(|_| p()).collect(),
         }
@@ -594,6 +596,7 @@ mod tests {
         // Target exactly on receiver 8 at the origin, started there: zero distances.
         let at_sensor = all_links(&g, &Vec2::zeros(), |_, _| 0.0);
         let coincident = Geometry {
+            drift: Vec::new(),
             transmitters: vec![Vec2::new(1.0, 1.0); 3],
             receivers: vec![Vec2::new(1.0, 1.0); 3],
         };

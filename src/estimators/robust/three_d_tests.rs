@@ -13,6 +13,7 @@ fn p3(x: f64, y: f64, z: f64) -> Point<3> {
 /// Four transmitters and four receivers spread over 1 km and 600 m of depth.
 fn ocean() -> Geometry<3> {
     Geometry {
+        drift: Vec::new(),
         transmitters: vec![
             p3(-500.0, -500.0, 10.0),
             p3(500.0, -500.0, 20.0),

@@ -238,6 +238,9 @@ pub struct RunData {
     pub monte_carlo: Option<MonteCarlo>,
     /// `messages.csv` (the acoustic channel), when present.
     pub messages: Option<Vec<MessageRow>>,
+    /// `receivers.csv` (receivers that drift), when present: every
+    /// receiver's position at every sample.
+    pub receivers: Option<Vec<NodePoint>>,
 }
 
 impl RunData {
@@ -249,6 +252,28 @@ impl RunData {
         } else {
             2
         }
+    }
+
+    /// The path of every receiver that moves during the run
+    /// (`receivers.csv`), in sample order: `(receiver, positions)`.
+    pub fn drift_paths(&self) -> Vec<(usize, Vec<Pos>)> {
+        let Some(rows) = &self.receivers else {
+            return Vec::new();
+        };
+        let mut by_node: std::collections::BTreeMap<usize, Vec<(usize, Pos)>> =
+            std::collections::BTreeMap::new();
+        for r in rows {
+            by_node.entry(r.node).or_default().push((r.sample, r.pos));
+        }
+        by_node
+            .into_iter()
+            .filter_map(|(n, mut pts)| {
+                pts.sort_by_key(|p| p.0);
+                let path: Vec<Pos> = pts.into_iter().map(|p| p.1).collect();
+                let moves = path.windows(2).any(|w| distance(&w[0], &w[1], 3) > 0.0);
+                moves.then_some((n, path))
+            })
+            .collect()
     }
 
     /// Per-node counters of `metrics.json` (`nodes` array).
@@ -343,6 +368,12 @@ pub fn load_run(dir: &Path) -> Result<RunData, InputError> {
     } else {
         None
     };
+    let rx = dir.join("receivers.csv");
+    let receivers = if rx.is_file() {
+        Some(parse_node_points(&rx, &read_csv(&rx)?, false)?)
+    } else {
+        None
+    };
     let msgs = dir.join("messages.csv");
     let messages = if msgs.is_file() {
         Some(parse_messages(&msgs, &read_csv(&msgs)?)?)
@@ -384,6 +415,7 @@ pub fn load_run(dir: &Path) -> Result<RunData, InputError> {
         iterations,
         monte_carlo,
         messages,
+        receivers,
     })
 }
 

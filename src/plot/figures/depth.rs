@@ -19,6 +19,7 @@ use crate::plot::figures::BLACK;
 use crate::plot::figures::TX_COLOR;
 use crate::plot::figures::WIDTH;
 use crate::plot::figures::dedup_legend;
+use crate::plot::figures::draw_drift;
 use crate::plot::figures::linear_range;
 use crate::plot::figures::names;
 use crate::plot::figures::segments;
@@ -47,12 +48,14 @@ pub fn depth_figure(data: &RunData) -> Option<Figure> {
         marker_size: 2,
         ..Style::line(BLACK, 2)
     };
-    // The scene: sensors and truth.
+    // The scene: sensors (and where drifting receivers go) and truth.
+    let paths = data.drift_paths();
     let sensors: Vec<Pos> = data
         .info
         .transmitters
         .iter()
         .chain(&data.info.receivers)
+        .chain(paths.iter().flat_map(|(_, p)| p))
         .copied()
         .collect();
     let scene: Vec<Pos> = sensors
@@ -138,6 +141,7 @@ pub fn depth_figure(data: &RunData) -> Option<Figure> {
         "T",
         &mut sec,
     );
+    draw_drift(data, |p| (p[0], p[2]), &mut sec, &mut legend);
     sensor_series(&data.info.receivers, "receivers", rx_st, "R", &mut sec);
     if !data.info.transmitters.is_empty() {
         legend.push(LegendItem {

@@ -20,7 +20,7 @@ pub use snapshot::{
 pub use sweep::{SweepCurve, sweep_figure};
 pub use tracks::tracks_figure;
 
-use super::data::{RunData, THETA_BAR, Track, TrackKind};
+use super::data::{Pos, RunData, THETA_BAR, Track, TrackKind};
 use super::render::plot_area;
 use super::{Figure, Label, LegendItem, Marker, Panel, Rgb, Series, Style, Swatch};
 
@@ -240,16 +240,50 @@ fn mc_names(data: &RunData) -> Vec<&str> {
 }
 
 fn geometry_points(data: &RunData) -> Vec<(f64, f64)> {
+    let paths = data.drift_paths();
     data.info
         .transmitters
         .iter()
         .chain(&data.info.receivers)
+        .chain(paths.iter().flat_map(|(_, p)| p))
         .map(|p| (p[0], p[1]))
         .collect()
 }
 
+/// The colour of a drifting receiver's path.
+const DRIFT_COLOR: Rgb = Rgb(150, 90, 40);
+
+/// The path of every drifting receiver (`receivers.csv`) on a map panel,
+/// in the coordinates `xy` picks (plan view or x-z section), with its
+/// legend entry; the receivers' markers stay at their sample-0 positions.
+fn draw_drift(
+    data: &RunData,
+    xy: fn(&Pos) -> (f64, f64),
+    panel: &mut Panel,
+    legend: &mut Vec<LegendItem>,
+) {
+    let paths = data.drift_paths();
+    if paths.is_empty() {
+        return;
+    }
+    let st = Style::line(DRIFT_COLOR, 2);
+    panel.series.push(Series {
+        name: "receiver drift".into(),
+        segments: paths
+            .iter()
+            .map(|(_, p)| p.iter().map(xy).collect())
+            .collect(),
+        style: st,
+    });
+    legend.push(LegendItem {
+        label: "receiver drift (from its marker)".into(),
+        swatch: Swatch::Line(st),
+    });
+}
+
 /// Add transmitters, receivers and edges to a map panel.
 fn draw_geometry(data: &RunData, panel: &mut Panel, legend: &mut Vec<LegendItem>, labels: bool) {
+    draw_drift(data, |p| (p[0], p[1]), panel, legend);
     let rx = &data.info.receivers;
     for &(a, b) in &data.info.edges {
         panel.series.push(Series {
