@@ -12,6 +12,12 @@
 //! * **propagation delay** `||r_i - r_j|| / sound_speed + extra_delay_s`;
 //! * the frame **arrives** at `j` over `[t0 + delay, t0 + delay + bits / bit_rate)`,
 //!   `t0` the start of its transmission;
+//! * **time is exact**: every instant is an integer number of nanoseconds
+//!   ([`Nanos`]), the discrete-event engine's own unit; the delay and the
+//!   airtime are each rounded to the nearest nanosecond once, and every
+//!   interval is half-open, so an arrival that ends at the instant a
+//!   transmission starts does not overlap it, whatever order the two events
+//!   are handled in;
 //! * its **fate** is judged when its arrival ends, in this order:
 //!   1. `blocked`: the link is blocked ([`LinkOverride::blocked`]);
 //!   2. `half_duplex` (if on): `j` was transmitting during the arrival;
@@ -32,7 +38,9 @@
 //!   dB (d in m, k the spreading factor, Stojanovic eq. 1-2); the SNR
 //!   `SL - TL - (NL + 10 log10 B)` (B in Hz); the BPSK bit error rate
 //!   `1/2 erfc(sqrt(SNR B / R))` (SNR linear, R the bit rate); and the frame
-//!   success `(1 - BER)^bits`.
+//!   success `(1 - BER)^bits`. Francois and Garrison's absorption can stand
+//!   for Thorp's, and Coates' noise spectrum, integrated over the band, for
+//!   the flat `NL + 10 log10 B` ([`crate::model::acoustics`]).
 //!
 //! # Seeding
 //! The fate draw of a frame comes from the run seed, through the stream
@@ -45,15 +53,19 @@ use crate::model::rng::{Stream, link_draw};
 use crate::model::xy::Pt;
 use serde::{Deserialize, Serialize};
 
-/// Thorp's absorption coefficient `a(f)` in dB/km, `f` in kHz.
-pub fn thorp_db_per_km(f_khz: f64) -> f64 {
-    let f2 = f_khz * f_khz;
-    0.11 * f2 / (1.0 + f2) + 44.0 * f2 / (4100.0 + f2) + 2.75e-4 * f2 + 0.003
+pub use crate::model::acoustics::thorp_db_per_km;
+use crate::model::acoustics::{Absorption, Noise, Water};
+
+/// Transmission loss `k 10 log10(d) + (d / 1000) a(f)` in dB over `d` metres,
+/// with Thorp's absorption.
+pub fn transmission_loss_db(d_m: f64, f_khz: f64, spreading: f64) -> f64 {
+    spreading_loss_db(d_m, spreading) + d_m / 1000.0 * thorp_db_per_km(f_khz)
 }
 
-/// Transmission loss `k 10 log10(d) + (d / 1000) a(f)` in dB over `d` metres.
-pub fn transmission_loss_db(d_m: f64, f_khz: f64, spreading: f64) -> f64 {
-    spreading * 10.0 * d_m.max(1.0).log10() + d_m / 1000.0 * thorp_db_per_km(f_khz)
+/// The spreading part of the transmission loss, `k 10 log10(d)` dB (`d` at
+/// least 1 m).
+pub fn spreading_loss_db(d_m: f64, spreading: f64) -> f64 {
+    spreading * 10.0 * d_m.max(1.0).log10()
 }
 
 /// The BPSK bit error rate `1/2 erfc(sqrt(snr B / R))` at a linear SNR.
@@ -89,7 +101,24 @@ pub enum LossCfg {
         /// Spreading factor `k`, in [1, 2] (1 cylindrical, 2 spherical).
         #[serde(default = "default_spreading")]
         spreading: f64,
+        /// Absorption model: `"thorp"` (default) or `"francois_garrison"`
+        /// (in `water`, at the path's depth).
+        #[serde(default, skip_serializing_if = "is_thorp")]
+        absorption: Absorption,
+        /// The water for `francois_garrison` (temperature, salinity, pH,
+        /// and a 2-D scenario's depth).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        water: Option<Water>,
+        /// The ambient noise, instead of the flat `noise_level_db`:
+        /// `{ model = "constant", level_db }` or `{ model = "coates",
+        /// shipping, wind_mps }`, integrated over the band.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        noise: Option<Noise>,
     },
+}
+
+fn is_thorp(a: &Absorption) -> bool {
+    *a == Absorption::Thorp
 }
 
 fn default_carrier() -> f64 {
@@ -175,6 +204,9 @@ pub struct AcousticCfg {
 /// `[channel]`: the network between the nodes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
+// Read once per run from the scenario: the size of the acoustic variant
+// costs nothing, a box would cost every match on it.
+#[allow(clippy::large_enum_variant)]
 pub enum ChannelCfg {
     /// Every message arrives at once and whole (the default). It takes no
     /// other key.
@@ -263,12 +295,28 @@ impl AcousticCfg {
                 source_level_db,
                 noise_level_db,
                 spreading,
+                absorption,
+                water,
+                noise,
             } => {
                 in_range("channel.loss.carrier_khz", carrier_khz, 1e-3, 1000.0)?;
                 in_range("channel.loss.bandwidth_khz", bandwidth_khz, 1e-3, 1000.0)?;
                 in_range("channel.loss.source_level_db", source_level_db, 0.0, 300.0)?;
                 in_range("channel.loss.noise_level_db", noise_level_db, -100.0, 200.0)?;
                 in_range("channel.loss.spreading", spreading, 1.0, 2.0)?;
+                if let Some(w) = water {
+                    w.validate("channel.loss.water")?;
+                    if absorption == Absorption::Thorp {
+                        return Err(KeyError::new(
+                            "channel.loss.water",
+                            "Thorp's absorption depends on the frequency only: give \
+                             absorption = \"francois_garrison\" to use the water",
+                        ));
+                    }
+                }
+                if let Some(n) = noise {
+                    n.validate("channel.loss.noise")?;
+                }
             }
         }
         for (k, l) in self.links.iter().enumerate() {
@@ -364,6 +412,12 @@ impl AcousticCfg {
         bits as f64 / self.bit_rate
     }
 
+    /// [`AcousticCfg::transmission_s`] rounded to the nanosecond: the
+    /// airtime the medium uses.
+    pub fn transmission_ns(&self, bits: u64) -> Nanos {
+        nanos(self.transmission_s(bits))
+    }
+
     /// The override of the link `i - j`, if any (the last one given wins).
     fn link(&self, i: u32, j: u32) -> Option<&LinkOverride> {
         self.links
@@ -372,9 +426,10 @@ impl AcousticCfg {
             .find(|l| (l.a, l.b) == (i, j) || (l.a, l.b) == (j, i))
     }
 
-    /// Probability that a frame of `bits` bits over `d_m` metres is lost at
-    /// random (before half-duplex and collisions), on the link `i - j`.
-    pub fn loss_probability(&self, i: u32, j: u32, d_m: f64, bits: u64) -> f64 {
+    /// Probability that a frame of `bits` bits is lost at random (before
+    /// half-duplex and collisions) on the link `i - j` between the positions
+    /// `a` and `b`.
+    pub fn loss_probability(&self, i: u32, j: u32, a: &Pt, b: &Pt, bits: u64) -> f64 {
         if let Some(p) = self.link(i, j).and_then(|l| l.loss_p) {
             return p;
         }
@@ -387,10 +442,27 @@ impl AcousticCfg {
                 source_level_db,
                 noise_level_db,
                 spreading,
+                absorption,
+                water,
+                noise,
             } => {
+                let d_m = a.distance(b);
                 let b_hz = bandwidth_khz * 1e3;
-                let tl = transmission_loss_db(d_m, carrier_khz, spreading);
-                let snr_db = source_level_db - tl - (noise_level_db + 10.0 * b_hz.log10());
+                let water = water.unwrap_or_default();
+                // The path's depth: the mean of its ends' in 3-D (z up).
+                let depth = if a.dim() == 3 {
+                    ((-a[2]).max(0.0) + (-b[2]).max(0.0)) / 2.0
+                } else {
+                    water.depth_m
+                };
+                let tl = spreading_loss_db(d_m, spreading)
+                    + d_m / 1000.0 * absorption.db_per_km(carrier_khz, &water, depth);
+                let noise = noise
+                    .unwrap_or(Noise::Constant {
+                        level_db: noise_level_db,
+                    })
+                    .band_db(carrier_khz, bandwidth_khz);
+                let snr_db = source_level_db - tl - noise;
                 let ber = bpsk_ber(10f64.powf(snr_db / 10.0), b_hz, self.bit_rate);
                 1.0 - (1.0 - ber).powf(bits as f64)
             }
@@ -469,14 +541,37 @@ pub struct Frame {
     pub number: u64,
     /// Bits.
     pub bits: u64,
-    /// When the sender asked to send it.
-    pub t_send: f64,
+    /// When the sender asked to send it ([`Nanos`]).
+    pub t_send: Nanos,
     /// When its transmission started (the modem was free).
-    pub t_start: f64,
+    pub t_start: Nanos,
     /// When its arrival at the addressee starts.
-    pub arrive_start: f64,
+    pub arrive_start: Nanos,
     /// When its arrival ends: the time its fate is judged ([`Medium::judge`]).
-    pub arrive_end: f64,
+    pub arrive_end: Nanos,
+}
+
+/// Emulated time in integer nanoseconds since the start of the run: the one
+/// time of the medium, and of the discrete-event engine's queue (a
+/// `Duration` there), so that two instants compare exactly.
+pub type Nanos = u64;
+
+/// `secs` seconds as [`Nanos`], rounded to the nearest nanosecond (0 for
+/// negative or NaN input, saturating above about 584 years).
+pub fn nanos(secs: f64) -> Nanos {
+    let ns = (secs * 1e9).round();
+    if ns.is_nan() || ns <= 0.0 {
+        0
+    } else if ns >= u64::MAX as f64 {
+        u64::MAX
+    } else {
+        ns as u64
+    }
+}
+
+/// [`Nanos`] as seconds (for the records and the CSVs).
+pub fn seconds(ns: Nanos) -> f64 {
+    ns as f64 / 1e9
 }
 
 /// The shared medium of one run: the nodes' positions and links, every
@@ -489,11 +584,11 @@ pub struct Medium {
     /// `reach[i]`: the nodes that node `i`'s transmissions reach.
     reach: Vec<Vec<u32>>,
     /// Per node: when its modem is free again.
-    free_at: Vec<f64>,
+    free_at: Vec<Nanos>,
     /// Per node: its transmissions `[start, end)`.
-    sending: Vec<Vec<(f64, f64)>>,
+    sending: Vec<Vec<(Nanos, Nanos)>>,
     /// Per node: the arrivals at it `[start, end)` and the frame's id.
-    arriving: Vec<Vec<(f64, f64, u64)>>,
+    arriving: Vec<Vec<(Nanos, Nanos, u64)>>,
     /// Frames sent so far (the next frame's id).
     sent: u64,
     /// Frames sent per directed link.
@@ -522,7 +617,7 @@ impl Medium {
             cfg,
             seed,
             reach,
-            free_at: vec![f64::NEG_INFINITY; n],
+            free_at: vec![0; n],
             sending: vec![Vec::new(); n],
             arriving: vec![Vec::new(); n],
             sent: 0,
@@ -540,10 +635,16 @@ impl Medium {
             + self.link_faults.delay(i, j)
     }
 
+    /// [`Medium::delay`] rounded to the nanosecond: the delay the medium
+    /// uses.
+    pub fn delay_ns(&self, i: u32, j: u32) -> Nanos {
+        nanos(self.delay(i, j))
+    }
+
     /// Node `from` sends a frame of `bits` bits to `to` at time `t`: its
     /// modem transmits it when free, every node that hears `from` receives
     /// it, and its fate is judged at [`Frame::arrive_end`] by [`Medium::judge`].
-    pub fn send(&mut self, t: f64, from: u32, to: u32, bits: u64) -> Frame {
+    pub fn send(&mut self, t: Nanos, from: u32, to: u32, bits: u64) -> Frame {
         let (id, start, end) = self.transmit(t, from, &[to], bits);
         self.frame(id, from, to, bits, t, start, end)
     }
@@ -566,7 +667,7 @@ impl Medium {
     /// Node `from` sends one frame of `bits` bits to every node of `to` at
     /// time `t` (one transmission, as the sync root's Average): one [`Frame`]
     /// per addressee, in the order given, each judged on its own.
-    pub fn broadcast(&mut self, t: f64, from: u32, to: &[u32], bits: u64) -> Vec<Frame> {
+    pub fn broadcast(&mut self, t: Nanos, from: u32, to: &[u32], bits: u64) -> Vec<Frame> {
         let (id, start, end) = self.transmit(t, from, to, bits);
         to.iter()
             .map(|&j| self.frame(id, from, j, bits, t, start, end))
@@ -574,12 +675,12 @@ impl Medium {
     }
 
     /// Puts one transmission on the medium: `(id, start, end)`.
-    fn transmit(&mut self, t: f64, from: u32, to: &[u32], bits: u64) -> (u64, f64, f64) {
+    fn transmit(&mut self, t: Nanos, from: u32, to: &[u32], bits: u64) -> (u64, Nanos, Nanos) {
         let fi = from as usize;
         let id = self.sent;
         self.sent += 1;
         let start = t.max(self.free_at[fi]);
-        let end = start + self.cfg.transmission_s(bits);
+        let end = start.saturating_add(self.cfg.transmission_ns(bits));
         self.free_at[fi] = end;
         self.sending[fi].push((start, end));
         let mut listeners = self.reach[fi].clone();
@@ -589,8 +690,8 @@ impl Medium {
             }
         }
         for j in listeners {
-            let d = self.delay(from, j);
-            self.arriving[j as usize].push((start + d, end + d, id));
+            let d = self.delay_ns(from, j);
+            self.arriving[j as usize].push((start.saturating_add(d), end.saturating_add(d), id));
         }
         (id, start, end)
     }
@@ -603,14 +704,14 @@ impl Medium {
         from: u32,
         to: u32,
         bits: u64,
-        t: f64,
-        start: f64,
-        end: f64,
+        t: Nanos,
+        start: Nanos,
+        end: Nanos,
     ) -> Frame {
         let number = self.numbers.entry((from, to)).or_insert(0);
         let k = *number;
         *number += 1;
-        let d = self.delay(from, to);
+        let d = self.delay_ns(from, to);
         Frame {
             id,
             from,
@@ -619,8 +720,8 @@ impl Medium {
             bits,
             t_send: t,
             t_start: start,
-            arrive_start: start + d,
-            arrive_end: end + d,
+            arrive_start: start.saturating_add(d),
+            arrive_end: end.saturating_add(d),
         }
     }
 
@@ -634,7 +735,10 @@ impl Medium {
             return Fate::Lost(Reason::Blocked);
         }
         let (a, b) = (f.arrive_start, f.arrive_end);
-        let overlaps = |s: f64, e: f64| s < b && a < e;
+        // Half-open intervals in integer nanoseconds: an arrival that ends
+        // at the instant another transmission or arrival starts does not
+        // overlap it.
+        let overlaps = |s: Nanos, e: Nanos| s < b && a < e;
         let to = f.to as usize;
         if self.cfg.half_duplex && self.sending[to].iter().any(|&(s, e)| overlaps(s, e)) {
             return Fate::Lost(Reason::HalfDuplex);
@@ -647,8 +751,13 @@ impl Medium {
                 return Fate::Lost(Reason::Collision);
             }
         }
-        let d = self.pos[f.from as usize].distance(&self.pos[to]);
-        let p = self.cfg.loss_probability(f.from, f.to, d, f.bits);
+        let p = self.cfg.loss_probability(
+            f.from,
+            f.to,
+            &self.pos[f.from as usize],
+            &self.pos[to],
+            f.bits,
+        );
         if fate_draw(self.seed, f.from, f.to, f.number) < p {
             return Fate::Lost(Reason::Loss);
         }
@@ -663,7 +772,7 @@ impl Medium {
     /// Forgets transmissions and arrivals that ended before `t` (nothing
     /// judged at `t` or later can overlap them), so that a long run keeps
     /// bounded memory.
-    pub fn forget_before(&mut self, t: f64) {
+    pub fn forget_before(&mut self, t: Nanos) {
         for v in &mut self.sending {
             v.retain(|&(_, e)| e >= t);
         }

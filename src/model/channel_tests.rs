@@ -55,18 +55,15 @@ fn a_frame_arrives_after_the_distance_over_the_sound_speed_plus_its_own_length()
     let bits = cfg.frame_bits(4);
     assert_eq!(bits, 48 + 4 * 64);
     let mut m = line(cfg, &[0.0, 1500.0, 3300.0]);
-    let f = m.send(2.0, 0, 2, bits);
-    assert_relative_eq!(f.arrive_start, 2.0 + 3300.0 / 1500.0, max_relative = 1e-15);
-    assert_relative_eq!(
-        f.arrive_end,
-        2.0 + 3300.0 / 1500.0 + bits as f64 / 1000.0,
-        max_relative = 1e-15
-    );
+    let f = m.send(nanos(2.0), 0, 2, bits);
+    // In integer nanoseconds: 2 s, then 2.2 s of sound, then 0.304 s on the air.
+    assert_eq!(f.arrive_start, 4_200_000_000);
+    assert_eq!(f.arrive_end, 4_200_000_000 + 304_000_000);
     assert_eq!(m.judge(&f), Fate::Delivered);
     // The modem sends one frame at a time: the next one waits for it.
-    let g = m.send(2.0, 0, 1, bits);
-    assert_relative_eq!(g.t_start, 2.0 + bits as f64 / 1000.0, max_relative = 1e-15);
-    assert_relative_eq!(g.arrive_start, g.t_start + 1.0, max_relative = 1e-15);
+    let g = m.send(nanos(2.0), 0, 1, bits);
+    assert_eq!(g.t_start, 2_304_000_000);
+    assert_eq!(g.arrive_start, g.t_start + 1_000_000_000);
 }
 
 #[test]
@@ -77,15 +74,15 @@ fn a_frame_that_arrives_while_its_receiver_transmits_is_lost_to_half_duplex() {
     };
     let mut m = line(cfg.clone(), &[0.0, 1500.0]);
     // 1 -> 0 arrives over [1, 1.1); node 0 transmits over [1.05, 1.15).
-    let a = m.send(0.0, 1, 0, 100);
-    let b = m.send(1.05, 0, 1, 100);
+    let a = m.send(nanos(0.0), 1, 0, 100);
+    let b = m.send(nanos(1.05), 0, 1, 100);
     assert_eq!(m.judge(&a), Fate::Lost(Reason::HalfDuplex));
     // 0 -> 1 arrives over [2.05, 2.15), after node 1 finished at 0.1.
     assert_eq!(m.judge(&b), Fate::Delivered);
     // Just after the arrival ends there is no overlap.
     let mut m = line(cfg, &[0.0, 1500.0]);
-    let a = m.send(0.0, 1, 0, 100);
-    m.send(1.1, 0, 1, 100);
+    let a = m.send(nanos(0.0), 1, 0, 100);
+    m.send(nanos(1.1), 0, 1, 100);
     assert_eq!(m.judge(&a), Fate::Delivered);
 }
 
@@ -97,22 +94,22 @@ fn frames_that_overlap_at_a_receiver_are_both_lost_to_collision() {
     };
     // Nodes at 0, 1500 and 3000 m: 0 and 2 are 1 s from node 1.
     let mut m = line(cfg.clone(), &[0.0, 1500.0, 3000.0]);
-    let a = m.send(0.0, 0, 1, 100);
-    let b = m.send(0.05, 2, 1, 100);
+    let a = m.send(nanos(0.0), 0, 1, 100);
+    let b = m.send(nanos(0.05), 2, 1, 100);
     assert_eq!(m.judge(&a), Fate::Lost(Reason::Collision));
     assert_eq!(m.judge(&b), Fate::Lost(Reason::Collision));
     // 0.1 s apart they do not overlap.
     let mut m = line(cfg.clone(), &[0.0, 1500.0, 3000.0]);
-    let a = m.send(0.0, 0, 1, 100);
-    let b = m.send(0.1, 2, 1, 100);
+    let a = m.send(nanos(0.0), 0, 1, 100);
+    let b = m.send(nanos(0.1), 2, 1, 100);
     assert_eq!(
         (m.judge(&a), m.judge(&b)),
         (Fate::Delivered, Fate::Delivered)
     );
     // A frame overheard by node 1 (2 -> 0 passes node 1) collides too.
     let mut m = line(cfg, &[0.0, 1500.0, 3000.0]);
-    let a = m.send(0.0, 0, 1, 100);
-    m.send(0.05, 2, 0, 100);
+    let a = m.send(nanos(0.0), 0, 1, 100);
+    m.send(nanos(0.05), 2, 0, 100);
     assert_eq!(m.judge(&a), Fate::Lost(Reason::Collision));
 }
 
@@ -138,10 +135,10 @@ fn a_blocked_link_loses_everything_and_a_link_delay_adds_up() {
         ..quiet()
     };
     let mut m = line(cfg, &[0.0, 1500.0, 3000.0]);
-    let f = m.send(0.0, 0, 1, 100);
+    let f = m.send(nanos(0.0), 0, 1, 100);
     assert_eq!(m.judge(&f), Fate::Lost(Reason::Blocked));
-    let g = m.send(0.0, 2, 1, 100);
-    assert_relative_eq!(g.arrive_start, 1.25, max_relative = 1e-15);
+    let g = m.send(nanos(0.0), 2, 1, 100);
+    assert_eq!(g.arrive_start, 1_250_000_000);
     assert_eq!(m.judge(&g), Fate::Delivered);
 }
 
@@ -156,7 +153,7 @@ fn bernoulli_loss_lies_within_the_999_per_mille_binomial_interval() {
     let n = 20_000;
     let lost = (0..n)
         .filter(|k| {
-            let f = m.send(*k as f64, 0, 1, 100);
+            let f = m.send(nanos(*k as f64), 0, 1, 100);
             m.judge(&f) == Fate::Lost(Reason::Loss)
         })
         .count();
@@ -191,14 +188,14 @@ fn a_frame_fate_depends_only_on_the_seed_the_link_and_its_number() {
     let mut m2 = line(cfg, &[0.0, 1500.0, 3000.0]);
     let fates1: Vec<Fate> = (0..50)
         .map(|k| {
-            let f = m1.send(k as f64, 0, 1, 100);
+            let f = m1.send(nanos(k as f64), 0, 1, 100);
             m1.judge(&f)
         })
         .collect();
     let fates2: Vec<Fate> = (0..50)
         .map(|k| {
-            m2.send(k as f64, 2, 1, 100);
-            let f = m2.send(k as f64, 0, 1, 100);
+            m2.send(nanos(k as f64), 2, 1, 100);
+            let f = m2.send(nanos(k as f64), 0, 1, 100);
             m2.judge(&f)
         })
         .collect();
@@ -214,11 +211,14 @@ fn range_loss_grows_with_the_link_length() {
             source_level_db: 170.0,
             noise_level_db: 50.0,
             spreading: 1.5,
+            absorption: crate::model::acoustics::Absorption::Thorp,
+            water: None,
+            noise: None,
         },
         ..quiet()
     };
     let bits = cfg.frame_bits(4);
-    let p = |d: f64| cfg.loss_probability(0, 1, d, bits);
+    let p = |d: f64| cfg.loss_probability(0, 1, &Pt::xy(0.0, 0.0), &Pt::xy(d, 0.0), bits);
     assert!(p(100.0) < 1e-12, "{}", p(100.0));
     assert!(p(50_000.0) > 0.999, "{}", p(50_000.0));
     let mut last = 0.0;
@@ -284,12 +284,112 @@ fn forgetting_the_past_does_not_change_a_later_judgement() {
     for k in 0..40 {
         let t = k as f64 * 0.13;
         let (from, to) = ((k % 3) as u32, ((k + 1) % 3) as u32);
-        let fa = a.send(t, from, to, 200);
-        let fb = b.send(t, from, to, 200);
-        b.forget_before(t - 5.0);
+        let fa = a.send(nanos(t), from, to, 200);
+        let fb = b.send(nanos(t), from, to, 200);
+        b.forget_before(nanos(t - 5.0));
         fates.0.push(a.judge(&fa));
         fates.1.push(b.judge(&fb));
     }
     assert_eq!(fates.0, fates.1);
     assert!(fates.0.iter().any(|f| *f != Fate::Delivered));
+}
+
+#[test]
+fn intervals_that_meet_at_one_nanosecond_do_not_overlap_whatever_the_distances() {
+    // Delays that are no round number of seconds (0.823044667 s and
+    // 0.518466667 s once rounded to the nanosecond); node 2 off the line
+    // through 0 and 1.
+    let pos = vec![
+        Pt::xy(0.0, 0.0),
+        Pt::xy(1234.567, 0.0),
+        Pt::xy(1234.567, 777.7),
+    ];
+    let links = vec![vec![1, 2], vec![0, 2], vec![0, 1]];
+    let cfg = AcousticCfg {
+        half_duplex: true,
+        collisions: true,
+        ..quiet()
+    };
+    let medium = |cfg: AcousticCfg| Medium::new(cfg, 7, pos.clone(), &links);
+    let mut m = medium(cfg.clone());
+    let a = m.send(0, 0, 1, 100);
+    assert_eq!(a.arrive_end, m.delay_ns(0, 1) + 100_000_000);
+    // Node 1 starts to transmit the instant a's arrival ends, and a frame
+    // from node 2 starts to arrive at node 1 at that instant.
+    let b = m.send(a.arrive_end, 1, 0, 100);
+    let c = m.send(a.arrive_end - m.delay_ns(2, 1), 2, 1, 100);
+    assert_eq!(c.arrive_start, a.arrive_end);
+    assert_eq!(m.judge(&a), Fate::Delivered);
+    assert_eq!(m.judge(&b), Fate::Delivered);
+    // c arrives at node 1 while node 1 transmits b: half-duplex.
+    assert_eq!(m.judge(&c), Fate::Lost(Reason::HalfDuplex));
+    // One nanosecond earlier, they overlap.
+    let mut m = medium(cfg);
+    let a = m.send(0, 0, 1, 100);
+    m.send(a.arrive_end - 1, 1, 0, 100);
+    assert_eq!(m.judge(&a), Fate::Lost(Reason::HalfDuplex));
+}
+
+#[test]
+fn seconds_become_nanoseconds_rounded_to_the_nearest_and_never_negative() {
+    assert_eq!(nanos(1.5), 1_500_000_000);
+    assert_eq!(nanos(0.823_044_666_7), 823_044_667);
+    assert_eq!(nanos(-2.0), 0);
+    assert_eq!(nanos(f64::NAN), 0);
+    assert_eq!(nanos(f64::INFINITY), u64::MAX);
+    assert_eq!(seconds(1_500_000_000).to_bits(), 1.5f64.to_bits());
+}
+
+#[test]
+fn the_range_loss_takes_francois_garrison_at_the_path_depth_and_coates_noise() {
+    let cfg = |extra: &str| -> AcousticCfg {
+        let text = format!(
+            "model = \"acoustic\"\nloss = {{ model = \"range\", carrier_khz = 20.0, source_level_db = 160.0{extra} }}\n"
+        );
+        match toml::from_str::<ChannelCfg>(&text).expect("parses") {
+            ChannelCfg::Acoustic(a) => {
+                a.validate(2).expect("valid");
+                a
+            }
+            ChannelCfg::Ideal {} => panic!("acoustic"),
+        }
+    };
+    let bits = 400;
+    let p = |c: &AcousticCfg, a: Pt, b: Pt| c.loss_probability(0, 1, &a, &b, bits);
+    // Francois-Garrison absorbs less at depth (pressure), so a deep 3-D
+    // path loses fewer frames than the same path near the surface.
+    let fg = cfg(", absorption = \"francois_garrison\", water = { temperature_c = 10.0 }");
+    let (near, deep) = (
+        p(&fg, Pt::xyz(0.0, 0.0, -10.0), Pt::xyz(6000.0, 0.0, -10.0)),
+        p(
+            &fg,
+            Pt::xyz(0.0, 0.0, -3000.0),
+            Pt::xyz(6000.0, 0.0, -3000.0),
+        ),
+    );
+    assert!(deep < near, "deep {deep} near {near}");
+    // A 2-D path takes water.depth_m.
+    let fg_deep = cfg(
+        ", absorption = \"francois_garrison\", water = { temperature_c = 10.0, depth_m = 3000.0 }",
+    );
+    let flat = p(&fg_deep, Pt::xy(0.0, 0.0), Pt::xy(6000.0, 0.0));
+    assert!(
+        (flat - deep).abs() <= 1e-12 * deep.max(1e-300),
+        "{flat} vs {deep}"
+    );
+    // A shipping lane and a gale are louder than a calm empty sea.
+    let calm = cfg(", noise = { model = \"coates\", shipping = 0.0, wind_mps = 0.0 }");
+    let rough = cfg(", noise = { model = \"coates\", shipping = 1.0, wind_mps = 20.0 }");
+    let (a, b) = (Pt::xy(0.0, 0.0), Pt::xy(5000.0, 0.0));
+    assert!(p(&rough, a, b) > p(&calm, a, b));
+    // The constant model is the flat noise_level_db.
+    let flat_noise = cfg(", noise = { model = \"constant\", level_db = 60.0 }");
+    let legacy = cfg(", noise_level_db = 60.0");
+    assert_eq!(p(&flat_noise, a, b).to_bits(), p(&legacy, a, b).to_bits());
+    // Water only means something to Francois-Garrison.
+    let text = "model = \"acoustic\"\nloss = { model = \"range\", water = { ph = 7.5 } }\n";
+    let Ok(ChannelCfg::Acoustic(thorp)) = toml::from_str::<ChannelCfg>(text) else {
+        panic!("parses");
+    };
+    assert_eq!(thorp.validate(2).unwrap_err().key, "channel.loss.water");
 }

@@ -5,6 +5,7 @@
 //! [`synth::Realization`] of a run) and the track metrics. The lowest layer:
 //! it imports nothing else of the crate.
 
+pub mod acoustics;
 pub mod channel;
 pub mod coords;
 pub mod drift;

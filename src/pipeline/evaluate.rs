@@ -24,6 +24,7 @@ use crate::scenario::Realization;
 use crate::scenario::Scenario;
 use crate::world::faults::FaultLog;
 use crate::world::medium::ChannelLog;
+use crate::world::medium::MessageRecord;
 use std::collections::BTreeMap;
 
 /// The `distributed` baseline: the DR engine again, in-process, on the same
@@ -329,7 +330,11 @@ pub fn fault_outcomes(
 pub fn channel_stats(rec: &RunRecord, log: &ChannelLog, clock: Clock, mode: Mode) -> ChannelStats {
     let emulated = log.emulated_seconds;
     let timeouts = rec.counters.iter().map(|c| c.timeouts).sum();
-    let msgs = &log.messages;
+    // Frames still in flight at the end were never judged: they are
+    // counted apart, not as delivered or lost.
+    let in_flight = log.messages.iter().filter(|m| m.in_flight).count() as u64;
+    let judged: Vec<&MessageRecord> = log.messages.iter().filter(|m| !m.in_flight).collect();
+    let msgs = &judged;
     let frames = msgs.len() as u64;
     let delivered = msgs.iter().filter(|m| m.lost.is_none()).count() as u64;
     let ratio = |d: u64, n: u64| if n == 0 { 0.0 } else { d as f64 / n as f64 };
@@ -354,6 +359,7 @@ pub fn channel_stats(rec: &RunRecord, log: &ChannelLog, clock: Clock, mode: Mode
     };
     ChannelStats {
         frames,
+        in_flight,
         delivered,
         delivery_ratio: ratio(delivered, frames),
         lost,

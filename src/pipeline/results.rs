@@ -62,8 +62,12 @@ pub struct RealtimeStats {
 /// only on the acoustic channel).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChannelStats {
-    /// Frames sent between nodes.
+    /// Frames sent between nodes and judged (delivered or lost).
     pub frames: u64,
+    /// Frames still in the water when the run ended (in `messages.csv` with
+    /// fate `in_flight`; not in `frames`).
+    #[serde(default)]
+    pub in_flight: u64,
     /// Frames delivered.
     pub delivered: u64,
     /// `delivered / frames`.
@@ -302,6 +306,7 @@ impl RunMetrics {
         if let Some(c) = &self.channel {
             for (k, v) in [
                 ("frames", c.frames as f64),
+                ("in_flight", c.in_flight as f64),
                 ("delivery_ratio", c.delivery_ratio),
                 ("exchanges_attempted", c.exchanges_attempted as f64),
                 ("exchanges_completed", c.exchanges_completed as f64),

@@ -220,12 +220,7 @@ fn write_run_csvs<const D: usize>(
                     r.to.to_string(),
                     r.kind.to_string(),
                     r.bits.to_string(),
-                    if r.lost.is_some() {
-                        "lost"
-                    } else {
-                        "delivered"
-                    }
-                    .to_string(),
+                    r.fate().to_string(),
                     r.lost.map(|x| x.as_str().to_string()).unwrap_or_default(),
                     sc.seed.to_string(),
                 ]

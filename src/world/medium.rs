@@ -20,10 +20,11 @@
 //! A frame to a node that is down is lost as `node_down`; the engine says
 //! which nodes are down when it gives a frame back.
 
-use crate::model::channel::{Fate, Frame, Medium, Reason};
+use crate::model::channel::{Fate, Frame, Medium, Nanos, Reason, nanos, seconds};
 use crate::model::fault::{FaultKind, IdealLinks};
 use crate::protocol::{ChannelPlan, PeerMsg};
-use crate::world::time::{at, wait};
+use crate::world::time::wait;
+use std::collections::BTreeMap;
 use std::time::Duration;
 
 /// The acoustic channel's log of a run (`messages.csv` and the channel's
@@ -59,8 +60,11 @@ pub struct MessageRecord {
     pub kind: &'static str,
     /// Bits on the channel.
     pub bits: u64,
-    /// `None`: delivered; else why it was lost.
+    /// `None`: delivered (or still in flight); else why it was lost.
     pub lost: Option<Reason>,
+    /// The run ended before its arrival did: never judged (`t_recv` and
+    /// `lost` are `None`).
+    pub in_flight: bool,
 }
 
 impl MessageRecord {
@@ -72,8 +76,8 @@ impl MessageRecord {
             fate => fate,
         };
         MessageRecord {
-            t_send: f.t_start,
-            t_recv: (fate == Fate::Delivered).then_some(f.arrive_end),
+            t_send: seconds(f.t_start),
+            t_recv: (fate == Fate::Delivered).then_some(seconds(f.arrive_end)),
             from: f.from,
             to: f.to,
             kind: msg.kind(),
@@ -82,6 +86,32 @@ impl MessageRecord {
                 Fate::Delivered => None,
                 Fate::Lost(r) => Some(r),
             },
+            in_flight: false,
+        }
+    }
+
+    /// The record of frame `f` (a `kind` message) whose arrival had not
+    /// ended when the run did.
+    fn in_flight(f: &Frame, kind: &'static str) -> MessageRecord {
+        MessageRecord {
+            t_send: seconds(f.t_start),
+            t_recv: None,
+            from: f.from,
+            to: f.to,
+            kind,
+            bits: f.bits,
+            lost: None,
+            in_flight: true,
+        }
+    }
+
+    /// The fate written to `messages.csv`: `delivered`, `lost` or
+    /// `in_flight`.
+    pub fn fate(&self) -> &'static str {
+        match (self.in_flight, self.lost) {
+            (true, _) => "in_flight",
+            (false, None) => "delivered",
+            (false, Some(_)) => "lost",
         }
     }
 }
@@ -122,7 +152,7 @@ impl InFlight {
     /// On the acoustic channel: when its arrival ends (emulated seconds).
     pub fn arrive_end_s(&self) -> Option<f64> {
         match &self.way {
-            Way::Acoustic(f) => Some(f.arrive_end),
+            Way::Acoustic(f) => Some(seconds(f.arrive_end)),
             Way::Ideal(_) => None,
         }
     }
@@ -135,6 +165,9 @@ pub struct Channel {
     seed: u64,
     n: u32,
     records: Vec<MessageRecord>,
+    /// Acoustic copies sent and not yet judged, by (transmission id,
+    /// addressee): what is still in the water when the run ends.
+    flying: BTreeMap<(u64, u32), (Frame, &'static str)>,
 }
 
 impl Channel {
@@ -162,6 +195,7 @@ impl Channel {
             seed,
             n: u32::try_from(n).unwrap_or(u32::MAX),
             records: Vec::new(),
+            flying: BTreeMap::new(),
         }
     }
 
@@ -201,7 +235,8 @@ impl Channel {
         match &mut self.carrier {
             Carrier::Acoustic(m) => {
                 let bits = m.cfg().frame_bits(msg.values());
-                let f = m.send(now.as_secs_f64(), from, to, bits);
+                let f = m.send(nanos_of(now), from, to, bits);
+                self.flying.insert((f.id, f.to), (f, msg.kind()));
                 out.push(acoustic(f, msg));
             }
             Carrier::Ideal(links) => {
@@ -230,7 +265,8 @@ impl Channel {
             Carrier::Acoustic(m) => {
                 let others: Vec<u32> = (0..self.n).filter(|&j| j != from).collect();
                 let bits = m.cfg().frame_bits(msg.values());
-                for f in m.broadcast(now.as_secs_f64(), from, &others, bits) {
+                for f in m.broadcast(nanos_of(now), from, &others, bits) {
+                    self.flying.insert((f.id, f.to), (f, msg.kind()));
                     out.push(acoustic(f, msg));
                 }
             }
@@ -249,6 +285,7 @@ impl Channel {
         let InFlight { msg, way } = f;
         match (way, &self.carrier) {
             (Way::Acoustic(frame), Carrier::Acoustic(m)) => {
+                self.flying.remove(&(frame.id, frame.to));
                 let rec = MessageRecord::judge(m, &frame, &msg, to_dead);
                 let delivered = rec.lost.is_none();
                 self.records.push(rec);
@@ -297,20 +334,32 @@ impl Channel {
     pub fn forget(&mut self, now_s: f64, margin_s: f64) {
         let horizon = self.overlap_horizon_s();
         if let Carrier::Acoustic(m) = &mut self.carrier {
-            m.forget_before(now_s - (horizon + margin_s));
+            m.forget_before(nanos(now_s - (horizon + margin_s)));
         }
     }
 
-    /// Every frame judged so far, in the order judged (acoustic channel;
-    /// none on the ideal one).
+    /// Every frame judged so far, in the order judged, then every frame
+    /// still in the water, marked in flight, in the order sent (acoustic
+    /// channel; none on the ideal one).
     pub fn into_records(self) -> Vec<MessageRecord> {
-        self.records
+        let mut records = self.records;
+        records.extend(
+            self.flying
+                .values()
+                .map(|(f, kind)| MessageRecord::in_flight(f, kind)),
+        );
+        records
     }
+}
+
+/// A virtual time as [`Nanos`] (saturating after about 584 years).
+fn nanos_of(t: Duration) -> Nanos {
+    u64::try_from(t.as_nanos()).unwrap_or(u64::MAX)
 }
 
 fn acoustic(f: Frame, msg: PeerMsg) -> (Duration, InFlight) {
     (
-        at(f.arrive_end),
+        Duration::from_nanos(f.arrive_end),
         InFlight {
             msg,
             way: Way::Acoustic(f),
@@ -404,6 +453,21 @@ mod tests {
             "no such node"
         );
         assert!(ch.into_records().is_empty());
+    }
+
+    #[test]
+    fn a_frame_not_yet_arrived_when_the_run_ends_is_recorded_in_flight_after_the_judged_ones() {
+        let mut ch = acoustic();
+        let first = sent(&mut ch, 1.0, 0, 1, reflect(0, 1));
+        let second = sent(&mut ch, 2.0, 0, 2, reflect(0, 2));
+        assert!(ch.arrive(first[0].1, false).is_some());
+        assert_eq!(second.len(), 1);
+        let recs = ch.into_records();
+        assert_eq!(recs.len(), 2);
+        assert_eq!((recs[0].fate(), recs[0].to), ("delivered", 1));
+        assert_eq!((recs[1].fate(), recs[1].to), ("in_flight", 2));
+        assert!(recs[1].in_flight && recs[1].t_recv.is_none() && recs[1].lost.is_none());
+        assert_relative_eq!(recs[1].t_send, 2.0);
     }
 
     #[test]

@@ -59,6 +59,7 @@ fn every_delivered_frame_takes_exactly_the_distance_over_the_sound_speed_plus_it
                     "{r:?}"
                 );
             }
+            "in_flight" => assert!(r[1].is_empty() && r[7].is_empty(), "{r:?}"),
             other => panic!("fate {other}"),
         }
     }
@@ -173,7 +174,8 @@ fn the_channel_metrics_count_the_frames_and_the_ideal_channel_writes_none() {
     let out = run(&variant("modem"), &tmp.path().join("modem"));
     let ch = out.metrics.channel.expect("channel metrics");
     let rows = read_rows(&tmp.path().join("modem").join("messages.csv"));
-    assert_eq!(ch.frames as usize, rows.len());
+    // Every frame is a row: judged (the channel's frames) or in flight.
+    assert_eq!((ch.frames + ch.in_flight) as usize, rows.len());
     let delivered = rows.iter().filter(|r| r[6] == "delivered").count() as u64;
     assert_eq!(ch.delivered, delivered);
     assert_eq!(
@@ -450,4 +452,128 @@ fn monte_carlo_trials_run_the_acoustic_channel_in_virtual_time() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--engine"));
+}
+
+/// `messages.csv` times as integer nanoseconds (they are written from
+/// them, so the round trip is exact).
+fn ns(cell: &str) -> u64 {
+    (cell.parse::<f64>().expect("a time") * 1e9).round() as u64
+}
+
+/// Judge every frame of `rows` (messages.csv of `sc`) again from the rows
+/// alone, in integer nanoseconds with half-open intervals, and compare with
+/// the recorded fate: `half_duplex` exactly when the addressee transmitted
+/// during the arrival, `collision` exactly when (else) another transmission
+/// that reaches the addressee arrived during it, and a delivered frame
+/// neither. Returns how many frames were judged.
+fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
+    let n = sc.geometry.receivers.len();
+    let c = 1500.0;
+    let delay = |i: usize, j: usize| -> u64 {
+        ((sc.geometry.receivers[i] - sc.geometry.receivers[j]).norm() / c * 1e9).round() as u64
+    };
+    let airtime = |bits: u64| -> u64 { (bits as f64 / 1000.0 * 1e9).round() as u64 };
+    // One transmission per (sender, start): its airtime and addressees,
+    // per sender in the order of their starts.
+    let mut tx: std::collections::BTreeMap<(usize, u64), (u64, Vec<usize>)> = Default::default();
+    for r in rows {
+        let (from, to): (usize, usize) = (r[2].parse().unwrap(), r[3].parse().unwrap());
+        let e = tx
+            .entry((from, ns(&r[0])))
+            .or_insert((airtime(r[5].parse().unwrap()), Vec::new()));
+        e.1.push(to);
+    }
+    let longest = tx.values().map(|t| t.0).max().unwrap_or(0);
+    let mut by_node: Vec<Vec<(u64, u64, Vec<usize>)>> = vec![Vec::new(); n];
+    for ((i, s), (t, to)) in tx {
+        by_node[i].push((s, t, to));
+    }
+    // The transmissions of node `i` that start in `[lo, hi)`.
+    let starting = |i: usize, lo: u64, hi: u64| {
+        let v = &by_node[i];
+        let k = v.partition_point(|x| x.0 < lo);
+        v[k..].iter().take_while(move |x| x.0 < hi)
+    };
+    let reach = |i: usize, j: usize| sc.graph.neighbours(i).contains(&j);
+    let mut judged = 0;
+    for r in rows.iter().filter(|r| r[6] != "in_flight") {
+        let (from, to): (usize, usize) = (r[2].parse().unwrap(), r[3].parse().unwrap());
+        let t0 = ns(&r[0]);
+        let a = t0 + delay(from, to);
+        let b = a + airtime(r[5].parse().unwrap());
+        let overlaps = |s: u64, e: u64| s < b && a < e;
+        let half_duplex =
+            starting(to, a.saturating_sub(longest), b).any(|x| overlaps(x.0, x.0 + x.1));
+        let collision = (0..n).filter(|&i| i != to).any(|i| {
+            let d = delay(i, to);
+            starting(i, a.saturating_sub(longest + d), b.saturating_sub(d)).any(|x| {
+                (i, x.0) != (from, t0)
+                    && (reach(i, to) || x.2.contains(&to))
+                    && overlaps(x.0 + d, x.0 + d + x.1)
+            })
+        });
+        let want = if half_duplex {
+            Some("half_duplex")
+        } else if collision {
+            Some("collision")
+        } else {
+            None
+        };
+        match (r[6].as_str(), r[7].as_str(), want) {
+            ("lost", got @ ("half_duplex" | "collision"), Some(w)) => {
+                assert_eq!(got, w, "{r:?}")
+            }
+            ("lost", got @ ("half_duplex" | "collision"), None) => {
+                panic!("recorded {got}, but nothing overlaps its arrival: {r:?}")
+            }
+            ("delivered", _, Some(w)) => panic!("delivered, but {w} overlaps it: {r:?}"),
+            // Lost for a reason judged after the overlaps (loss, late,
+            // node_down, blocked) only when nothing overlaps.
+            ("lost", other, w) => assert_eq!(w, None, "{other}: {r:?}"),
+            _ => {}
+        }
+        assert!(to < n);
+        judged += 1;
+    }
+    judged
+}
+
+#[test]
+fn every_recorded_fate_agrees_with_an_independent_judgement_in_integer_nanoseconds() {
+    for name in ["modem", "logical-modem", "sync-modem"] {
+        let tmp = TempDir::new(&format!("rejudge-{name}"));
+        let sc = variant(name);
+        run(&sc, tmp.path());
+        let rows = read_rows(&tmp.path().join("messages.csv"));
+        let judged = rejudge(&sc, &rows);
+        assert!(judged > 1000, "{name}: {judged} frames");
+    }
+}
+
+#[test]
+fn frames_still_in_the_water_when_the_run_ends_are_recorded_in_flight() {
+    let tmp = TempDir::new("in-flight");
+    let sc = variant("modem");
+    let out = run(&sc, tmp.path());
+    let rows = read_rows(&tmp.path().join("messages.csv"));
+    let flying: Vec<&Vec<String>> = rows.iter().filter(|r| r[6] == "in_flight").collect();
+    assert!(
+        !flying.is_empty(),
+        "a realtime run ends with frames on their way"
+    );
+    let last_judged = rows
+        .iter()
+        .filter(|r| r[6] != "in_flight")
+        .map(|r| ns(&r[0]))
+        .max()
+        .expect("judged frames");
+    for r in &flying {
+        assert!(r[1].is_empty() && r[7].is_empty(), "{r:?}");
+        // Sent near the end: no later than the last judged transmission
+        // plus one sample period.
+        assert!(ns(&r[0]) <= last_judged + 60_000_000_000, "{r:?}");
+    }
+    let ch = out.metrics.channel.as_ref().expect("channel stats");
+    assert_eq!(ch.in_flight as usize, flying.len());
+    assert_eq!(ch.frames as usize, rows.len() - flying.len());
 }

@@ -356,7 +356,8 @@ pub struct MessageRow {
     pub reason: Option<String>,
 }
 
-/// Parse `messages.csv` (`t_send,t_recv,from,to,kind,bits,fate,reason,seed`).
+/// Parse `messages.csv` (`t_send,t_recv,from,to,kind,bits,fate,reason,seed`);
+/// the frames still `in_flight` when the run ended are left out.
 pub fn parse_messages(p: &Path, csv: &Csv) -> Result<Vec<MessageRow>, InputError> {
     let need = [
         "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason",
@@ -393,7 +394,9 @@ pub fn parse_messages(p: &Path, csv: &Csv) -> Result<Vec<MessageRow>, InputError
         let reason = match fate {
             "delivered" => None,
             "lost" => Some(text(7).to_string()),
-            _ => return Err(bad(6, "expected `delivered` or `lost`")),
+            // Never judged: the run ended first. Not drawn.
+            "in_flight" => continue,
+            _ => return Err(bad(6, "expected `delivered`, `lost` or `in_flight`")),
         };
         out.push(MessageRow {
             t_send,
