@@ -266,6 +266,7 @@ impl Actuator for Des<'_> {
 
     fn sample_done(&mut self, samples: usize) {
         self.faults.sample_done(samples);
+        self.channel.at_sample(samples);
     }
 
     fn log(&mut self, _line: &str) {}

@@ -204,6 +204,11 @@ impl Water {
 
     /// Node `node` discarded a frame `kind` from `from` as late: its record
     /// (the latest such frame delivered) is marked.
+    /// Sample `k` begins: drifting receivers move ([`Channel::at_sample`]).
+    pub fn at_sample(&mut self, k: usize) {
+        self.channel.at_sample(k);
+    }
+
     pub fn mark_late(&mut self, node: u32, from: u32, kind: &str) {
         self.channel.mark_late(node, from, kind);
     }
@@ -260,6 +265,7 @@ mod tests {
 
     fn plan() -> ChannelPlan {
         ChannelPlan {
+            drift: Vec::new(),
             cfg: AcousticCfg::default(),
             positions: vec![Pt::xy(0.0, 0.0), Pt::xy(1500.0, 0.0), Pt::xy(0.0, 3000.0)],
             links: vec![vec![1, 2], vec![0], vec![0]],

@@ -649,6 +649,16 @@ impl Medium {
         self.frame(id, from, to, bits, t, start, end)
     }
 
+    /// The nodes are now at `pos` (receivers that drift, at the start of a
+    /// sample): later transmissions take their delays, and later
+    /// judgements their range loss, from these positions. Ignored unless
+    /// there is one position per node.
+    pub fn move_to(&mut self, pos: Vec<Pt>) {
+        if pos.len() == self.pos.len() {
+            self.pos = pos;
+        }
+    }
+
     /// How many nodes it joins.
     pub fn nodes(&self) -> usize {
         self.pos.len()

@@ -134,6 +134,39 @@ impl DriftCfg {
 }
 
 impl Drift {
+    /// [`Drift::position`] on the dimension-free coordinates of the
+    /// protocol and the channel (2 or 3, `start`'s).
+    pub fn position_pt(&self, start: &Pt, k: usize) -> Pt {
+        match start.dim() {
+            3 => Pt::of(&self.position(&start.point::<3>(), k)),
+            _ => Pt::of(&self.position(&start.point::<2>(), k)),
+        }
+    }
+
+    /// The samples in `0..samples` around which this drift turns: the two
+    /// samples either side of each waypoint reached (none for a velocity).
+    /// Between them the receiver moves on a straight line at constant speed.
+    pub fn turns<const D: usize>(&self, start: &Point<D>, samples: usize) -> Vec<usize> {
+        let Drift::Waypoints { points, speed } = self else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        let mut at = *start;
+        let mut length = 0.0;
+        for p in points {
+            let q = p.point::<D>();
+            length += (q - at).norm();
+            at = q;
+            let k = length / speed;
+            for s in [k.floor(), k.ceil()] {
+                if s.is_finite() && s >= 0.0 && (s as usize) < samples {
+                    out.push(s as usize);
+                }
+            }
+        }
+        out
+    }
+
     /// The position at sample `k` of a receiver that starts at `start`.
     pub fn position<const D: usize>(&self, start: &Point<D>, k: usize) -> Point<D> {
         match self {
@@ -206,6 +239,32 @@ mod tests {
         for k in [4, 5, 1000] {
             assert_relative_eq!(d.position(&start, k), Vec2::new(3.0, 4.0), epsilon = 1e-12);
         }
+    }
+
+    #[test]
+    fn the_samples_where_distances_peak_are_the_ends_and_either_side_of_each_waypoint() {
+        let d = Drift::Waypoints {
+            points: vec![Pt::xy(3.0, 0.0), Pt::xy(3.0, 4.0)],
+            speed: 2.0,
+        };
+        // 3 m then 7 m of path at 2 m a sample: samples 1.5 and 3.5.
+        assert_eq!(d.turns(&Vec2::new(0.0, 0.0), 10), vec![1, 2, 3, 4]);
+        let g = crate::model::measure::Geometry::new(
+            vec![],
+            vec![Vec2::new(0.0, 0.0), Vec2::new(9.0, 9.0)],
+        );
+        assert_eq!(g.extreme_samples(10), vec![0]);
+        let g = g.with_drift(vec![Some(d), None]);
+        assert_eq!(g.extreme_samples(10), vec![0, 1, 2, 3, 4, 9]);
+        // Receiver 0 goes to (3, 4) and holds: at sample 9 it is there.
+        assert_relative_eq!(g.at(9).receivers[0], Vec2::new(3.0, 4.0), epsilon = 1e-12);
+        assert_eq!(
+            Drift::Velocity {
+                velocity: Pt::xyz(1.0, 0.0, -1.0)
+            }
+            .position_pt(&Pt::xyz(0.0, 0.0, -5.0), 3),
+            Pt::xyz(3.0, 0.0, -8.0)
+        );
     }
 
     fn cfg(receiver: usize) -> DriftCfg {

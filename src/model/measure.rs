@@ -99,6 +99,26 @@ impl<const D: usize> Geometry<D> {
         }
     }
 
+    /// Samples of a run of `samples` samples at which every distance between
+    /// two receivers takes its largest value: `[0]` when nothing drifts;
+    /// else the first and last samples and those either side of every
+    /// waypoint (between them every receiver moves on a straight line, so
+    /// each distance is convex there and largest at an end).
+    pub fn extreme_samples(&self, samples: usize) -> Vec<usize> {
+        if !self.drifts() {
+            return vec![0];
+        }
+        let mut out = vec![0, samples.saturating_sub(1)];
+        for (n, d) in self.drift.iter().enumerate() {
+            if let Some(d) = d {
+                out.extend(d.turns(&self.receivers[n], samples));
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// The positions at sample `k`, as a fixed geometry: this one itself
     /// when no receiver drifts. Everything that works on one sample
     /// (measurement synthesis, the centralised estimators, the baselines,

@@ -80,8 +80,11 @@ pub struct RunPlan {
 pub struct ChannelPlan {
     /// Its parameters (validated).
     pub cfg: crate::model::channel::AcousticCfg,
-    /// Node positions (the receivers), in the run's dimension.
+    /// Node positions (the receivers) at sample 0, in the run's dimension.
     pub positions: Vec<Pt>,
+    /// How the receivers drift (empty when none does): the medium moves
+    /// them to their positions of each sample ([`crate::world::medium::Channel::at_sample`]).
+    pub drift: Vec<Option<crate::model::drift::Drift>>,
     /// `links[i]`: the nodes that node `i`'s transmissions reach (its
     /// gossip neighbours).
     pub links: Vec<Vec<u32>>,
@@ -173,7 +176,18 @@ impl RunPlan {
                 let links: Vec<Vec<u32>> = nodes.iter().map(|c| c.neighbours.clone()).collect();
                 // A Request and its Accept carry a reflected point each.
                 let fields = crate::protocol::PeerMsg::max_values(D);
-                let timeout = cfg.exchange_timeout(&positions, &links, fields);
+                // The timeouts hold for the longest links of the run: those
+                // of sample 0, or with drifting receivers of the samples
+                // where the distances are largest.
+                let snapshots: Vec<Vec<Pt>> = sc
+                    .geometry
+                    .extreme_samples(sc.samples)
+                    .into_iter()
+                    .map(|k| sc.geometry.at(k).receivers.iter().map(Pt::of).collect())
+                    .collect();
+                let longest =
+                    |f: &dyn Fn(&[Pt]) -> f64| snapshots.iter().map(|p| f(p)).fold(0.0, f64::max);
+                let timeout = longest(&|p| cfg.exchange_timeout(p, &links, fields));
                 // Sync rounds talk to and from the root; async steps along
                 // the gossip links.
                 let used: Vec<Vec<u32>> = match node_mode {
@@ -186,7 +200,7 @@ impl RunPlan {
                     _ => links.clone(),
                 };
                 let round = (node_mode != NodeMode::Realtime).then(|| {
-                    cfg.round_timeout(&positions, &used, fields, node_mode == NodeMode::Sync)
+                    longest(&|p| cfg.round_timeout(p, &used, fields, node_mode == NodeMode::Sync))
                 });
                 for c in &mut nodes {
                     c.exchange_timeout_s = Some(timeout);
@@ -195,6 +209,7 @@ impl RunPlan {
                 Some(ChannelPlan {
                     cfg: cfg.clone(),
                     positions,
+                    drift: sc.geometry.drift.clone(),
                     links,
                     exchange_timeout_s: timeout,
                     round_timeout_s: round,

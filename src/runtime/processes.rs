@@ -600,6 +600,9 @@ impl Network for Processes {
         if let Some((s, _, _)) = self.faults.as_mut() {
             s.sample_done(samples);
         }
+        if let Some(w) = self.water.as_mut() {
+            w.at_sample(samples);
+        }
     }
 
     fn abandon(&mut self, node: u32) {

@@ -254,15 +254,6 @@ impl<const D: usize> Scenario<D> {
         if let Some(ch) = file.channel.acoustic() {
             ch.validate(geometry.receivers.len())
                 .map_err(|e| e.in_file(path))?;
-            if geometry.drifts() {
-                return Err(InputError::at(
-                    path,
-                    "geometry.drift",
-                    "the acoustic channel propagates between fixed positions, so drifting \
-                     receivers are not supported on it: run them on the ideal channel \
-                     (drop [channel] or set model = \"ideal\")",
-                ));
-            }
         }
         if let Some(d) = &file.deploy {
             d.validate(geometry.receivers.len())

@@ -21,7 +21,9 @@
 //! which nodes are down when it gives a frame back.
 
 use crate::model::channel::{Fate, Frame, Medium, Nanos, Reason, nanos, seconds};
+use crate::model::drift::Drift;
 use crate::model::fault::{FaultKind, IdealLinks};
+use crate::model::xy::Pt;
 use crate::protocol::{ChannelPlan, PeerMsg};
 use crate::world::time::wait;
 use std::collections::BTreeMap;
@@ -168,6 +170,8 @@ pub struct Channel {
     /// Acoustic copies sent and not yet judged, by (transmission id,
     /// addressee): what is still in the water when the run ends.
     flying: BTreeMap<(u64, u32), (Frame, &'static str)>,
+    /// Receivers that drift: their sample-0 positions and their drifts.
+    drift: Option<(Vec<Pt>, Vec<Option<Drift>>)>,
 }
 
 impl Channel {
@@ -175,7 +179,29 @@ impl Channel {
     /// the one every engine judges frames on.
     pub fn planned(plan: &ChannelPlan, seed: u64) -> Channel {
         let medium = Medium::new(plan.cfg.clone(), seed, plan.positions.clone(), &plan.links);
-        Channel::acoustic(medium, seed)
+        let mut ch = Channel::acoustic(medium, seed);
+        if plan.drift.iter().any(Option::is_some) {
+            ch.drift = Some((plan.positions.clone(), plan.drift.clone()));
+        }
+        ch
+    }
+
+    /// Sample `k` begins: drifting receivers move to their positions of that
+    /// sample on the acoustic medium (nothing else changes). The engines
+    /// call it as each sample completes ([`crate::engine::Actuator::sample_done`]).
+    pub fn at_sample(&mut self, k: usize) {
+        let (Some((start, drift)), Carrier::Acoustic(m)) = (&self.drift, &mut self.carrier) else {
+            return;
+        };
+        let pos = start
+            .iter()
+            .enumerate()
+            .map(|(i, p)| match drift.get(i) {
+                Some(Some(d)) => d.position_pt(p, k),
+                _ => *p,
+            })
+            .collect();
+        m.move_to(pos);
     }
 
     /// The ideal channel between `n` nodes of a run with seed `seed`.
@@ -196,6 +222,7 @@ impl Channel {
             n: u32::try_from(n).unwrap_or(u32::MAX),
             records: Vec::new(),
             flying: BTreeMap::new(),
+            drift: None,
         }
     }
 
