@@ -433,6 +433,15 @@ pub enum DecodeError {
         /// Frames received.
         got: u32,
     },
+    /// A multi-frame message grew past its limit (a flood, or a frame
+    /// stream that never ends it): what was gathered is dropped.
+    #[error("{what}: more than {limit} frames or steps, dropped")]
+    TooMany {
+        /// Which message.
+        what: &'static str,
+        /// The limit.
+        limit: usize,
+    },
     /// A slot of an async plan frame held no step.
     #[error("async plan frame: slot {slot} holds {}, not a step", f64::from_bits(*bits))]
     BadStep {
@@ -443,7 +452,17 @@ pub enum DecodeError {
     },
 }
 
-/// Reassembles a node's incoming frames.
+/// Most measurement frames of one sample a node gathers before its end:
+/// a bistatic range per transmitter, a DOA and a one-way range.
+pub const MAX_SAMPLE_FRAMES: u32 = crate::scenario::MAX_TRANSMITTERS as u32 + 2;
+
+/// Most steps of one async plan a node gathers before its end (a node takes
+/// part in at most every iteration of a sample): 16 bytes each.
+pub const MAX_PLAN_STEPS: usize = crate::scenario::MAX_ITERATIONS_PER_SAMPLE;
+
+/// Reassembles a node's incoming frames. What it gathers between a
+/// multi-frame message's first frame and its end is bounded
+/// ([`MAX_SAMPLE_FRAMES`], [`MAX_PLAN_STEPS`]).
 #[derive(Debug)]
 pub struct NodeDecoder {
     meas: NodeMeasurements,
@@ -471,6 +490,23 @@ impl NodeDecoder {
             SAMPLE_END, SNAPSHOT, START_CLOCK, STOP, SYNC_ROUNDS,
         };
         let c = |c: Command| Ok(Some(NodeInput::Control(Control::Command(c))));
+        if matches!(f.kind, MEAS_BISTATIC | MEAS_DOA | MEAS_RANGE)
+            && self.meas_n >= MAX_SAMPLE_FRAMES
+        {
+            self.meas = NodeMeasurements::default();
+            self.meas_n = 0;
+            return Err(DecodeError::TooMany {
+                what: "sample measurements",
+                limit: MAX_SAMPLE_FRAMES as usize,
+            });
+        }
+        if f.kind == PLAN_STEP && self.steps.len() >= MAX_PLAN_STEPS {
+            self.steps = Vec::new();
+            return Err(DecodeError::TooMany {
+                what: "async plan",
+                limit: MAX_PLAN_STEPS,
+            });
+        }
         match f.kind {
             MEAS_BISTATIC => {
                 self.meas.bistatic.push((f.aux as usize, f.data[0]));
@@ -991,5 +1027,54 @@ mod tests {
             dec.feed(&frames[1]),
             Err(DecodeError::Count { .. })
         ));
+    }
+
+    #[test]
+    fn a_flood_of_measurement_or_plan_frames_is_cut_at_its_limit_and_the_next_message_decodes() {
+        let meas = frame(kind::MEAS_BISTATIC, COORDINATOR_ID, 0, 0, 0, &[1.0]);
+        let mut dec = NodeDecoder::new(2);
+        for _ in 0..MAX_SAMPLE_FRAMES {
+            assert!(dec.feed(&meas).unwrap().is_none());
+        }
+        assert!(matches!(
+            dec.feed(&meas),
+            Err(DecodeError::TooMany {
+                what: "sample measurements",
+                ..
+            })
+        ));
+        // Whatever was gathered is gone: a whole plan then decodes.
+        let steps = vec![(7, 1), (9, 0)];
+        let mut got = None;
+        for f in plan_frames(&steps) {
+            got = dec.feed(&f).unwrap();
+        }
+        assert_eq!(
+            got,
+            Some(NodeInput::Control(Control::Command(Command::AsyncPlan {
+                sample: 2,
+                steps
+            })))
+        );
+        // A plan that never ends stops growing at MAX_PLAN_STEPS.
+        let step = plan_frames(&[(1, 1)])[0];
+        let mut dec = NodeDecoder::new(2);
+        let mut fed = 0usize;
+        let err = loop {
+            match dec.feed(&step) {
+                Ok(_) => fed += 1,
+                Err(e) => break e,
+            }
+            assert!(fed <= MAX_PLAN_STEPS, "no limit");
+        };
+        assert!(matches!(
+            err,
+            DecodeError::TooMany {
+                what: "async plan",
+                ..
+            }
+        ));
+        assert!(dec.steps.capacity() <= 2 * MAX_PLAN_STEPS + 16);
+        assert!(dec.steps.is_empty());
     }
 }

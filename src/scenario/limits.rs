@@ -11,6 +11,10 @@ use crate::scenario::cli_error;
 
 /// Most receivers (nodes): `geometry.receivers`, `network.generator.count`.
 pub const MAX_RECEIVERS: usize = 4096;
+/// Most transmitters: `geometry.transmitters` (a node reassembles at most
+/// one bistatic range per transmitter per sample,
+/// [`crate::protocol::codec::MAX_SAMPLE_FRAMES`]).
+pub const MAX_TRANSMITTERS: usize = 4096;
 /// Most samples: `target.samples`, `--samples`.
 pub const MAX_SAMPLES: usize = 1_000_000;
 /// Most DR iterations per sample: `algorithm.iterations_per_sample`,

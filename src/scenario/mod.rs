@@ -37,7 +37,8 @@ mod schema;
 use build::check_tracks;
 pub use build::merge_tables;
 pub use limits::{
-    MAX_ITERATIONS_PER_SAMPLE, MAX_RECEIVERS, MAX_RECORD_BYTES, MAX_SAMPLES, MAX_TRIALS, SizeKey,
+    MAX_ITERATIONS_PER_SAMPLE, MAX_RECEIVERS, MAX_RECORD_BYTES, MAX_SAMPLES, MAX_TRANSMITTERS,
+    MAX_TRIALS, SizeKey,
 };
 pub use overrides::Override;
 pub use readers::{read_schedule, read_trace, read_truth};

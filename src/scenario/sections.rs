@@ -82,6 +82,17 @@ pub(super) fn points<const D: usize>(
         .enumerate()
         .map(|(i, p)| check_point(path, &format!("geometry.transmitters[{i}]"), p))
         .collect::<Result<Vec<_>, _>>()?;
+    if transmitters.len() > super::MAX_TRANSMITTERS {
+        return Err(InputError::at(
+            path,
+            "geometry.transmitters",
+            format!(
+                "{} transmitters, at most {} are supported",
+                transmitters.len(),
+                super::MAX_TRANSMITTERS
+            ),
+        ));
+    }
     let receivers = file
         .geometry
         .receivers

@@ -478,6 +478,11 @@ fn counts_outside_their_documented_range_are_refused_before_any_allocation() {
             &format!("receivers = [{many}]\n[network]\ngenerator = {{ kind = \"ring\" }}"),
             "geometry.receivers: 5000 receivers, at most 4096",
         ),
+        (
+            "transmitters = [[0.0, 0.0]]",
+            &format!("transmitters = [{many}]"),
+            "geometry.transmitters: 5000 transmitters, at most 4096",
+        ),
         // 1e6 samples x 1e6 iterations: each is in range, their record is not.
         ("samples = 3\n", "samples = 1000000\n", ""),
     ] {
