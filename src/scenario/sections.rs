@@ -82,17 +82,12 @@ pub(super) fn points<const D: usize>(
         .enumerate()
         .map(|(i, p)| check_point(path, &format!("geometry.transmitters[{i}]"), p))
         .collect::<Result<Vec<_>, _>>()?;
-    if transmitters.len() > super::MAX_TRANSMITTERS {
-        return Err(InputError::at(
-            path,
-            "geometry.transmitters",
-            format!(
-                "{} transmitters, at most {} are supported",
-                transmitters.len(),
-                super::MAX_TRANSMITTERS
-            ),
-        ));
-    }
+    at_most(
+        path,
+        "transmitters",
+        transmitters.len(),
+        super::MAX_TRANSMITTERS,
+    )?;
     let receivers = file
         .geometry
         .receivers
@@ -102,6 +97,18 @@ pub(super) fn points<const D: usize>(
         .collect::<Result<Vec<_>, _>>()?;
 
     Ok((transmitters, receivers))
+}
+
+/// `geometry.WHAT` holds at most `max` points.
+fn at_most(path: &Path, what: &str, n: usize, max: usize) -> Result<(), InputError> {
+    if n > max {
+        return Err(InputError::at(
+            path,
+            format!("geometry.{what}"),
+            format!("{n} {what}, at most {max} are supported"),
+        ));
+    }
+    Ok(())
 }
 
 /// `[network]`: the gossip graph, given or generated (a generator may place
@@ -142,17 +149,7 @@ pub(super) fn network<const D: usize>(
         }
         (None, Some(generator)) => build_generated(path, generator, receivers)?,
     };
-    if receivers.len() > super::MAX_RECEIVERS {
-        return Err(InputError::at(
-            path,
-            "geometry.receivers",
-            format!(
-                "{} receivers, at most {} are supported",
-                receivers.len(),
-                super::MAX_RECEIVERS
-            ),
-        ));
-    }
+    at_most(path, "receivers", receivers.len(), super::MAX_RECEIVERS)?;
     if receivers.is_empty() {
         return Err(InputError::at(path, "geometry.receivers", "no receivers"));
     }
