@@ -44,18 +44,29 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    ExitCode::from(node_status(argv))
+}
+
+/// [`node_main`]'s exit status as a number (the Python package's node
+/// program returns it to the interpreter): 0 when stopped by the
+/// coordinator, 143 by a signal, 2 for bad arguments, 1 for an error.
+pub fn node_status<I, T>(argv: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
     let args = match Args::try_parse_from(argv) {
         Ok(a) => a,
         Err(e) => {
             let _ = e.print();
-            return ExitCode::from(2);
+            return 2;
         }
     };
     let launch: NodeLaunch = match serde_json::from_str(&args.launch) {
         Ok(l) => l,
         Err(e) => {
             eprintln!("sonarnet-node: error: --launch is not a valid node launch description: {e}");
-            return ExitCode::from(2);
+            return 2;
         }
     };
     if launch.node.id as usize >= launch.topology.len() {
@@ -64,16 +75,16 @@ where
             launch.node.id,
             launch.topology.len()
         );
-        return ExitCode::from(2);
+        return 2;
     }
     match run(launch) {
-        Ok(Ended::Stopped) => ExitCode::SUCCESS,
+        Ok(Ended::Stopped) => 0,
         // Told to stop by a signal, not by the coordinator: say so, as a
         // shell does (128 + SIGTERM), so the coordinator can name the cause.
-        Ok(Ended::Signalled) => ExitCode::from(SIGNALLED),
+        Ok(Ended::Signalled) => SIGNALLED,
         Err(e) => {
             eprint!("sonarnet-node: {}", sonarnet::cli::error_report(&e));
-            ExitCode::from(1)
+            1
         }
     }
 }

@@ -187,6 +187,7 @@ pub(super) fn net_options<const D: usize>(
         placement,
         agent_wait: Some(Duration::from_secs_f64(args.agent_wait)),
         run_id,
+        node_program: None,
     })
 }
 

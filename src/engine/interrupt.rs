@@ -9,14 +9,45 @@
 //! what was completed is written and marked `interrupted`. A second signal
 //! while the flag is set takes the signal's default action (the process
 //! ends at once), so a run that does not stop can always be killed.
+//!
+//! A host that owns the process's signals (the Python interpreter, which
+//! turns SIGINT into `KeyboardInterrupt`) calls [`embedded`] before any run:
+//! the flag is then the host's to [`request`] and [`clear`], and no handler
+//! is installed.
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
+static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// Take the flag without installing signal handlers: the embedding host
+/// watches its own signals and sets the flag with [`request`]. Returns
+/// false when the handlers were already installed (the flag is shared all
+/// the same).
+pub fn embedded() -> bool {
+    let mut fresh = false;
+    FLAG.get_or_init(|| {
+        fresh = true;
+        Arc::new(AtomicBool::new(false))
+    });
+    fresh
+}
+
+/// Ask every running engine to stop, as SIGINT does.
+pub fn request() {
+    flag().store(true, Ordering::SeqCst);
+}
+
+/// Forget a stop request once the interrupted run has ended, so that the
+/// next run of a long-lived host starts afresh (the command line never
+/// clears it: it exits).
+pub fn clear() {
+    flag().store(false, Ordering::SeqCst);
+}
+
 /// The process's interrupt flag, set by SIGINT or SIGTERM (handlers
-/// registered on first use).
+/// registered on first use, unless [`embedded`] came first).
 pub fn flag() -> Arc<AtomicBool> {
-    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
     FLAG.get_or_init(|| {
         let f = Arc::new(AtomicBool::new(false));
         for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -33,5 +64,5 @@ pub fn flag() -> Arc<AtomicBool> {
 
 /// Whether the process has been asked to stop.
 pub fn requested() -> bool {
-    flag().load(std::sync::atomic::Ordering::SeqCst)
+    flag().load(Ordering::SeqCst)
 }

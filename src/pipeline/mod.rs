@@ -34,7 +34,9 @@ pub use results::{
     Band, ChannelStats, Death, ExpectResult, FaultOutcome, LinkStats, McSummary, NodeCounters,
     RealtimeStats, RunJson, RunMetrics, RunStatus, TrackBands,
 };
-pub use write::{check_out_dir, write_csv, write_json, write_trace, write_track_csv};
+pub use write::{
+    CsvDir, TableSink, check_out_dir, write_csv, write_json, write_trace, write_track_csv,
+};
 
 use crate::engine::RunOutcome;
 use crate::model::error::InputError;
@@ -95,6 +97,9 @@ pub struct NetOptions {
     /// The run id (`--run-id`); default: a fresh one (with a random secret
     /// over zenoh, [`crate::transport::secret_run_id`]).
     pub run_id: Option<String>,
+    /// The node program; default: [`crate::runtime::processes::default_node_program`]
+    /// (a host such as the Python package names its own).
+    pub node_program: Option<crate::runtime::processes::NodeProgram>,
 }
 
 pub use crate::protocol::config::default_clock;
@@ -326,6 +331,11 @@ pub fn execute<const D: usize>(
         checkpoint_dir: opts
             .write_checkpoints
             .then(|| opts.out_dir.join("checkpoints")),
+        node_program: opts
+            .net
+            .node_program
+            .clone()
+            .unwrap_or_else(crate::runtime::processes::default_node_program),
         ..Default::default()
     };
     let plan = crate::protocol::RunPlan::new(sc, opts.run_config())

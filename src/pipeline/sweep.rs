@@ -150,6 +150,21 @@ impl SweepPlan {
         seeds: Vec<u64>,
         variants: &[String],
     ) -> Result<SweepPlan, InputError> {
+        let text = std::fs::read_to_string(file)
+            .map_err(|e| InputError::file(file, format!("cannot read scenario: {e}")))?;
+        Self::of_text(file, &text, sets, axes, seeds, variants)
+    }
+
+    /// [`SweepPlan::new`] of scenario text already read (`file` names it
+    /// in errors and anchors its relative file names).
+    pub fn of_text(
+        file: &Path,
+        text: &str,
+        sets: &[Override],
+        axes: Vec<Axis>,
+        seeds: Vec<u64>,
+        variants: &[String],
+    ) -> Result<SweepPlan, InputError> {
         if axes.is_empty() {
             return Err(cli_error(
                 "--grid",
@@ -181,7 +196,7 @@ impl SweepPlan {
             for (k, v) in &values {
                 ov.push(Override::parse_for("--grid", &format!("{k}={v}"))?);
             }
-            let all = AnyScenario::load_all_with(file, &ov, variants)?;
+            let all = AnyScenario::text_with(file, text, &ov, variants)?;
             for v in variants {
                 if !all.iter().any(|s| s.variant() == Some(v.as_str())) {
                     return Err(cli_error(

@@ -30,12 +30,9 @@ impl<const D: usize> Outcome<D> {
         let Outcome {
             metrics: m,
             run,
-            scored,
-            real,
             started,
+            ..
         } = self;
-        let record = &run.record;
-        let done = record.thetas.len();
         let status = m.status;
         let dir = &opts.out_dir;
         std::fs::create_dir_all(dir).map_err(|e| RunError::Output {
@@ -44,25 +41,41 @@ impl<const D: usize> Outcome<D> {
         })?;
         write_run_json(dir, sc, opts, status, run, *started)?;
         write_scenario_toml(dir, sc, opts)?;
-        write_track_csv(&dir.join("track.csv"), sc, real, scored, done)?;
-        write_nodes_csv(&dir.join("nodes.csv"), sc, run)?;
+        self.tables(sc, &mut CsvDir(dir))?;
+        write_json(&dir.join("metrics.json"), m)?;
+        Ok(())
+    }
+
+    /// Every table of the results directory, in the order [`Outcome::write`]
+    /// writes them, handed to `sink` (the CSV files, or the Python package's
+    /// DataFrames): `track`, `nodes`, `faults` (with faults), `schedule`,
+    /// `messages`, `iterations` (when they have rows), `measurements`,
+    /// `truth` (when known) and `receivers` (when receivers drift). One
+    /// producer for both, so that a DataFrame holds what the CSV holds.
+    pub fn tables(&self, sc: &Scenario<D>, sink: &mut dyn TableSink) -> Result<(), RunError> {
+        let Outcome {
+            metrics: m,
+            run,
+            scored,
+            real,
+            ..
+        } = self;
+        let done = run.record.thetas.len();
+        track_table(sink, sc, real, scored, done)?;
+        nodes_table(sink, sc, run)?;
         if sc.has_faults() {
-            write_faults_csv(&dir.join("faults.csv"), sc, &m.faults)?;
+            faults_table(sink, sc, &m.faults)?;
         }
-        write_run_csvs(dir, sc, run)?;
-        write_trace(
-            &dir.join("measurements.csv"),
-            &real.measurements[..done],
-            sc.seed,
-        )?;
+        run_tables(sink, sc, run)?;
+        trace_table(sink, &real.measurements[..done], sc.seed)?;
         if let Some(t) = real.truth.as_ref().map(|t| &t[..done]) {
             let mut header = vec!["sample"];
             header.extend(AXES[..D].iter());
             header.push("seed");
-            write_csv(
-                &dir.join("truth.csv"),
+            sink.table(
+                "truth",
                 &header,
-                t.iter().enumerate().map(|(k, p)| {
+                &mut t.iter().enumerate().map(|(k, p)| {
                     let mut row = vec![k.to_string()];
                     row.extend(p.iter().map(|v| num(*v)));
                     row.push(sc.seed.to_string());
@@ -71,17 +84,43 @@ impl<const D: usize> Outcome<D> {
             )?;
         }
         if sc.geometry.drifts() {
-            write_receivers_csv(&dir.join("receivers.csv"), sc, done)?;
+            receivers_table(sink, sc, done)?;
         }
-        write_json(&dir.join("metrics.json"), m)?;
         Ok(())
     }
 }
 
-/// Write `receivers.csv` (a run whose receivers drift): every receiver's
+/// Where the tables of a run go ([`Outcome::tables`]): each comes as its
+/// name (`track`, `nodes`, ...), its header and its rows of cells, every
+/// float in its shortest round-trip form.
+pub trait TableSink {
+    /// Take one table.
+    fn table(
+        &mut self,
+        name: &str,
+        header: &[&str],
+        rows: &mut dyn Iterator<Item = Vec<String>>,
+    ) -> Result<(), RunError>;
+}
+
+/// The sink of the results directory: table `NAME` is the file `NAME.csv`.
+pub struct CsvDir<'a>(pub &'a Path);
+
+impl TableSink for CsvDir<'_> {
+    fn table(
+        &mut self,
+        name: &str,
+        header: &[&str],
+        rows: &mut dyn Iterator<Item = Vec<String>>,
+    ) -> Result<(), RunError> {
+        write_csv(&self.0.join(format!("{name}.csv")), header, rows)
+    }
+}
+
+/// `receivers.csv` (a run whose receivers drift): every receiver's
 /// position at every completed sample, `sample,node,x,y[,z],drifts`.
-fn write_receivers_csv<const D: usize>(
-    path: &Path,
+fn receivers_table<const D: usize>(
+    sink: &mut dyn TableSink,
     sc: &Scenario<D>,
     done: usize,
 ) -> Result<(), RunError> {
@@ -90,10 +129,10 @@ fn write_receivers_csv<const D: usize>(
     header.push("drifts");
     let g = &sc.geometry;
     let n = g.receivers.len();
-    write_csv(
-        path,
+    sink.table(
+        "receivers",
         &header,
-        (0..done).flat_map(|k| {
+        &mut (0..done).flat_map(|k| {
             (0..n).map(move |i| {
                 let mut row = vec![k.to_string(), i.to_string()];
                 row.extend(g.receiver_at(i, k).iter().map(|v| num(*v)));
@@ -104,10 +143,10 @@ fn write_receivers_csv<const D: usize>(
     )
 }
 
-/// Write `nodes.csv`: every node's `theta` after every completed sample,
+/// `nodes.csv`: every node's `theta` after every completed sample,
 /// whether it was alive, and (with faults) whether it was paused.
-fn write_nodes_csv<const D: usize>(
-    path: &Path,
+fn nodes_table<const D: usize>(
+    sink: &mut dyn TableSink,
     sc: &Scenario<D>,
     run: &RunOutcome,
 ) -> Result<(), RunError> {
@@ -122,10 +161,10 @@ fn write_nodes_csv<const D: usize>(
         header.push("paused");
     }
     header.push("seed");
-    write_csv(
-        path,
+    sink.table(
+        "nodes",
         &header,
-        record.thetas.iter().enumerate().flat_map(|(k, ts)| {
+        &mut record.thetas.iter().enumerate().flat_map(|(k, ts)| {
             let alive = record.alive.get(k);
             let paused = run.paused(k);
             ts.iter().enumerate().map(move |(i, t)| {
@@ -144,15 +183,15 @@ fn write_nodes_csv<const D: usize>(
     )
 }
 
-/// Write `faults.csv`: every fault applied, its detection and recovery.
-fn write_faults_csv<const D: usize>(
-    path: &Path,
+/// `faults.csv`: every fault applied, its detection and recovery.
+fn faults_table<const D: usize>(
+    sink: &mut dyn TableSink,
     sc: &Scenario<D>,
     faults: &[FaultOutcome],
 ) -> Result<(), RunError> {
     let opt = |v: Option<f64>| v.map(num).unwrap_or_default();
-    write_csv(
-        path,
+    sink.table(
+        "faults",
         &[
             "t_s",
             "sample",
@@ -163,7 +202,7 @@ fn write_faults_csv<const D: usize>(
             "recovered_s",
             "seed",
         ],
-        faults.iter().map(|f| {
+        &mut faults.iter().map(|f| {
             vec![
                 num(f.t_s),
                 f.sample.to_string(),
@@ -182,20 +221,20 @@ fn write_faults_csv<const D: usize>(
     )
 }
 
-/// Write the files a run has only when it has their rows: `schedule.csv`
+/// The tables a run has only when they have rows: `schedule.csv`
 /// (async schedules), `messages.csv` (the acoustic channel) and
 /// `iterations.csv` (`--trace-iterations`).
-fn write_run_csvs<const D: usize>(
-    dir: &Path,
+fn run_tables<const D: usize>(
+    sink: &mut dyn TableSink,
     sc: &Scenario<D>,
     run: &RunOutcome,
 ) -> Result<(), RunError> {
     let record = &run.record;
     if !record.schedule.is_empty() {
-        write_csv(
-            &dir.join("schedule.csv"),
+        sink.table(
+            "schedule",
             &["iteration", "v", "w", "seed"],
-            record.schedule.iter().enumerate().map(|(it, (v, w))| {
+            &mut record.schedule.iter().enumerate().map(|(it, (v, w))| {
                 vec![
                     it.to_string(),
                     v.to_string(),
@@ -207,12 +246,12 @@ fn write_run_csvs<const D: usize>(
     }
     let messages = run.channel.as_ref().map_or(&[][..], |c| &c.messages[..]);
     if !messages.is_empty() {
-        write_csv(
-            &dir.join("messages.csv"),
+        sink.table(
+            "messages",
             &[
                 "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "seed",
             ],
-            messages.iter().map(|r| {
+            &mut messages.iter().map(|r| {
                 vec![
                     num(r.t_send),
                     r.t_recv.map(num).unwrap_or_default(),
@@ -231,10 +270,10 @@ fn write_run_csvs<const D: usize>(
         let mut header = vec!["iteration", "sample", "node"];
         header.extend(AXES[..D].iter());
         header.extend(["d", "seed"]);
-        write_csv(
-            &dir.join("iterations.csv"),
+        sink.table(
+            "iterations",
             &header,
-            record.iteration_trace.iter().map(|(it, k, i, t)| {
+            &mut record.iteration_trace.iter().map(|(it, k, i, t)| {
                 let mut row = vec![it.to_string(), k.to_string(), i.to_string()];
                 row.extend(t.iter().map(|v| num(*v)));
                 row.push(sc.seed.to_string());
@@ -251,6 +290,28 @@ fn write_run_csvs<const D: usize>(
 /// on a baseline; empty when the set was empty).
 pub fn write_track_csv<const D: usize>(
     path: &Path,
+    sc: &Scenario<D>,
+    real: &Realization<D>,
+    scored: &Scored<D>,
+    done: usize,
+) -> Result<(), RunError> {
+    struct File<'a>(&'a Path);
+    impl TableSink for File<'_> {
+        fn table(
+            &mut self,
+            _: &str,
+            header: &[&str],
+            rows: &mut dyn Iterator<Item = Vec<String>>,
+        ) -> Result<(), RunError> {
+            write_csv(self.0, header, rows)
+        }
+    }
+    track_table(&mut File(path), sc, real, scored, done)
+}
+
+/// The columns of `track.csv` ([`write_track_csv`]).
+fn track_table<const D: usize>(
+    sink: &mut dyn TableSink,
     sc: &Scenario<D>,
     real: &Realization<D>,
     scored: &Scored<D>,
@@ -288,7 +349,7 @@ pub fn write_track_csv<const D: usize>(
     }
     header.push("seed".into());
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
-    let rows = (0..done).map(|k| {
+    let mut rows = (0..done).map(|k| {
         let t = truth.map(|t| t[k]);
         let e = |tr: &score::ScoredTrack<D>| tr.error.as_ref().and_then(|e| e[k]);
         let c = |tr: &score::ScoredTrack<D>| tr.ctte.as_ref().map(|c| c[k]);
@@ -323,7 +384,7 @@ pub fn write_track_csv<const D: usize>(
         row.push(sc.seed.to_string());
         row
     });
-    write_csv(path, &header_refs, rows)
+    sink.table("track", &header_refs, &mut rows)
 }
 
 /// Write measurements in the trace format
@@ -333,7 +394,25 @@ pub fn write_trace(
     samples: &[crate::model::measure::SampleMeasurements],
     seed: u64,
 ) -> Result<(), RunError> {
-    let rows = samples.iter().enumerate().flat_map(|(k, s)| {
+    write_csv(path, TRACE_HEADER, &mut trace_rows(samples, seed))
+}
+
+const TRACE_HEADER: &[&str] = &["sample", "receiver", "transmitter", "kind", "value", "seed"];
+
+/// `measurements.csv`, the trace format ([`write_trace`]).
+fn trace_table(
+    sink: &mut dyn TableSink,
+    samples: &[crate::model::measure::SampleMeasurements],
+    seed: u64,
+) -> Result<(), RunError> {
+    sink.table("measurements", TRACE_HEADER, &mut trace_rows(samples, seed))
+}
+
+fn trace_rows(
+    samples: &[crate::model::measure::SampleMeasurements],
+    seed: u64,
+) -> impl Iterator<Item = Vec<String>> + '_ {
+    samples.iter().enumerate().flat_map(move |(k, s)| {
         s.nodes.iter().enumerate().flat_map(move |(n, nm)| {
             let mut rows = Vec::new();
             for &(m, v) in &nm.bistatic {
@@ -378,12 +457,7 @@ pub fn write_trace(
             }
             rows
         })
-    });
-    write_csv(
-        path,
-        &["sample", "receiver", "transmitter", "kind", "value", "seed"],
-        rows,
-    )
+    })
 }
 
 /// `scenario.toml`: the run's resolved scenario

@@ -237,8 +237,13 @@ impl Scenario {
         overrides: &[Override],
         only: &[String],
     ) -> Result<Vec<Scenario>, InputError> {
-        load_all_with::<2>(path, overrides, only)
+        load_all_with::<2>(path, &read(path)?, overrides, only)
     }
+}
+
+fn read(path: &Path) -> Result<String, InputError> {
+    std::fs::read_to_string(path)
+        .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))
 }
 
 impl super::AnyScenario {
@@ -249,16 +254,26 @@ impl super::AnyScenario {
         overrides: &[Override],
         only: &[String],
     ) -> Result<Vec<super::AnyScenario>, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        Self::text_with(path, &read(path)?, overrides, only)
+    }
+
+    /// [`AnyScenario::load_all_with`](super::AnyScenario::load_all_with) of
+    /// scenario text already read: `path` names it in errors and anchors
+    /// the relative file names it holds.
+    pub fn text_with(
+        path: &Path,
+        text: &str,
+        overrides: &[Override],
+        only: &[String],
+    ) -> Result<Vec<super::AnyScenario>, InputError> {
         let file: ScenarioFile =
-            toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
+            toml::from_str(text).map_err(|e| build::toml_error(path, text, &e))?;
         Ok(match super::sections::dimension(path, &file)? {
-            3 => load_all_with::<3>(path, overrides, only)?
+            3 => load_all_with::<3>(path, text, overrides, only)?
                 .into_iter()
                 .map(super::AnyScenario::Space)
                 .collect(),
-            _ => load_all_with::<2>(path, overrides, only)?
+            _ => load_all_with::<2>(path, text, overrides, only)?
                 .into_iter()
                 .map(super::AnyScenario::Plane)
                 .collect(),
@@ -266,22 +281,19 @@ impl super::AnyScenario {
     }
 }
 
-/// [`Scenario::load_all_with`] in `D` dimensions.
+/// [`Scenario::load_all_with`] in `D` dimensions, of the file's `text`.
 fn load_all_with<const D: usize>(
     path: &Path,
+    text: &str,
     overrides: &[Override],
     only: &[String],
 ) -> Result<Vec<Scenario<D>>, InputError> {
     if overrides.is_empty() {
-        return build::load_every::<D>(path);
+        return build::every_from_toml_str::<D>(text, path);
     }
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
     // The file alone must parse: its own errors keep their line numbers.
-    let file: ScenarioFile =
-        toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
-    let table: toml::Table =
-        toml::from_str(&text).map_err(|e| build::toml_error(path, &text, &e))?;
+    let file: ScenarioFile = toml::from_str(text).map_err(|e| build::toml_error(path, text, &e))?;
+    let table: toml::Table = toml::from_str(text).map_err(|e| build::toml_error(path, text, &e))?;
     let names: Vec<&str> = file.variants.iter().map(|v| v.name.trim()).collect();
     if let Some(v) = only.iter().find(|v| !names.contains(&v.as_str())) {
         return Err(cli_error(
