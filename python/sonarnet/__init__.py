@@ -379,13 +379,11 @@ class Run:
 
     # -- tables -------------------------------------------------------
     def _load_all(self) -> None:
+        """Read a results directory's files (once)."""
         if self._frames is not None:
             return
         frames: dict = {}
-        if self._n is not None:
-            for name, cols, data in self._n.tables():
-                frames[name] = _frame(cols, data)
-        elif self._dir is not None:
+        if self._dir is not None and self._n is None:
             for name in _TABLES + ("trials",):
                 p = self._dir / f"{name}.csv"
                 if p.exists():
@@ -396,16 +394,26 @@ class Run:
                     self._extra[name] = json.loads(p.read_text())
         self._frames = frames
 
+    def _names(self) -> list:
+        if self._n is not None:
+            return list(self._n.table_names())
+        self._load_all()
+        return list(self._frames or {})
+
     @property
     def tables(self) -> dict:
         """Every table the run has, by name (``track``, ``nodes``,
         ``schedule``, ``messages``, ``measurements``, ``truth``, ...)."""
-        self._load_all()
-        return dict(self._frames or {})
+        return {name: self._table(name) for name in self._names()}
 
     def _table(self, name: str) -> "Optional[pandas.DataFrame]":
         self._load_all()
-        return (self._frames or {}).get(name)
+        frames = self._frames if self._frames is not None else {}
+        if name not in frames and self._n is not None:
+            t = self._n.table(name)
+            if t is not None:
+                frames[name] = _frame(t[1], t[2])
+        return frames.get(name)
 
     @property
     def track(self) -> "pandas.DataFrame":

@@ -363,6 +363,15 @@ impl PyRun {
         e.as_ref().map(sonarnet::protocol::EngineError::in_full)
     }
 
+    /// Hand the run's tables to `sink`.
+    fn fill(&self, py: Python<'_>, sink: &mut Columns) -> PyResult<()> {
+        let r = match &self.outcome {
+            AnyOutcome::Plane(o, sc) => o.tables(sc, sink),
+            AnyOutcome::Space(o, sc) => o.tables(sc, sink),
+        };
+        r.map_err(|e| from_pipeline(py, e))
+    }
+
     /// Write the results directory `dir` as `sonarnet run` does.
     fn write_dir(
         &self,
@@ -396,16 +405,24 @@ impl PyRun {
             .map_err(|e| run_error(py, format!("metrics: {e}"), None))
     }
 
-    /// Every table of the results directory as columns: a list of
-    /// `(name, column names, {column: numpy array or list})`.
-    fn tables<'py>(&self, py: Python<'py>) -> PyResult<Vec<crate::tables::PyTable<'py>>> {
-        let mut sink = Columns::default();
-        let r = match &self.outcome {
-            AnyOutcome::Plane(o, sc) => o.tables(sc, &mut sink),
-            AnyOutcome::Space(o, sc) => o.tables(sc, &mut sink),
-        };
-        r.map_err(|e| from_pipeline(py, e))?;
-        sink.into_python(py)
+    /// The names of the tables this run has, in the order the results
+    /// directory lists them.
+    fn table_names(&self, py: Python<'_>) -> PyResult<Vec<String>> {
+        let mut sink = Columns::only("");
+        self.fill(py, &mut sink)?;
+        Ok(sink.names)
+    }
+
+    /// Table `name` as columns, `(name, column names, {column: numpy
+    /// array or list})`; None when the run has no such table.
+    fn table<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+    ) -> PyResult<Option<crate::tables::PyTable<'py>>> {
+        let mut sink = Columns::only(name);
+        self.fill(py, &mut sink)?;
+        Ok(sink.into_python(py)?.into_iter().next())
     }
 
     /// `ok`, `interrupted` or `failed`.

@@ -17,10 +17,24 @@ struct Table {
     columns: Vec<Vec<String>>,
 }
 
-/// A sink that keeps every table in memory.
+/// A sink that keeps tables in memory: every table, or only the one named
+/// (the others' rows are never made).
 #[derive(Default)]
 pub struct Columns {
     tables: Vec<Table>,
+    only: Option<String>,
+    /// The name of every table offered, kept or not.
+    pub names: Vec<String>,
+}
+
+impl Columns {
+    /// A sink that keeps table `name` only.
+    pub fn only(name: &str) -> Self {
+        Columns {
+            only: Some(name.to_string()),
+            ..Columns::default()
+        }
+    }
 }
 
 impl TableSink for Columns {
@@ -30,6 +44,10 @@ impl TableSink for Columns {
         header: &[&str],
         rows: &mut dyn Iterator<Item = Vec<String>>,
     ) -> Result<(), RunError> {
+        self.names.push(name.to_string());
+        if self.only.as_deref().is_some_and(|o| o != name) {
+            return Ok(());
+        }
         let mut columns: Vec<Vec<String>> = vec![Vec::new(); header.len()];
         for row in rows {
             for (c, cell) in columns.iter_mut().zip(row) {

@@ -128,8 +128,7 @@ def test_monte_carlo_trials_are_the_command_lines(tmp_path):
 
 def test_float_columns_are_numpy_arrays_that_share_the_librarys_memory():
     run = sonarnet.Scenario.builtin("mourya2017-spiral").with_overrides({"target.samples": 20}).run(engine="inprocess")
-    tables = {name: data for name, _, data in run._n.tables()}
-    err = tables["track"]["error"]
+    err = run._n.table("track")[2]["error"]
     assert isinstance(err, np.ndarray) and err.dtype == np.float64
     # Owned by the Rust vector it was built from: no copy was made.
     assert not err.flags.owndata
@@ -155,3 +154,50 @@ def test_help_reads_well():
     for word in ("engine", "seed", "variant", "RunInterrupted", "progress"):
         assert word in doc
     assert sonarnet.sweep.__doc__ and sonarnet.Run.__doc__
+
+
+def test_the_spiral_example_draws_both_figures(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    p = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "python" / "spiral.py"), str(tmp_path)],
+        capture_output=True, text=True, timeout=600, cwd=ROOT,
+    )
+    assert p.returncode == 0, p.stderr
+    for f in ("fig2a.png", "fig2b.png"):
+        assert (tmp_path / f).stat().st_size > 10_000
+    rmse = {" ".join(l.split()[:2]): float(l.split()[-2]) for l in p.stdout.splitlines() if "rmse" in l}
+    # The paper's point: the quadratic constraint is what makes eq. (5) track.
+    assert rmse["sync gtrs"] * 3 < rmse["sync relaxed"], p.stdout
+
+
+def _python_blocks(markdown):
+    blocks, cur = [], None
+    for line in markdown.splitlines():
+        if cur is None and line.strip() == "```python":
+            cur = []
+        elif cur is not None and line.strip() == "```":
+            blocks.append("\n".join(cur))
+            cur = None
+        elif cur is not None:
+            cur.append(line)
+    return blocks
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/src/python.md"])
+def test_the_python_code_of_the_readme_and_the_book_runs(tmp_path, monkeypatch, doc):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from conftest import ROOT
+
+    (tmp_path / "scenarios").symlink_to(ROOT / "scenarios")
+    monkeypatch.chdir(tmp_path)
+    blocks = _python_blocks((ROOT / doc).read_text())
+    assert blocks, doc
+    env = {}
+    for code in blocks:
+        exec(compile(code.replace("seeds=range(5)", "seeds=range(2)"), doc, "exec"), env)
