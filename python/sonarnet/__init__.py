@@ -109,7 +109,7 @@ class _Bar:
     """The progress bar: tqdm (a widget in Jupyter, text on a terminal)."""
 
     def __init__(self, enabled: bool, total: int, unit: str):
-        self._bar = None
+        self._bar: Any = None
         if enabled:
             try:
                 from tqdm.auto import tqdm
@@ -127,6 +127,11 @@ class _Bar:
     def close(self) -> None:
         if self._bar is not None:
             self._bar.close()
+
+    def callback(self) -> "Optional[_Bar]":
+        """The bar as the native run takes it: None when it draws nothing
+        (the run then does not stop to report its progress)."""
+        return self if self._bar is not None else None
 
 
 def _frame(columns: Sequence[str], data: Mapping[str, Any]) -> "pandas.DataFrame":
@@ -315,7 +320,7 @@ class Scenario:
                 poll_us=poll_us,
                 stall_timeout_s=stall_timeout_s,
                 out=None if out is None else os.fspath(out),
-                progress=bar,
+                progress=bar.callback(),
             )
         except (RunError, RunInterrupted) as e:
             if getattr(e, "run", None) is not None:
@@ -341,7 +346,7 @@ class Scenario:
                 mode=mode,
                 baselines=baselines,
                 clock=clock,
-                progress=bar,
+                progress=bar.callback(),
             )
             run = load_results(dest)
             if not keep:
@@ -587,7 +592,7 @@ def sweep(
         total *= len(v)
     bar = _Bar(_want_bar(progress), total, "runs")
     try:
-        _native._sweep(scenario._s, axes, seed_list, int(jobs), engine, os.fspath(dest), bar)
+        _native._sweep(scenario._s, axes, seed_list, int(jobs), engine, os.fspath(dest), bar.callback())
         return _read_csv(dest / "sweep.csv")
     except RunInterrupted as e:
         # The completed runs' rows were written before the exception.

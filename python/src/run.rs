@@ -200,10 +200,14 @@ pub fn run(
         AnyScenario::Plane(sc) => {
             let sc = with_args(py, sc.clone(), a)?;
             let opts = options(py, &sc, a)?;
-            let d = drive(py, progress, |tick| run_one(&sc, &opts, tick))?;
+            let d = drive(py, progress, move |tick| {
+                let o = run_one(&sc, &opts, tick);
+                (o, sc, opts)
+            })?;
+            let (o, sc, opts) = d.value;
             finish(
                 py,
-                AnyOutcome::Plane(Box::new(d.value), Box::new(sc)),
+                AnyOutcome::Plane(Box::new(o), Box::new(sc)),
                 opts,
                 d.interrupted,
             )
@@ -211,10 +215,14 @@ pub fn run(
         AnyScenario::Space(sc) => {
             let sc = with_args(py, sc.clone(), a)?;
             let opts = options(py, &sc, a)?;
-            let d = drive(py, progress, |tick| run_one(&sc, &opts, tick))?;
+            let d = drive(py, progress, move |tick| {
+                let o = run_one(&sc, &opts, tick);
+                (o, sc, opts)
+            })?;
+            let (o, sc, opts) = d.value;
             finish(
                 py,
-                AnyOutcome::Space(Box::new(d.value), Box::new(sc)),
+                AnyOutcome::Space(Box::new(o), Box::new(sc)),
                 opts,
                 d.interrupted,
             )
@@ -307,7 +315,7 @@ pub fn monte_carlo(
         opts.engine = EngineKind::Inprocess;
         opts.check_expect = false;
         opts.write_checkpoints = false;
-        let d = drive(py, progress, |tick| {
+        let d = drive(py, progress, move |tick| {
             let t = |n: usize| tick(n as u64, String::new());
             pipeline::montecarlo::run_monte_carlo(&sc, trials, &opts, &t)
         })?;

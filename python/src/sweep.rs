@@ -71,23 +71,25 @@ pub fn _sweep(
         r.map_err(|e| scenario_error(py, &e))?;
     }
     let runs = plan.runs();
-    let d = drive(py, progress.as_ref(), |tick| {
+    let d = drive(py, progress.as_ref(), move |tick| {
         let t = |n: usize| tick(n as u64, String::new());
-        run_sweep(&plan, engine, jobs, &out, &t)
+        let o = run_sweep(&plan, engine, jobs, &out, &t);
+        (o, plan, out)
     })?;
-    write_tables(&plan, &d.value, &out).map_err(|e| from_pipeline(py, e))?;
+    let (outcome, plan, out) = d.value;
+    write_tables(&plan, &outcome, &out).map_err(|e| from_pipeline(py, e))?;
     if d.interrupted.is_some() {
         return Err(interrupted(
             py,
             format!(
                 "interrupted after {} of {runs} runs; the completed runs were written to {}",
-                d.value.runs.len(),
+                outcome.runs.len(),
                 out.display()
             ),
             None,
         ));
     }
-    Ok(d.value.runs.len())
+    Ok(outcome.runs.len())
 }
 
 fn preflight<const D: usize>(

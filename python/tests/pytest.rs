@@ -79,10 +79,59 @@ fn run() -> Result<(), String> {
         .stdin(Stdio::null());
     println!("+ PYTHONPATH={} {cmd:?}", pkg.display());
     let status = wait_with_watchdog(cmd)?;
+    if !status.success() {
+        return Err(format!("pytest exited with {status}"));
+    }
+    if std::env::var_os("SONARNET_TEST_PIP_INSTALL").is_some_and(|v| v == "1") {
+        pip_install(target, &root)?;
+    }
+    Ok(())
+}
+
+/// README's install line, `pip install ./python`, into a fresh virtual
+/// environment (maturin builds the wheel: a second release build of the
+/// library, so only when `$SONARNET_TEST_PIP_INSTALL` is 1, as CI sets
+/// it), then a run on node processes from the installed package and its
+/// `sonarnet-node` command.
+fn pip_install(target: &Path, root: &Path) -> Result<(), String> {
+    let dir = target.join("python-pip-venv");
+    let _ = std::fs::remove_dir_all(&dir);
+    let python = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
+    let ok = Command::new(&python)
+        .args(["-m", "venv"])
+        .arg(&dir)
+        .status()
+        .map_err(|e| format!("cannot run {python}: {e}"))?;
+    if !ok.success() {
+        return Err(format!("{python} -m venv {} failed", dir.display()));
+    }
+    let mut cmd = Command::new(dir.join("bin").join("pip"));
+    cmd.args(["install", "--disable-pip-version-check", "./python"])
+        .current_dir(root)
+        .stdin(Stdio::null());
+    println!("+ {cmd:?}");
+    let status = wait_with_watchdog(cmd)?;
+    if !status.success() {
+        return Err(format!("pip install ./python exited with {status}"));
+    }
+    let check = "import sonarnet, shutil, sys, os\n\
+        r = sonarnet.Scenario.builtin('mourya2017-spiral').with_overrides({'target.samples': 20}).run(engine='processes', seed=1)\n\
+        assert r.status == 'ok' and len(r.track) == 20, r\n\
+        node = os.path.join(os.path.dirname(sys.executable), 'sonarnet-node')\n\
+        assert os.access(node, os.X_OK), node\n\
+        print('installed', sonarnet.__version__, 'ran on node processes')\n";
+    let mut cmd = Command::new(dir.join("bin").join("python"));
+    cmd.args(["-c", check])
+        .current_dir(target)
+        .env_remove("PYTHONPATH")
+        .env_remove("SONARNET_NODE_BIN")
+        .stdin(Stdio::null());
+    let status = wait_with_watchdog(cmd)?;
+    let _ = std::fs::remove_dir_all(&dir);
     if status.success() {
         Ok(())
     } else {
-        Err(format!("pytest exited with {status}"))
+        Err(format!("the installed package failed its check ({status})"))
     }
 }
 
