@@ -96,7 +96,7 @@ def ready(done, text):
         print("started", flush=True)
 bar = ready
 try:
-    sc._s.run(engine={engine!r}, seed=1, progress=bar)
+    sc._s.run(engine={engine!r}, seed=1, progress=bar, out={out!r})
 except sonarnet.RunInterrupted as e:
     run = sonarnet.Run(e.run)
     print("interrupted", run.status, len(run.track), flush=True)
@@ -106,8 +106,9 @@ print("completed", flush=True)
 
 
 @pytest.mark.parametrize("engine", ["inprocess", "processes"])
-def test_ctrl_c_stops_the_run_in_order_and_keeps_the_completed_samples(engine):
-    p = python(CTRL_C.format(engine=engine))
+def test_ctrl_c_stops_the_run_in_order_and_keeps_the_completed_samples(engine, tmp_path):
+    out_dir = tmp_path / "out"
+    p = python(CTRL_C.format(engine=engine, out=str(out_dir)))
     try:
         line = p.stdout.readline()
         assert line.strip() == "started", line + p.stderr.read()
@@ -121,11 +122,15 @@ def test_ctrl_c_stops_the_run_in_order_and_keeps_the_completed_samples(engine):
     words = out.split()
     assert words[:2] == ["interrupted", "interrupted"], out + err
     assert 0 < int(words[2]) < 100000
+    # The results directory asked for holds the same samples, marked.
+    written = sonarnet.load_results(out_dir)
+    assert written.metrics["status"] == "interrupted"
+    assert len(written.track) == int(words[2])
 
 
 def test_a_run_after_an_interrupted_one_starts_afresh():
     # The stop request of Ctrl-C is cleared once the run has ended.
-    code = CTRL_C.format(engine="inprocess").replace(
+    code = CTRL_C.format(engine="inprocess", out=None).replace(
         'sys.exit(0)',
         'again = sc.with_overrides({"target.samples": 20}).run(engine="inprocess")\n'
         '    print(again.status, len(again.track), flush=True)\n    sys.exit(0)',
@@ -149,3 +154,39 @@ def test_nothing_is_left_in_shared_memory_after_runs_from_python():
     sc.run(engine="processes")
     left = {n for n in set(os.listdir("/dev/shm")) - before if "iox2" in n or "sonarnet" in n}
     assert not left, left
+
+
+SWEEP_CTRL_C = """
+import sonarnet, sys
+sc = sonarnet.Scenario.builtin("mourya2017-spiral").with_overrides({"target.samples": 2000})
+said = []
+def ready(done, text):
+    if not said:
+        said.append(done)
+        print("started", flush=True)
+bar = sonarnet._Bar(False, 0, "runs")
+bar.callback = lambda: ready
+sonarnet._Bar = lambda *a: bar
+try:
+    sonarnet.sweep(sc, grid={"algorithm.gamma": [1e-8, 2e-8, 5e-8, 1e-7]}, seeds=range(50), jobs=1)
+except sonarnet.RunInterrupted as e:
+    print("interrupted", len(e.sweep), flush=True)
+    sys.exit(0)
+print("completed", flush=True)
+"""
+
+
+def test_ctrl_c_stops_a_sweep_and_keeps_the_completed_runs():
+    p = python(SWEEP_CTRL_C)
+    try:
+        assert p.stdout.readline().strip() == "started", p.stderr.read()
+        time.sleep(0.3)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 0, err
+    words = out.split()
+    assert words[0] == "interrupted", out + err
+    assert 0 < int(words[1]) < 200
