@@ -65,14 +65,6 @@ pub enum NodeError {
     /// The transport failed.
     #[error(transparent)]
     Transport(#[from] TransportError),
-    /// A frame did not decode.
-    #[error("bad frame from {from}: {error}")]
-    BadFrame {
-        /// The sender.
-        from: u32,
-        /// What the decoder found.
-        error: crate::protocol::codec::DecodeError,
-    },
     /// The coordinator went away while the node was idle.
     #[error("the coordinator is gone")]
     CoordinatorGone,
@@ -218,10 +210,18 @@ impl<'o, 'a> Loop<'o, 'a> {
     /// Decode frame `f` and act on it; `true` for STOP.
     fn take<T: Transport>(&mut self, tx: &mut T, f: &Frame) -> Result<bool, NodeError> {
         let id = self.id;
-        let input = self.decoder.feed(f).map_err(|error| NodeError::BadFrame {
-            from: f.from,
-            error,
-        })?;
+        let input = match self.decoder.feed(f) {
+            Ok(input) => input,
+            Err(error) => {
+                // Garbage from a peer (or a flood past a reassembly
+                // limit) is counted and dropped: the node goes on.
+                if self.opts.verbose {
+                    eprintln!("[node {id}] dropped a bad frame from {}: {error}", f.from);
+                }
+                self.core.note_bad_frame();
+                return Ok(false);
+            }
+        };
         match input {
             None => {}
             Some(NodeInput::Peer(m)) => {
@@ -688,6 +688,53 @@ mod tests {
             })
             .collect();
         assert_eq!(snapshots, vec![7]);
+    }
+
+    /// Garbage in a node's inbox (an unknown kind, a peer message with an
+    /// impossible field) is counted and dropped: the node answers what
+    /// follows and reports the count with its counters.
+    #[test]
+    fn a_node_counts_and_drops_bad_frames_and_goes_on() {
+        let topo = RunTopology::new("bad-frames", vec![vec![]], 16).unwrap();
+        let net = MemNetwork::new(&topo);
+        let mut coord = net.endpoint(Endpoint::Coordinator).unwrap();
+        let mut node_tx = net.endpoint(Endpoint::Node(0)).unwrap();
+        let mut frames = vec![
+            Frame {
+                kind: 0xdead,
+                from: 0,
+                ..Frame::default()
+            },
+            Frame {
+                kind: codec::kind::REFLECT,
+                from: 0,
+                data: [f64::NAN; 5],
+                ..Frame::default()
+            },
+        ];
+        codec::encode_control(
+            &Control::Command(Command::Snapshot { sample: 7 }),
+            &mut frames,
+        );
+        codec::encode_control(&Control::Stop, &mut frames);
+        for f in &frames {
+            coord.send(Endpoint::Node(0), f).unwrap();
+        }
+        coord.flush().unwrap();
+        run_lone(&mut node_tx, lone_node(None), None, false).expect("the node goes on");
+        let mut got = Vec::new();
+        coord.recv(&mut got, Some(Duration::from_secs(1))).unwrap();
+        let mut dec = ReportDecoder::new(2);
+        let counted: Vec<u64> = got
+            .iter()
+            .filter_map(|f| match dec.feed(f).unwrap() {
+                Some(CoordinatorInput::Report(Report::Snapshot { counters, .. })) => {
+                    Some(counters.bad_frames)
+                }
+                _ => None,
+            })
+            .collect();
+        assert_eq!(counted, vec![2]);
     }
 
     #[test]

@@ -21,6 +21,9 @@ pub struct ProcessStats {
     pub timing: Vec<Timing>,
     /// Peak RSS (KiB) of every node process at the end of the run.
     pub peak_rss_kib: Vec<Option<u64>>,
+    /// Per node: frames from it the coordinator could not decode and
+    /// dropped; one more slot for frames that named no node of the run.
+    pub bad_frames: Vec<u64>,
 }
 
 /// What an engine returns: the coordinator's record, why the run stopped

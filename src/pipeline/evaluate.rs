@@ -114,6 +114,9 @@ fn node_counters(run: &RunOutcome) -> Vec<NodeCounters> {
             peak_rss_kib: procs
                 .and_then(|p| p.peak_rss_kib.get(node).copied())
                 .flatten(),
+            bad_frames_sent: procs
+                .and_then(|p| p.bad_frames.get(node).copied())
+                .unwrap_or(0),
         })
         .collect()
 }

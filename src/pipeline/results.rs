@@ -41,6 +41,14 @@ pub struct NodeCounters {
     pub wait_seconds: Option<f64>,
     /// Multi-process: peak resident set size of the node process (KiB).
     pub peak_rss_kib: Option<u64>,
+    /// Multi-process: frames from this node the coordinator could not
+    /// decode and dropped. Left out when zero.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub bad_frames_sent: u64,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// Free-running (realtime) statistics.

@@ -83,8 +83,9 @@ pub mod kind {
     pub const READY: u32 = 36;
     /// Report: the answer to a [`PING`], `seq` = its check number.
     pub const PONG: u32 = 37;
-    /// Report: the lossy channel's counters (`data` = timeouts, missing,
-    /// late), after a [`COUNTERS`] frame, sent only when one is not zero.
+    /// Report: the lossy channel's counters and the bad frames dropped
+    /// (`data` = timeouts, missing, late, bad frames), after a [`COUNTERS`]
+    /// frame, sent only when one is not zero.
     pub const LOSS_COUNTERS: u32 = 38;
     /// Report (acoustic channel): the node discarded a frame as late;
     /// `aux` = its sender, `seq` = its sequence number, `sample` = its kind.
@@ -331,14 +332,19 @@ fn counters_frames(node: u32, c: &Counters, out: &mut Vec<Frame>) {
             c.updates as f64,
         ],
     ));
-    if c.timeouts > 0 || c.missing > 0 || c.late > 0 {
+    if c.timeouts > 0 || c.missing > 0 || c.late > 0 || c.bad_frames > 0 {
         out.push(frame(
             kind::LOSS_COUNTERS,
             node,
             0,
             0,
             0,
-            &[c.timeouts as f64, c.missing as f64, c.late as f64],
+            &[
+                c.timeouts as f64,
+                c.missing as f64,
+                c.late as f64,
+                c.bad_frames as f64,
+            ],
         ));
     }
 }
@@ -441,6 +447,15 @@ pub enum DecodeError {
         what: &'static str,
         /// The limit.
         limit: usize,
+    },
+    /// A peer message carried a coordinate that is not finite: a broken
+    /// or malicious sender's point must not reach the node's state.
+    #[error("frame kind {kind} from {from} carries a value that is not finite")]
+    NotFinite {
+        /// The frame kind.
+        kind: u32,
+        /// The sender it claims.
+        from: u32,
     },
     /// A slot of an async plan frame held no step.
     #[error("async plan frame: slot {slot} holds {}, not a step", f64::from_bits(*bits))]
@@ -584,6 +599,20 @@ impl NodeDecoder {
             START_CLOCK => Ok(Some(NodeInput::Control(Control::StartClock(f.data[0])))),
             CLOCK_FACTOR => Ok(Some(NodeInput::Control(Control::ClockFactor(f.data[0])))),
             REFLECT | REQUEST | ACCEPT | DECLINE | AVERAGE => {
+                let used = match f.kind {
+                    DECLINE => 0,
+                    AVERAGE => self.dim,
+                    _ => self.dim + 1,
+                };
+                if f.data[..used.min(f.data.len())]
+                    .iter()
+                    .any(|v| !v.is_finite())
+                {
+                    return Err(DecodeError::NotFinite {
+                        kind: f.kind,
+                        from: f.from,
+                    });
+                }
                 Ok(decode_peer(f, self.dim).map(NodeInput::Peer))
             }
             k => Err(DecodeError::UnknownKind(k)),
@@ -886,6 +915,7 @@ mod tests {
             timeouts: 3,
             missing: 2,
             late: 1,
+            bad_frames: 4,
         };
         let reports = vec![
             Report::SampleDone {

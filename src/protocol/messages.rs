@@ -302,6 +302,11 @@ pub struct Counters {
     /// discarded. Left out when zero.
     #[serde(skip_serializing_if = "is_zero")]
     pub late: u64,
+    /// Frames that did not decode (garbage, a truncated or out-of-range
+    /// field, a flood past a reassembly limit), counted and dropped: the
+    /// node goes on. Left out when zero.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub bad_frames: u64,
 }
 
 fn is_zero(x: &u64) -> bool {

@@ -113,6 +113,12 @@ pub struct NodeCore {
     last_done: Option<u64>,
 }
 
+/// Most sample, sync-rounds and plan commands a busy node keeps queued. The
+/// coordinator sends at most [`LOOKAHEAD`] samples ahead, two
+/// commands each; past this bound a command is a flood, dropped and counted
+/// in [`Counters::bad_frames`].
+pub const MAX_QUEUED: usize = 64;
+
 impl NodeCore {
     /// A node restarted from its checkpoint ([`Output::Checkpoint`]): `u` and
     /// `theta` as saved, no measurements yet (the coordinator sends the
@@ -191,6 +197,13 @@ impl NodeCore {
         self.counters
     }
 
+    /// A frame addressed to this node did not decode and was dropped (the
+    /// node loop's decoder found it bad): counted in
+    /// [`Counters::bad_frames`], reported with the other counters.
+    pub fn note_bad_frame(&mut self) {
+        self.counters.bad_frames += 1;
+    }
+
     /// Neighbours still considered alive.
     pub fn live_neighbours(&self) -> &[u32] {
         &self.alive
@@ -243,7 +256,12 @@ impl NodeCore {
                     Command::Sample { .. } | Command::SyncRounds { .. } | Command::AsyncPlan { .. }
                 );
                 if sequenced && (self.busy() || !self.queued.is_empty()) {
-                    self.queued.push_back(c);
+                    if self.queued.len() < MAX_QUEUED {
+                        self.queued.push_back(c);
+                    } else {
+                        // A flood of commands: dropped, and counted.
+                        self.counters.bad_frames += 1;
+                    }
                 } else {
                     self.on_command(c, out);
                 }
@@ -828,6 +846,22 @@ mod tests {
         assert_eq!(ahead.u(), step.u());
         assert_eq!(ahead.theta(), step.theta());
         assert_eq!(out2, out, "same outputs in the same order");
+    }
+
+    #[test]
+    fn a_busy_node_queues_at_most_its_bound_and_counts_the_flood_past_it() {
+        let mut cfg = config(LocalSolver::Gtrs, 1);
+        cfg.mode = NodeMode::AsyncLogical;
+        let mut node = NodeCore::new(cfg);
+        let mut out = Vec::new();
+        node.handle(sample(0), &mut out);
+        node.handle(Input::Command(plan(0)), &mut out);
+        assert!(node.busy(), "sample 0 waits for its partner");
+        for k in 1..=100u32 {
+            node.handle(sample(k), &mut out);
+        }
+        assert_eq!(node.samples_queued(), MAX_QUEUED);
+        assert_eq!(node.counters().bad_frames, 100 - MAX_QUEUED as u64);
     }
 
     #[test]

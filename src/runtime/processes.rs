@@ -108,6 +108,9 @@ struct Inbox {
     encoded: Vec<Frame>,
     /// Events for the coordinator not yet handed over.
     events: Vec<Event>,
+    /// Per node: frames from it that did not decode, dropped (the last
+    /// slot: frames claiming a sender that is no node of the run).
+    bad: Vec<u64>,
 }
 
 /// What starting a node takes: the node program, what every node is told at
@@ -202,6 +205,7 @@ impl Processes {
                 frames: Vec::new(),
                 encoded: Vec::new(),
                 events: Vec::new(),
+                bad: vec![0; n + 1],
             },
             interrupt,
             timing: vec![Timing::default(); n],
@@ -311,7 +315,23 @@ impl Processes {
                 }
                 Ok(Some(x)) => out.push(x),
                 Ok(None) => {}
-                Err(e) => return Err(EngineError::BadFrame(e)),
+                Err(e) => {
+                    // Counted and dropped; the first from each sender is
+                    // named on standard error.
+                    let n = self.inbox.bad.len() - 1;
+                    let slot = (f.from as usize).min(n);
+                    if self.inbox.bad[slot] == 0 {
+                        let who = if slot < n {
+                            format!("node {slot}")
+                        } else {
+                            format!("an unknown sender ({})", f.from)
+                        };
+                        eprintln!(
+                            "warning: {who} sent a frame that does not decode ({e}): dropped"
+                        );
+                    }
+                    self.inbox.bad[slot] += 1;
+                }
             }
         }
         Ok(out)
@@ -712,6 +732,7 @@ pub fn run_processes(
         startup_seconds: Some(procs.startup_seconds),
         timing: procs.timing.clone(),
         peak_rss_kib: procs.peak_rss_kib(),
+        bad_frames: procs.inbox.bad.clone(),
     });
     procs.shutdown();
     out

@@ -130,6 +130,7 @@ impl ReportDecoder {
                 c.timeouts = d[0] as u64;
                 c.missing = d[1] as u64;
                 c.late = d[2] as u64;
+                c.bad_frames = d[3] as u64;
                 Ok(None)
             }
             SAMPLE_DONE => Ok(Some(CoordinatorInput::Report(Report::SampleDone {
