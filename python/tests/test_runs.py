@@ -201,3 +201,26 @@ def test_the_python_code_of_the_readme_and_the_book_runs(tmp_path, monkeypatch, 
     env = {}
     for code in blocks:
         exec(compile(code.replace("seeds=range(5)", "seeds=range(2)"), doc, "exec"), env)
+
+
+def test_a_run_releases_the_gil():
+    import threading
+    import time
+
+    sc = sonarnet.Scenario.builtin("mourya2017-spiral").with_overrides({"target.samples": 3000})
+    done = threading.Event()
+    result = {}
+
+    def work():
+        result["run"] = sc.run(engine="inprocess", progress=False)
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    spins = 0
+    while not done.is_set():
+        spins += 1  # Python code running beside the run
+        time.sleep(0.001)
+    t.join()
+    assert result["run"].status == "ok"
+    assert spins > 50, spins
