@@ -111,7 +111,15 @@ struct Inbox {
     /// Per node: frames from it that did not decode, dropped (the last
     /// slot: frames claiming a sender that is no node of the run).
     bad: Vec<u64>,
+    /// Per node: cut off for sending [`CUT_OFF_BAD_FRAMES`] bad frames.
+    cut: Vec<bool>,
 }
+
+/// Frames that do not decode after which the coordinator cuts a node off:
+/// its process is killed and the run goes on as after a crash (the
+/// realtime clock leaves a dead node out; a logical clock ends the run,
+/// keeping what was completed).
+pub const CUT_OFF_BAD_FRAMES: u64 = 64;
 
 /// What starting a node takes: the node program, what every node is told at
 /// start (node 0's launch), every node's configuration, and where the
@@ -206,6 +214,7 @@ impl Processes {
                 encoded: Vec::new(),
                 events: Vec::new(),
                 bad: vec![0; n + 1],
+                cut: vec![false; n],
             },
             interrupt,
             timing: vec![Timing::default(); n],
@@ -237,6 +246,23 @@ impl Processes {
         }
     }
 
+    /// Kill every node that has sent [`CUT_OFF_BAD_FRAMES`] frames that
+    /// do not decode, naming it; its death is then seen as a crash's.
+    fn cut_off_garbage(&mut self) {
+        for i in 0..self.inbox.cut.len() {
+            if self.inbox.bad[i] >= CUT_OFF_BAD_FRAMES && !self.inbox.cut[i] && !self.nodes.dead[i]
+            {
+                self.inbox.cut[i] = true;
+                eprintln!(
+                    "error: node {i} sent {} frames that do not decode: cut off (its process \
+                     is killed, and the run goes on as after a crash)",
+                    self.inbox.bad[i]
+                );
+                self.signal(i as u32, libc::SIGKILL);
+            }
+        }
+    }
+
     /// Check every child; returns the first newly dead node and how it died.
     pub fn check_children(&mut self) -> Option<(u32, String)> {
         for (i, c) in self.nodes.children.iter_mut().enumerate() {
@@ -257,6 +283,15 @@ impl Processes {
                     continue;
                 }
                 self.nodes.dead[i] = true;
+                if self.inbox.cut.get(i).copied().unwrap_or(false) {
+                    return Some((
+                        i as u32,
+                        format!(
+                            "cut off by the coordinator after {} frames that do not decode",
+                            self.inbox.bad[i]
+                        ),
+                    ));
+                }
                 return Some((i as u32, status));
             }
         }
@@ -334,6 +369,7 @@ impl Processes {
                 }
             }
         }
+        self.cut_off_garbage();
         Ok(out)
     }
 

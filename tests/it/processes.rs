@@ -949,3 +949,87 @@ fn the_one_hop_measurement_between_neighbouring_node_processes_answers_every_pro
         assert_nothing_left(&run_id);
     }
 }
+
+/// A node that sends frames the coordinator cannot decode
+/// (`examples/garbage_node.rs` as node 1, the real node program for the
+/// others) is counted, named and cut off after
+/// `CUT_OFF_BAD_FRAMES` of them: its process is killed, the run goes on as
+/// after a crash (realtime clock), `theta_bar` is the mean of the live
+/// nodes, and nothing is left behind.
+#[test]
+fn a_node_that_sends_garbage_is_named_and_cut_off_and_the_run_goes_on() {
+    let _cpu = cpu_exclusive();
+    let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_sonarnet"));
+    let garbage = exe
+        .parent()
+        .expect("target dir")
+        .join("examples")
+        .join("garbage_node");
+    assert!(garbage.exists(), "{} was not built", garbage.display());
+    let tmp = TempDir::new("garbage-node");
+    let dir = tmp.path().join("run");
+    let child = Command::new(&exe)
+        .args([
+            "run",
+            scenario("mourya2017-spiral-faults.toml")
+                .to_str()
+                .expect("utf-8"),
+            "--variant",
+            "pause",
+            "--engine",
+            "processes",
+            "--set",
+            "target.samples=30",
+            "--quiet",
+            "--out",
+            dir.to_str().expect("utf-8"),
+        ])
+        .env("SONARNET_NODE_BIN", &garbage)
+        .env("SONARNET_GARBAGE_NODE", "1")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn sonarnet");
+    let o = wait_watchdog(child, "sonarnet run with a garbage node", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("node 1 sent") && stderr.contains("cut off"),
+        "{stderr}"
+    );
+    let m = metrics(&dir);
+    assert_eq!(m["status"], "ok");
+    let sent = m["nodes"][1]["bad_frames_sent"].as_u64().unwrap_or(0);
+    assert!(
+        sent >= sonarnet::runtime::processes::CUT_OFF_BAD_FRAMES,
+        "{sent}"
+    );
+    for i in [0usize, 2, 3, 4, 5] {
+        assert!(m["nodes"][i].get("bad_frames_sent").is_none(), "node {i}");
+    }
+    // Node 1 is dead from the first sample on; theta_bar of every sample is
+    // the mean of the live nodes' theta.
+    let rows = read_rows(&dir.join("nodes.csv"));
+    let track = read_rows(&dir.join("track.csv"));
+    assert_eq!(track.len(), 30);
+    for (k, t) in track.iter().enumerate() {
+        let live: Vec<&Vec<String>> = rows
+            .iter()
+            .filter(|r| r[0] == k.to_string() && r[5] == "true")
+            .collect();
+        assert!(
+            live.iter().all(|r| r[1] != "1"),
+            "node 1 alive at sample {k}"
+        );
+        for (axis, col) in [(2usize, 3usize), (3, 4)] {
+            let mean = live
+                .iter()
+                .map(|r| r[axis].parse::<f64>().unwrap())
+                .sum::<f64>()
+                / live.len() as f64;
+            let est: f64 = t[col].parse().unwrap();
+            approx::assert_relative_eq!(est, mean, max_relative = 1e-12);
+        }
+    }
+    assert_nothing_left(&run_id_of(&dir));
+}

@@ -1,0 +1,75 @@
+//! A node program with one broken node, to see what a run does with a peer
+//! that sends garbage: node `$SONARNET_GARBAGE_NODE` says READY and then
+//! sends the coordinator frames that do not decode, every millisecond,
+//! until it is killed or its coordinator is gone; every other node is the
+//! real node program (`nodes/main.rs`, compiled in).
+//!
+//! ```sh
+//! cargo build --release --examples
+//! SONARNET_NODE_BIN=target/release/examples/garbage_node SONARNET_GARBAGE_NODE=3 \
+//!     cargo run --release -- run scenarios/mourya2017-spiral-faults.toml --engine processes
+//! ```
+//!
+//! The coordinator counts the bad frames, names the node and cuts it off
+//! after `sonarnet::runtime::processes::CUT_OFF_BAD_FRAMES` of them; the
+//! run goes on as after a crash of that node.
+
+use sonarnet::protocol::codec;
+use sonarnet::runtime::processes::{NodeLaunch, guard_parent, wait_at_gate};
+use sonarnet::transport::wire::Frame;
+use sonarnet::transport::{Endpoint, open_node};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+#[path = "../nodes/main.rs"]
+#[allow(dead_code)]
+mod node_program;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().collect();
+    let garbage: Option<u32> = std::env::var("SONARNET_GARBAGE_NODE")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    let launch = args
+        .windows(2)
+        .find(|w| w[0] == "--launch")
+        .and_then(|w| serde_json::from_str::<NodeLaunch>(&w[1]).ok());
+    match launch {
+        Some(l) if Some(l.node.id) == garbage => match send_garbage(&l) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("garbage_node: {e}");
+                ExitCode::from(1)
+            }
+        },
+        _ => node_program::node_main(args),
+    }
+}
+
+/// READY, then a frame of an unknown kind every millisecond for at most a
+/// minute, while the coordinator lives.
+fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
+    guard_parent(l.coordinator_pid)?;
+    let parent = std::os::unix::process::parent_id();
+    let topo = l.run_topology()?;
+    wait_at_gate(l)?;
+    let id = l.node.id;
+    let mut tx = open_node(&l.transport, &topo, id, Duration::ZERO)?;
+    tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
+    tx.flush()?;
+    let junk = Frame {
+        kind: 0xdead,
+        from: id,
+        ..Frame::default()
+    };
+    let start = Instant::now();
+    let mut inbox = Vec::new();
+    while std::os::unix::process::parent_id() == parent && start.elapsed() < Duration::from_secs(60)
+    {
+        tx.send(Endpoint::Coordinator, &junk)?;
+        tx.flush()?;
+        inbox.clear();
+        tx.recv(&mut inbox, Some(Duration::from_millis(1)))?;
+    }
+    Ok(())
+}
