@@ -87,12 +87,15 @@ def _toml(value: Any) -> str:
     raise ScenarioError(f"<arguments>: cannot write {value!r} ({type(value).__name__}) as a scenario value")
 
 
-def _set_text(key: str, value: Any) -> str:
-    """``KEY=VALUE`` as ``--set`` takes it: a string is passed as written
+def _value_text(value: Any) -> str:
+    """A value as ``--set`` and ``--grid`` take it: a string as written
     (TOML, or a bare word such as ``sync``), anything else as TOML."""
-    if isinstance(value, str):
-        return f"{key}={value}"
-    return f"{key}={_toml(value)}"
+    return value if isinstance(value, str) else _toml(value)
+
+
+def _set_text(key: str, value: Any) -> str:
+    """``KEY=VALUE`` as ``--set`` takes it."""
+    return f"{key}={_value_text(value)}"
 
 
 def _want_bar(progress: Optional[bool]) -> bool:
@@ -580,7 +583,7 @@ def sweep(
     for key, values in grid.items():
         if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
             raise ScenarioError(f"<arguments>: grid: {key}: give a list of values")
-        texts = [_set_text(key, v).split("=", 1)[1] for v in values]
+        texts = [_value_text(v) for v in values]
         axes.append((key, texts))
     seed_list = [scenario.seed] if seeds is None else [int(s) for s in seeds]
     if jobs is None:

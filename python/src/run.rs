@@ -197,37 +197,27 @@ pub fn run(
     progress: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     match &s.chosen {
-        AnyScenario::Plane(sc) => {
-            let sc = with_args(py, sc.clone(), a)?;
-            let opts = options(py, &sc, a)?;
-            let d = drive(py, progress, move |tick| {
-                let o = run_one(&sc, &opts, tick);
-                (o, sc, opts)
-            })?;
-            let (o, sc, opts) = d.value;
-            finish(
-                py,
-                AnyOutcome::Plane(Box::new(o), Box::new(sc)),
-                opts,
-                d.interrupted,
-            )
-        }
-        AnyScenario::Space(sc) => {
-            let sc = with_args(py, sc.clone(), a)?;
-            let opts = options(py, &sc, a)?;
-            let d = drive(py, progress, move |tick| {
-                let o = run_one(&sc, &opts, tick);
-                (o, sc, opts)
-            })?;
-            let (o, sc, opts) = d.value;
-            finish(
-                py,
-                AnyOutcome::Space(Box::new(o), Box::new(sc)),
-                opts,
-                d.interrupted,
-            )
-        }
+        AnyScenario::Plane(sc) => run_in(py, sc, a, progress, AnyOutcome::Plane),
+        AnyScenario::Space(sc) => run_in(py, sc, a, progress, AnyOutcome::Space),
     }
+}
+
+/// [`run`] in `D` dimensions; `wrap` keeps the outcome with its scenario.
+fn run_in<const D: usize>(
+    py: Python<'_>,
+    sc: &Scenario<D>,
+    a: &RunArgs,
+    progress: Option<&Bound<'_, PyAny>>,
+    wrap: fn(Box<Outcome<D>>, Box<Scenario<D>>) -> AnyOutcome,
+) -> PyResult<Py<PyAny>> {
+    let sc = with_args(py, sc.clone(), a)?;
+    let opts = options(py, &sc, a)?;
+    let d = drive(py, progress, move |tick| {
+        let o = run_one(&sc, &opts, tick);
+        (o, sc, opts)
+    })?;
+    let (o, sc, opts) = d.value;
+    finish(py, wrap(Box::new(o), Box::new(sc)), opts, d.interrupted)
 }
 
 fn run_one<const D: usize>(sc: &Scenario<D>, opts: &RunOptions, tick: Tick<'_>) -> Outcome<D> {

@@ -95,16 +95,7 @@ fn run() -> Result<(), String> {
 /// `sonarnet-node` command.
 fn pip_install(target: &Path, root: &Path) -> Result<(), String> {
     let dir = target.join("python-pip-venv");
-    let _ = std::fs::remove_dir_all(&dir);
-    let python = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&python)
-        .args(["-m", "venv"])
-        .arg(&dir)
-        .status()
-        .map_err(|e| format!("cannot run {python}: {e}"))?;
-    if !ok.success() {
-        return Err(format!("{python} -m venv {} failed", dir.display()));
-    }
+    new_venv(&dir)?;
     let mut cmd = Command::new(dir.join("bin").join("pip"));
     cmd.args(["install", "--disable-pip-version-check", "./python"])
         .current_dir(root)
@@ -144,18 +135,7 @@ fn venv(target: &Path) -> Result<PathBuf, String> {
     if std::fs::read_to_string(&marker).is_ok_and(|t| t == want) {
         return Ok(dir);
     }
-    let _ = std::fs::remove_dir_all(&dir);
-    let python = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&python)
-        .args(["-m", "venv"])
-        .arg(&dir)
-        .status()
-        .map_err(|e| {
-            format!("cannot run {python} (Python 3 is needed for the Python tests): {e}")
-        })?;
-    if !ok.success() {
-        return Err(format!("{python} -m venv {} failed", dir.display()));
-    }
+    new_venv(&dir)?;
     let pip = dir.join("bin").join("pip");
     let ok = Command::new(&pip)
         .args(["install", "--quiet", "--disable-pip-version-check"])
@@ -170,6 +150,24 @@ fn venv(target: &Path) -> Result<PathBuf, String> {
     }
     std::fs::write(&marker, want).map_err(|e| format!("{}: {e}", marker.display()))?;
     Ok(dir)
+}
+
+/// A fresh virtual environment at `dir` (`$PYTHON`, default `python3`).
+fn new_venv(dir: &Path) -> Result<(), String> {
+    let _ = std::fs::remove_dir_all(dir);
+    let python = std::env::var("PYTHON").unwrap_or_else(|_| "python3".into());
+    let ok = Command::new(&python)
+        .args(["-m", "venv"])
+        .arg(dir)
+        .status()
+        .map_err(|e| {
+            format!("cannot run {python} (Python 3 is needed for the Python tests): {e}")
+        })?;
+    if ok.success() {
+        Ok(())
+    } else {
+        Err(format!("{python} -m venv {} failed", dir.display()))
+    }
 }
 
 /// The package as the wheel lays it out: `python/sonarnet/*` with the

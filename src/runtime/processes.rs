@@ -329,6 +329,7 @@ impl Processes {
         tx.recv(&mut self.inbox.frames, Some(timeout))
             .map_err(EngineError::Transport)?;
         let mut out = Vec::new();
+        let mut bad = false;
         for f in &self.inbox.frames {
             match self.inbox.decoder.feed(f) {
                 Ok(Some(CoordinatorInput::Timing { node, timing })) => {
@@ -366,10 +367,13 @@ impl Processes {
                         );
                     }
                     self.inbox.bad[slot] += 1;
+                    bad = true;
                 }
             }
         }
-        self.cut_off_garbage();
+        if bad {
+            self.cut_off_garbage();
+        }
         Ok(out)
     }
 
