@@ -4,14 +4,16 @@
 //! samples with Douglas-Rachford-like inputs `u` near the lifted target. `gtrs_l0` runs
 //! on the same instances with `kappa = 1`.
 //!
+//! The GTRS prox in 3-D (`gtrs_prox_3d`) runs on the same geometry with
+//! transmitters 10 m deep, receivers 100-600 m deep and the target at 300 m: two
+//! bistatic rows and the azimuth and elevation rows of a DOA with 0.01 rad noise.
+//!
 //! The cone step alone (`min_quadratic_on_upper_nappe`, the core of the GTRS prox):
 //! the 2-D angle solver and the any-dimension secular solver on the same 2-D
-//! instances, and the secular solver on 3-D instances: the same geometry with
-//! transmitters 10 m deep, receivers 100-600 m deep and the target at 300 m,
-//! bistatic rows `[2 (t_m - r_v)^T, -2 rho_m]` and the DOA rows of the unit direction
-//! `e` to the target, `omega [I, -e]` (Mourya 2017 eq. 9 with 3-D vectors).
+//! instances, and the secular solver on the 3-D instances.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Matrix4, Vector3, Vector4};
 use sonarnet::estimators::local::LocalProblem;
 use sonarnet::estimators::prox::gtrs::min_quadratic_on_upper_nappe;
 use sonarnet::estimators::prox::gtrs::{prox_gtrs, prox_relaxed};
@@ -70,11 +72,10 @@ fn cone_2d(p: &LocalProblem, u: &Vec3, gamma: f64) -> (Mat3, Vec3) {
     (a, b)
 }
 
-type Cone3 = (nalgebra::Matrix4<f64>, nalgebra::Vector4<f64>);
-
-/// 3-D instances (see the module docs), 6 receivers x 16 samples.
-fn cone_3d(gamma: f64) -> Vec<Cone3> {
-    use nalgebra::{Matrix4, Vector3, Vector4};
+/// 3-D instances (see the module docs), 6 receivers x 16 samples: the local
+/// problem with two bistatic rows and the azimuth and elevation rows of its DOA
+/// (Mourya 2017 eq. 9 with 3-D vectors), and a Douglas-Rachford-like `u`.
+fn instances_3d() -> Vec<(LocalProblem<3, 4>, Vector4<f64>)> {
     let tx = [
         Vector3::new(0.0, 0.0, -10.0),
         Vector3::new(2000.0, 2000.0, -10.0),
@@ -82,49 +83,47 @@ fn cone_3d(gamma: f64) -> Vec<Cone3> {
     let geometry = Geometry::mourya2017();
     let depths = [100.0, 200.0, 300.0, 400.0, 500.0, 600.0];
     let noise = NoiseModel::gaussian(5.0);
+    let angle_noise = NoiseModel::gaussian(0.01);
     let mut rng = stream_rng(2017, Stream::Aux, 1);
     let mut out = Vec::new();
     for k in 0..16 {
         let target = Vector3::new(500.0 + 2.5 * k as f64, 500.0 - 1.5 * k as f64, -300.0);
         for (r2, depth) in geometry.receivers.iter().zip(depths) {
             let r = Vector3::new(r2.x, r2.y, -depth);
-            let mut rows: Vec<(Vector4<f64>, f64)> = Vec::new();
-            for t in &tx {
-                let rho =
-                    (target - t).norm() + (target - r).norm() + noise.sample(k, false, &mut rng);
-                let d = 2.0 * (t - r);
-                rows.push((
-                    Vector4::new(d.x, d.y, d.z, -2.0 * rho),
-                    t.norm_squared() - rho * rho - r.norm_squared(),
-                ));
-            }
-            let e =
-                (target - r + Vector3::new(0.0, 0.0, noise.sample(k, false, &mut rng))).normalize();
-            for i in 0..3 {
-                let mut row = Vector4::zeros();
-                row[i] = 1.0;
-                row[3] = -e[i];
-                rows.push((row, r[i]));
-            }
-            let mut h = Matrix4::zeros();
-            let mut c = Vector4::zeros();
-            for (row, g) in &rows {
-                h += row * row.transpose();
-                c += row * *g;
-            }
-            let rt = Vector4::new(r.x, r.y, r.z, 0.0);
+            let v = target - r;
+            let meas = NodeMeasurements {
+                bistatic: tx
+                    .iter()
+                    .enumerate()
+                    .map(|(m, t)| {
+                        let rho = (target - t).norm() + v.norm();
+                        (m, rho + noise.sample(k, false, &mut rng))
+                    })
+                    .collect(),
+                doa: Some(v.y.atan2(v.x) + angle_noise.sample(k, false, &mut rng)),
+                elevation: Some(v.z.atan2(v.xy().norm()) + angle_noise.sample(k, false, &mut rng)),
+                range: None,
+            };
+            let p = LocalProblem::<3, 4>::build(r, &tx, 1.0, &meas);
             let u = Vector4::new(
-                target.x + 20.0 * noise.sample(k, false, &mut rng) / 5.0,
-                target.y,
-                target.z,
-                (target - r).norm(),
+                target.x + 4.0 * noise.sample(k, false, &mut rng),
+                target.y + 4.0 * noise.sample(k, false, &mut rng),
+                target.z + 4.0 * noise.sample(k, false, &mut rng),
+                v.norm() + 4.0 * noise.sample(k, false, &mut rng),
             );
-            let a = h + Matrix4::identity() / gamma;
-            let b = (c - h * rt) + (u - rt) / gamma;
-            out.push((a, b));
+            out.push((p, u));
         }
     }
     out
+}
+
+/// The cone problem `(A, b)` of the GTRS prox of a 3-D instance, as `prox_gtrs`
+/// forms it.
+fn cone_3d(p: &LocalProblem<3, 4>, u: &Vector4<f64>, gamma: f64) -> (Matrix4<f64>, Vector4<f64>) {
+    let r = Vector4::new(p.anchor.x, p.anchor.y, p.anchor.z, 0.0);
+    let a = p.h + Matrix4::identity() / gamma;
+    let b = (p.c - p.h * r) + (u - r) / gamma;
+    (a, b)
 }
 
 fn bench_prox(c: &mut Criterion) {
@@ -151,6 +150,15 @@ fn bench_prox(c: &mut Criterion) {
                 black_box(gamma),
                 black_box(1),
             ))
+        })
+    });
+    let inst3 = instances_3d();
+    let mut i = 0usize;
+    c.bench_function("gtrs_prox_3d", |b| {
+        b.iter(|| {
+            let (p, u) = &inst3[i % inst3.len()];
+            i = i.wrapping_add(1);
+            black_box(prox_gtrs(black_box(p), black_box(u), black_box(gamma)))
         })
     });
     let mut i = 0usize;
@@ -185,7 +193,10 @@ fn bench_cone(c: &mut Criterion) {
             black_box(min_quadratic_on_upper_nappe_n(black_box(a), black_box(bv)))
         })
     });
-    let cones3 = cone_3d(gamma);
+    let cones3: Vec<(Matrix4<f64>, Vector4<f64>)> = instances_3d()
+        .iter()
+        .map(|(p, u)| cone_3d(p, u, gamma))
+        .collect();
     let mut i = 0usize;
     c.bench_function("cone_3d_secular", |b| {
         b.iter(|| {

@@ -29,6 +29,14 @@
 //!
 //! # Method
 //!
+//! First the fast path of [`monotone`]: the minimiser over the whole cone is
+//! the one root of the secular function on the interval where `A + lambda S`
+//! (`S = diag(1, ..., 1, -1)`) is positive definite, found by a bracketed
+//! Newton iteration on Cholesky factors and certified by the factor itself;
+//! when it lies on the upper nappe it is the answer. Otherwise (the root on
+//! the lower nappe, the hard case, an ill-conditioned factor) every KKT point
+//! is enumerated, as follows.
+//!
 //! The minimum of `q` on the upper nappe is `-1/2 max_w F(w)`, `F(w) =
 //! max(b^T w, 0)^2 / (w^T A w)` over the directions `w = [e, 1]`, `||e|| = 1`
 //! (for fixed `w`, `q(rho w)` is a parabola in `rho >= 0`; see
@@ -58,6 +66,8 @@
 
 use crate::estimators::prox::gtrs::ProxError;
 use nalgebra::{Complex, SMatrix, SVector};
+
+mod monotone;
 
 /// Largest lifted dimension handled (the secular polynomial of degree
 /// `2 (M - 1)` lives in arrays of this length).
@@ -118,6 +128,20 @@ pub fn min_quadratic_on_upper_nappe_n<const M: usize>(
     }
     let a = a / alpha;
     let b = b / alpha;
+    if let Some(y) = monotone::upper_nappe_minimiser(&a, &b) {
+        let mut w = direction(&y);
+        w[M - 1] = 1.0;
+        let (bw, aw) = (b.dot(&w), w.dot(&(a * w)));
+        if bw > 0.0 && aw > 0.0 {
+            return Ok(w * (bw / aw));
+        }
+    }
+    enumerate_kkt_points(&a, &b)
+}
+
+/// The minimiser by the enumeration of every KKT point (see the module
+/// docs), for `a` scaled to a largest diagonal entry of 1.
+fn enumerate_kkt_points<const M: usize>(a: &Mat<M>, b: &Vector<M>) -> Result<Vector<M>, ProxError> {
     let not_pd = || ProxError::Degenerate("A = H + I/gamma is not positive definite".into());
     let chol = a.cholesky().ok_or_else(not_pd)?;
     let l_inv = chol
@@ -131,7 +155,7 @@ pub fn min_quadratic_on_upper_nappe_n<const M: usize>(
     let v = l_inv.transpose() * q;
     let beta = v.transpose() * b;
 
-    let mut best = Best::new(&a, &b);
+    let mut best = Best::new(a, b);
     // lambda = 0 (the unconstrained minimiser) and lambda -> infinity.
     best.consider(&(v * beta));
     best.consider(&(v * beta.component_div(&d)));
@@ -270,13 +294,10 @@ impl<'a, const M: usize> Best<'a, M> {
 
     /// Take the feasible direction through `y`'s position part as a seed.
     fn consider(&mut self, y: &Vector<M>) {
-        let mut e = *y;
-        e[M - 1] = 0.0;
-        let norm = e.norm();
-        if !(norm.is_finite() && norm > 0.0) || self.n == self.seeds.len() {
+        let e = direction(y);
+        if !e.iter().all(|x| x.is_finite()) || self.n == self.seeds.len() {
             return;
         }
-        e /= norm;
         let f = self.f(&e);
         if f > 0.0 {
             self.seeds[self.n] = (f, e);
@@ -406,6 +427,20 @@ impl<'a, const M: usize> Best<'a, M> {
             }
             None => Vector::<M>::zeros(),
         }
+    }
+}
+
+/// The unit direction `e` of `y`'s position part (last entry 0): the point
+/// `rho [e, 1]` of the nappe through `y`. Not finite when the position part
+/// is 0 or not finite.
+fn direction<const M: usize>(y: &Vector<M>) -> Vector<M> {
+    let mut e = *y;
+    e[M - 1] = 0.0;
+    let norm = e.norm();
+    if norm > 0.0 && norm.is_finite() {
+        e / norm
+    } else {
+        e * f64::NAN
     }
 }
 
