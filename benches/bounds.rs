@@ -131,7 +131,8 @@ fn bench(c: &mut Criterion) {
 }
 
 /// The bounds in 3-D on eight balls (the cube corners of Gholami 2015
-/// Table 2, scaled to a 100 m cube), at the POCS estimate.
+/// Table 2, scaled to a 100 m cube), at the POCS estimate; then `upp_bbox`
+/// and `upp_exact` on eight spheroids (the same receivers, one transmitter).
 fn bench_3d(c: &mut Criterion) {
     type P3 = sonarnet::model::geometry::Point<3>;
     let x_true = P3::new(37.0, 61.0, 22.0);
@@ -166,6 +167,37 @@ fn bench_3d(c: &mut Criterion) {
         b.iter(|| upp_exact(black_box(&balls), black_box(&x_hat)))
     });
     let inter = Intersection::new(&balls)
+        .expect("solver")
+        .expect("nonempty");
+    g.bench_function("exact_on_checked_intersection", |b| {
+        b.iter(|| inter.upp_exact(black_box(&x_hat)))
+    });
+    g.finish();
+
+    // The same receivers with a transmitter above the cube: eight bistatic
+    // ranges, eight spheroids; `upp_exact` is the certified search over
+    // directions (a cone program per direction).
+    let tx = P3::new(50.0, 50.0, 130.0);
+    let spheroids: Vec<Region<3>> = (0..8)
+        .map(|k| {
+            let a = P3::new(
+                100.0 * f64::from(k & 1),
+                100.0 * f64::from((k >> 1) & 1),
+                100.0 * f64::from((k >> 2) & 1),
+            );
+            let rho = (x_true - tx).norm() + (x_true - a).norm() + err[k as usize];
+            Region::from_bistatic(tx, a, rho, 0.0)
+        })
+        .collect();
+    let x_hat = pocs(&spheroids, P3::repeat(50.0), 10_000, 1e-9)
+        .expect("finite")
+        .x;
+    let mut g = c.benchmark_group("8 spheroids (3-D)");
+    g.sample_size(10);
+    g.bench_function("upp_bbox", |b| {
+        b.iter(|| upp_bbox(black_box(&spheroids), black_box(&x_hat)))
+    });
+    let inter = Intersection::new(&spheroids)
         .expect("solver")
         .expect("nonempty");
     g.bench_function("exact_on_checked_intersection", |b| {

@@ -3,7 +3,6 @@
 //! line, and the reason.
 
 use super::BoundsCfg;
-use super::DataSource;
 use super::ScenarioFile;
 use super::sections;
 use crate::model::error::{InputError, KeyError};
@@ -76,39 +75,6 @@ pub(super) fn check_tracks<const D: usize>(
         return Err(KeyError::new(
             format!("bounds.per_track.{t}"),
             "list at least one bound",
-        ));
-    }
-    Ok(())
-}
-
-/// `upp_exact` in 3-D takes balls only: the exact worst case over the
-/// spheroids of bistatic ranges is not implemented, and a bound that cannot
-/// be computed must not be scored as an empty set.
-fn check_exact_bound<const D: usize>(
-    bounds: Option<&BoundsCfg>,
-    bistatic: bool,
-) -> Result<(), KeyError> {
-    let Some(b) = bounds else {
-        return Ok(());
-    };
-    if D == 3
-        && bistatic
-        && b.all_kinds()
-            .contains(&crate::scenario::BoundKind::UppExact)
-    {
-        let key = if b.names.contains(&crate::scenario::BoundKind::UppExact) {
-            "bounds.names".to_string()
-        } else {
-            b.per_track
-                .iter()
-                .find(|(_, v)| v.contains(&crate::scenario::BoundKind::UppExact))
-                .map_or("bounds".into(), |(t, _)| format!("bounds.per_track.{t}"))
-        };
-        return Err(KeyError::new(
-            key,
-            "upp_exact in 3-D takes one-way ranges (balls) only: the exact worst case over the \
-             spheroids of bistatic ranges is not implemented; use upp_bbox, upp_maxdis, \
-             upp_minball or upp_rbbox, or measure one-way ranges",
         ));
     }
     Ok(())
@@ -264,9 +230,6 @@ impl<const D: usize> Scenario<D> {
         // Baselines, bounds, Monte Carlo.
         check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
             .map_err(|e| e.in_file(path))?;
-        let bistatic = !geometry.transmitters.is_empty()
-            && (file.measurements.bistatic || matches!(source, DataSource::Trace { .. }));
-        check_exact_bound::<D>(file.bounds.as_ref(), bistatic).map_err(|e| e.in_file(path))?;
         crate::scenario::expect::validate_syntax(&file.expect).map_err(|e| {
             InputError::at(
                 path,

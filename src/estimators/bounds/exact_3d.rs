@@ -23,9 +23,10 @@
 //!
 //! Every candidate within `TOL L` of every ball is kept; the bound is the
 //! largest distance plus [`ALLOWANCE`]` L`, `L` the problem's length scale,
-//! as in 2-D ([`super::exact`]). Spheroids (bistatic ranges) are refused
-//! ([`BoundError::Unsupported`]): their pairwise curves are quartic space
-//! curves with no closed-form stationary points.
+//! as in 2-D ([`super::exact`]). With a spheroid (a bistatic range) the
+//! pairwise curves are quartic space curves with no closed-form stationary
+//! points, and the value comes from the certified search over directions of
+//! [`super::exact_3d_search`] instead.
 
 use super::exact::ALLOWANCE;
 use super::region::Region;
@@ -133,24 +134,44 @@ fn three_spheres(
 }
 
 impl Intersection<3> {
+    /// The pieces in the local frame, less the spheroids that hold the whole
+    /// relaxed box (its eight corners, by convexity): `B` lies in that box, so
+    /// they do not cut it, and a set whose spheroids all hold it is
+    /// handled in closed form. All pieces when none would be left.
+    fn pieces_that_cut(&self) -> Vec<Region<3>> {
+        let (lo, hi) = (
+            self.to_local(&self.relaxed.lo),
+            self.to_local(&self.relaxed.hi),
+        );
+        let corners: Vec<P3> = (0..8)
+            .map(|k| P3::from_fn(|i, _| if k >> i & 1 == 1 { hi[i] } else { lo[i] }))
+            .collect();
+        let cuts = |r: &Region<3>| {
+            matches!(r, Region::Disc { .. }) || corners.iter().any(|c| r.violation(c) > 0.0)
+        };
+        let pieces: Vec<Region<3>> = self.local.iter().filter(|r| cuts(r)).cloned().collect();
+        if pieces.is_empty() {
+            self.local.clone()
+        } else {
+            pieces
+        }
+    }
+
     /// `upp_exact` for balls (see the module docs of `exact_3d`):
     /// `max_{x in B} ||x - x_hat||` plus the round-off allowance; never
-    /// below the true maximum. [`BoundError::Unsupported`] when a region is
-    /// a spheroid.
+    /// below the true maximum. With a spheroid, the certified search of
+    /// `exact_3d_search`.
     pub(super) fn upp_exact_space(&self, x_hat: &P3) -> Result<BoundOutcome, BoundError> {
         super::check_point(x_hat)?;
         let p = self.to_local(x_hat);
-        let balls = self
-            .local
-            .iter()
-            .map(|r| match *r {
-                Region::Disc { center, radius } => Ok((center, radius)),
-                Region::Ellipse { .. } => Err(BoundError::Unsupported(
-                    "upp_exact in 3-D takes balls only (one-way ranges): the exact worst case \
-                     over spheroids (bistatic ranges) is not implemented",
-                )),
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let pieces = self.pieces_that_cut();
+        let mut balls = Vec::with_capacity(pieces.len());
+        for r in &pieces {
+            match *r {
+                Region::Disc { center, radius } => balls.push((center, radius)),
+                Region::Ellipse { .. } => return self.upp_exact_search(&pieces, x_hat),
+            }
+        }
         let scale_l = balls
             .iter()
             .map(|(c, r)| (c - p).norm() + r)

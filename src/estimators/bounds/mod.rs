@@ -17,7 +17,7 @@
 //! | [`upp_bbox`] | eq. (48)-(49) | exact bounding box of `B` from 4 SOCPs, farthest corner |
 //! | [`upp_minball`] | eq. (34)-(44) | S-lemma enclosing ball `(c, R)`: QP over the simplex (discs) or a 5x5 LMI SDP (with ellipses); `R + ||x_hat - c||` |
 //! | [`upp_maxdis`] | eq. (2), (25)-(26) | SDP relaxation of `max_{x in B} ||x - x_hat||^2` with a 3x3 PSD block; `sqrt(v_sdp)` |
-//! | [`upp_exact`] | beyond the paper | the exact `max_{x in B} ||x - x_hat||` in 2-D: vertices and stationary points of the boundary curves (quartics), plus a round-off allowance ([`exact`]) |
+//! | [`upp_exact`] | beyond the paper | the exact `max_{x in B} ||x - x_hat||`: in 2-D the vertices and stationary points of the boundary curves (quartics), plus a round-off allowance ([`exact`]); in 3-D over balls closed-form candidates; in 3-D with spheroids a branch and bound over directions on certified support-function values, within 1e-7 relative |
 //!
 //! The paper's diameter forms for feasible estimates (eq. (44) `2R`, eq. (49)
 //! and (54) box diagonals) are available from [`Ball::diameter`] and
@@ -46,12 +46,15 @@
 mod estimators;
 pub mod exact;
 mod exact_3d;
+mod exact_3d_search;
 mod region;
 mod sdp;
 mod solve;
 
 #[cfg(test)]
 mod exact_tests;
+#[cfg(test)]
+mod search_tests;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -343,8 +346,9 @@ impl<const D: usize> Intersection<D> {
     /// the true maximum. In 2-D from the vertices and the stationary points
     /// of the boundary curves ([`exact`]); in 3-D over balls from the
     /// farthest points of each sphere, of each circle where two meet and the
-    /// points where three meet (`exact_3d`; spheroids give
-    /// [`BoundError::Unsupported`]).
+    /// points where three meet (`exact_3d`); in 3-D with spheroids by a
+    /// certified search over directions, within 1e-7 relative above the
+    /// maximum (`exact_3d_search`).
     pub fn upp_exact(&self, x_hat: &Point<D>) -> Result<BoundOutcome, BoundError> {
         let (set, x): (&dyn std::any::Any, &dyn std::any::Any) = (self, x_hat);
         if let (Some(set), Some(x)) = (set.downcast_ref::<Intersection<2>>(), x.downcast_ref()) {
@@ -427,9 +431,10 @@ pub fn upp_minball<const D: usize>(
 }
 
 /// `upp_exact` (beyond Gholami 2015, [`exact`]): the exact worst-case error
-/// `max_{x in B} ||x - x_hat||` in 2-D, from the vertices of the set and the
+/// `max_{x in B} ||x - x_hat||`: in 2-D from the vertices of the set and the
 /// stationary points of the distance on its boundary curves, plus a
-/// documented round-off allowance. Includes the emptiness check (one SOCP).
+/// documented round-off allowance; in 3-D as [`Intersection::upp_exact`]
+/// says. Includes the emptiness check (one SOCP).
 pub fn upp_exact<const D: usize>(
     regions: &[Region<D>],
     x_hat: &Point<D>,

@@ -394,6 +394,77 @@ pub(crate) fn bounding_box_with<const D: usize>(
     )))
 }
 
+/// The support function `h_B(u) = max_{y in B} u . y` of the set of `regions`
+/// in any direction, by one solver whose objective is updated per
+/// direction: the value its dual variables certify
+/// ([`Conic::certified_min`], an upper bound whatever the solver's
+/// accuracy) and the solver's maximiser.
+pub(crate) struct Support<const D: usize> {
+    conic: Conic,
+    solver: DefaultSolver<f64>,
+    vars: Vec<(f64, f64)>,
+    q: Vec<f64>,
+}
+
+/// What [`Support::eval`] gives.
+pub(crate) enum SupportValue<const D: usize> {
+    /// A certified upper bound on `h_B(u)`, and the solver's maximiser.
+    Value(f64, Point<D>),
+    /// The solver found the set empty.
+    Empty,
+}
+
+impl<const D: usize> Support<D> {
+    const PROBLEM: &'static str = "support-function SOCP";
+
+    /// `None` when the regions' boxes do not meet (the set is empty).
+    pub(crate) fn new(regions: &[Region<D>]) -> Result<Option<Self>, BoundError> {
+        let mut conic = Conic::new(D);
+        conic.add_set(regions, None);
+        let Some(vars) = variable_box(regions) else {
+            return Ok(None);
+        };
+        let p = CscMatrix::zeros((conic.ncols, conic.ncols));
+        let mut q = vec![0.0; conic.ncols];
+        q[0] = -1.0;
+        let solver = build(&p, &q, &conic, Self::PROBLEM)?;
+        Ok(Some(Support {
+            conic,
+            solver,
+            vars,
+            q,
+        }))
+    }
+
+    /// `h_B(u)` for the direction `u` (any length).
+    pub(crate) fn eval(&mut self, u: &Point<D>) -> Result<SupportValue<D>, BoundError> {
+        self.q.iter_mut().for_each(|v| *v = 0.0);
+        for k in 0..D {
+            self.q[k] = -u[k];
+        }
+        self.solver
+            .update_q(&self.q)
+            .map_err(|e| BoundError::Solver {
+                problem: Self::PROBLEM,
+                status: format!("update: {e}"),
+            })?;
+        match run(&mut self.solver, Self::PROBLEM)? {
+            Solved::Optimal { x, .. } => {
+                // min -u . y >= m, so h_B(u) <= -m.
+                let m = self.conic.certify(
+                    &self.q,
+                    &self.solver,
+                    &self.vars,
+                    &mut |_| {},
+                    Self::PROBLEM,
+                )?;
+                Ok(SupportValue::Value(-m, Point::<D>::from_fn(|i, _| x[i])))
+            }
+            Solved::Infeasible => Ok(SupportValue::Empty),
+        }
+    }
+}
+
 /// Upper triangle column-major index of `(i, j)`, `i <= j`, in Clarabel's
 /// scaled PSD triangle vector.
 fn tri(i: usize, j: usize) -> usize {
