@@ -16,15 +16,37 @@ use std::path::PathBuf;
 /// against them: a [`KeyError`]. The one check for the file and for
 /// `--baselines`, which replaces the list (so `bounds.tracks` must still name
 /// existing tracks).
+/// Whether the scenario's receivers measure one-way ranges: asked for in
+/// `[measurements]`, or present in its trace.
+pub(super) fn has_one_way_ranges<const D: usize>(
+    source: &super::DataSource<D>,
+    measurements: &super::MeasurementsCfg,
+) -> bool {
+    match source {
+        super::DataSource::Synthetic { .. } => measurements.range,
+        super::DataSource::Trace { measurements, .. } => measurements
+            .iter()
+            .any(|s| s.nodes.iter().any(|n| n.range.is_some())),
+    }
+}
+
 pub(super) fn check_tracks<const D: usize>(
     baselines: &[crate::estimators::baselines::BaselineCfg],
     bounds: Option<&BoundsCfg>,
     geometry: &Geometry<D>,
+    one_way: bool,
 ) -> Result<(), KeyError> {
     let mut names = BTreeSet::new();
     for (i, b) in baselines.iter().enumerate() {
         b.validate(geometry, !geometry.transmitters.is_empty())
             .map_err(|e| e.under(&format!("baselines[{i}]")))?;
+        if matches!(b, crate::estimators::baselines::BaselineCfg::Sdp { .. }) && !one_way {
+            return Err(KeyError::new(
+                format!("baselines[{i}].kind"),
+                "sdp (the SDP relaxation of Gholami 2015) takes one-way ranges, and this \
+                 scenario measures none: set measurements.range = true",
+            ));
+        }
         if !names.insert(b.name()) {
             return Err(KeyError::new(
                 format!("baselines[{i}].name"),
@@ -228,8 +250,13 @@ impl<const D: usize> Scenario<D> {
         let faults =
             resolve_faults(&file, geometry.receivers.len()).map_err(|e| e.in_file(path))?;
         // Baselines, bounds, Monte Carlo.
-        check_tracks(&file.baselines, file.bounds.as_ref(), &geometry)
-            .map_err(|e| e.in_file(path))?;
+        check_tracks(
+            &file.baselines,
+            file.bounds.as_ref(),
+            &geometry,
+            has_one_way_ranges(&source, &file.measurements),
+        )
+        .map_err(|e| e.in_file(path))?;
         crate::scenario::expect::validate_syntax(&file.expect).map_err(|e| {
             InputError::at(
                 path,

@@ -348,8 +348,13 @@ impl<const D: usize> Scenario<D> {
         mut self,
         baselines: Vec<crate::estimators::baselines::BaselineCfg>,
     ) -> Result<Self, InputError> {
-        check_tracks(&baselines, self.bounds.as_ref(), &self.geometry)
-            .map_err(|e| cli_error("--baselines", e.to_string()))?;
+        check_tracks(
+            &baselines,
+            self.bounds.as_ref(),
+            &self.geometry,
+            build::has_one_way_ranges(&self.source, &self.measurements),
+        )
+        .map_err(|e| cli_error("--baselines", e.to_string()))?;
         self.baselines = baselines;
         Ok(self)
     }

@@ -698,3 +698,19 @@ fn an_elevation_noise_is_refused_in_a_2d_scenario_naming_the_key() {
         &["measurements.elevation_noise", "only in 3-D"],
     );
 }
+
+#[test]
+fn the_sdp_baseline_without_one_way_ranges_is_refused_naming_its_key() {
+    let text = format!("{GOOD}\n[[baselines]]\nkind = \"sdp\"\n");
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(
+        code,
+        &stderr,
+        &p,
+        &["baselines[0].kind", "one-way ranges", "measurements.range"],
+    );
+    // With one-way ranges it runs.
+    let text = text.replace("doa = true", "doa = true\nrange = true");
+    let (code, stderr, _) = run_bad(&text, &[]);
+    assert_eq!(code, 0, "{stderr}");
+}

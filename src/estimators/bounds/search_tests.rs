@@ -119,10 +119,17 @@ fn random_set(rng: &mut SonarRng, tight: bool) -> (Vec<Region<3>>, P3) {
 }
 
 #[test]
-fn the_3d_exact_worst_case_with_spheroids_is_within_1e6_of_a_brute_force_of_boundary_rays() {
+fn the_3d_exact_worst_case_with_spheroids_is_within_1e6_of_a_brute_force_of_boundary_rays_nested_sets_included()
+ {
     let mut rng = SonarRng::seed_from_u64(38);
     for case in 0..20 {
-        let (regions, truth) = random_set(&mut rng, case % 4 == 1);
+        let (mut regions, truth) = random_set(&mut rng, case % 4 == 1);
+        if case % 4 == 3 {
+            // Nested: a small spheroid about the truth, inside (or nearly
+            // inside) every other piece.
+            let axis = p3(0.1, -0.05, 0.08);
+            regions.push(Region::ellipse(truth + axis, truth - axis, 0.6));
+        }
         let x_hat = match case % 3 {
             0 => truth,
             // Anywhere near: inside or outside the set.
