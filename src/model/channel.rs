@@ -24,7 +24,10 @@
 //!   3. `collision` (if on): another frame arrived at `j` during the arrival.
 //!      Every frame a node transmits reaches every node it has a link to
 //!      (acoustic modems broadcast physically), addressed or not, so a frame
-//!      overheard by `j` collides with one addressed to `j`. Both are lost;
+//!      overheard by `j` collides with one addressed to `j`. Both are lost.
+//!      Under `reception = { model = "sinr" }` every frame reaches every node
+//!      instead, and the rule of [`crate::model::reception`] (the worst SINR
+//!      over the arrival against a threshold, with capture) replaces this one;
 //!   4. `loss`: an independent draw against the link's loss probability;
 //!   5. else `delivered`.
 //!
@@ -55,6 +58,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::model::acoustics::thorp_db_per_km;
 use crate::model::acoustics::{Absorption, Noise, Water};
+use crate::model::reception::{Reception, linear, worst_sinr_db};
 
 /// Transmission loss `k 10 log10(d) + (d / 1000) a(f)` in dB over `d` metres,
 /// with Thorp's absorption.
@@ -185,6 +189,11 @@ pub struct AcousticCfg {
     /// Per-link overrides.
     #[serde(default)]
     pub links: Vec<LinkOverride>,
+    /// How overlapping frames are judged: `{ model = "graph" }` (the
+    /// default) or `{ model = "sinr", threshold_db, detection_db }`
+    /// ([`crate::model::reception`]).
+    #[serde(default, skip_serializing_if = "Reception::is_graph")]
+    pub reception: Reception,
     /// Emulated seconds per wall-clock second (processes engine), in [1e-3, 1e6].
     #[serde(default = "default_time_scale")]
     pub time_scale: f64,
@@ -264,6 +273,7 @@ impl Default for AcousticCfg {
             collisions: true,
             loss: LossCfg::None {},
             links: Vec::new(),
+            reception: Reception::Graph {},
             time_scale: 1.0,
             exchange_timeout_s: None,
             round_timeout_s: None,
@@ -286,6 +296,8 @@ impl AcousticCfg {
         if let Some(t) = self.round_timeout_s {
             in_range("channel.round_timeout_s", t, 1e-9, 86_400.0)?;
         }
+        self.reception
+            .validate(matches!(self.loss, LossCfg::Range { .. }))?;
         match self.loss {
             LossCfg::None {} => {}
             LossCfg::Bernoulli { p } => in_range("channel.loss.p", p, 0.0, 1.0)?,
@@ -426,6 +438,41 @@ impl AcousticCfg {
             .find(|l| (l.a, l.b) == (i, j) || (l.a, l.b) == (j, i))
     }
 
+    /// The level at `b` of a transmission from `a`, `SL - TL(d)` dB, and the
+    /// band noise `N` dB, when the loss model is `range` (the levels of the
+    /// SINR rule and of the SNR of the bit-error draw).
+    pub fn levels_db(&self, a: &Pt, b: &Pt) -> Option<(f64, f64)> {
+        let LossCfg::Range {
+            carrier_khz,
+            bandwidth_khz,
+            source_level_db,
+            noise_level_db,
+            spreading,
+            absorption,
+            water,
+            noise,
+        } = self.loss
+        else {
+            return None;
+        };
+        let d_m = a.distance(b);
+        let water = water.unwrap_or_default();
+        // The path's depth: the mean of its ends' in 3-D (z up).
+        let depth = if a.dim() == 3 {
+            ((-a[2]).max(0.0) + (-b[2]).max(0.0)) / 2.0
+        } else {
+            water.depth_m
+        };
+        let tl = spreading_loss_db(d_m, spreading)
+            + d_m / 1000.0 * absorption.db_per_km(carrier_khz, &water, depth);
+        let noise = noise
+            .unwrap_or(Noise::Constant {
+                level_db: noise_level_db,
+            })
+            .band_db(carrier_khz, bandwidth_khz);
+        Some((source_level_db - tl, noise))
+    }
+
     /// Probability that a frame of `bits` bits is lost at random (before
     /// half-duplex and collisions) on the link `i - j` between the positions
     /// `a` and `b`.
@@ -436,33 +483,12 @@ impl AcousticCfg {
         match self.loss {
             LossCfg::None {} => 0.0,
             LossCfg::Bernoulli { p } => p,
-            LossCfg::Range {
-                carrier_khz,
-                bandwidth_khz,
-                source_level_db,
-                noise_level_db,
-                spreading,
-                absorption,
-                water,
-                noise,
-            } => {
-                let d_m = a.distance(b);
-                let b_hz = bandwidth_khz * 1e3;
-                let water = water.unwrap_or_default();
-                // The path's depth: the mean of its ends' in 3-D (z up).
-                let depth = if a.dim() == 3 {
-                    ((-a[2]).max(0.0) + (-b[2]).max(0.0)) / 2.0
-                } else {
-                    water.depth_m
+            LossCfg::Range { bandwidth_khz, .. } => {
+                let Some((level, noise)) = self.levels_db(a, b) else {
+                    return 0.0;
                 };
-                let tl = spreading_loss_db(d_m, spreading)
-                    + d_m / 1000.0 * absorption.db_per_km(carrier_khz, &water, depth);
-                let noise = noise
-                    .unwrap_or(Noise::Constant {
-                        level_db: noise_level_db,
-                    })
-                    .band_db(carrier_khz, bandwidth_khz);
-                let snr_db = source_level_db - tl - noise;
+                let b_hz = bandwidth_khz * 1e3;
+                let snr_db = level - noise;
                 let ber = bpsk_ber(10f64.powf(snr_db / 10.0), b_hz, self.bit_rate);
                 1.0 - (1.0 - ber).powf(bits as f64)
             }
@@ -587,8 +613,9 @@ pub struct Medium {
     free_at: Vec<Nanos>,
     /// Per node: its transmissions `[start, end)`.
     sending: Vec<Vec<(Nanos, Nanos)>>,
-    /// Per node: the arrivals at it `[start, end)` and the frame's id.
-    arriving: Vec<Vec<(Nanos, Nanos, u64)>>,
+    /// Per node: the arrivals at it `[start, end)`, the frame's id and its
+    /// sender.
+    arriving: Vec<Vec<(Nanos, Nanos, u64, u32)>>,
     /// Frames sent so far (the next frame's id).
     sent: u64,
     /// Frames sent per directed link.
@@ -601,11 +628,17 @@ pub struct Medium {
 impl Medium {
     /// A medium for nodes at `pos`, where node `i` reaches the nodes
     /// `links[i]` (the gossip graph), with a validated `cfg` and the run seed.
+    /// Under the SINR rule every node reaches every other, whatever `links`.
     pub fn new(cfg: AcousticCfg, seed: u64, pos: Vec<Pt>, links: &[Vec<u32>]) -> Medium {
         let n = pos.len();
+        let everyone = !cfg.reception.is_graph();
         let mut reach: Vec<Vec<u32>> = (0..n)
             .map(|i| {
-                let mut r: Vec<u32> = links.get(i).map_or(&[][..], |l| &l[..]).to_vec();
+                let mut r: Vec<u32> = if everyone {
+                    (0..n as u32).collect()
+                } else {
+                    links.get(i).map_or(&[][..], |l| &l[..]).to_vec()
+                };
                 r.retain(|&j| (j as usize) < n && j as usize != i);
                 r.sort_unstable();
                 r.dedup();
@@ -701,7 +734,12 @@ impl Medium {
         }
         for j in listeners {
             let d = self.delay_ns(from, j);
-            self.arriving[j as usize].push((start.saturating_add(d), end.saturating_add(d), id));
+            self.arriving[j as usize].push((
+                start.saturating_add(d),
+                end.saturating_add(d),
+                id,
+                from,
+            ));
         }
         (id, start, end)
     }
@@ -753,10 +791,20 @@ impl Medium {
         if self.cfg.half_duplex && self.sending[to].iter().any(|&(s, e)| overlaps(s, e)) {
             return Fate::Lost(Reason::HalfDuplex);
         }
-        if self.cfg.collisions {
+        if let Reception::Sinr { threshold_db, .. } = self.cfg.reception {
+            if let Some((sinr, snr)) = self.sinr_and_snr_db(f)
+                && sinr < threshold_db
+            {
+                return Fate::Lost(if snr >= threshold_db {
+                    Reason::Collision
+                } else {
+                    Reason::Loss
+                });
+            }
+        } else if self.cfg.collisions {
             let others = self.arriving[to]
                 .iter()
-                .any(|&(s, e, id)| id != f.id && overlaps(s, e));
+                .any(|&(s, e, id, _)| id != f.id && overlaps(s, e));
             if others {
                 return Fate::Lost(Reason::Collision);
             }
@@ -779,6 +827,38 @@ impl Medium {
         Fate::Delivered
     }
 
+    /// Under the SINR rule, the worst SINR of `f` over its arrival, dB
+    /// ([`crate::model::reception`]); `None` under the graph rule.
+    pub fn sinr_db(&self, f: &Frame) -> Option<f64> {
+        self.sinr_and_snr_db(f).map(|(sinr, _)| sinr)
+    }
+
+    /// The worst SINR of `f` and its SNR against the noise alone, dB.
+    fn sinr_and_snr_db(&self, f: &Frame) -> Option<(f64, f64)> {
+        let Reception::Sinr { detection_db, .. } = self.cfg.reception else {
+            return None;
+        };
+        let to = f.to as usize;
+        let at = &self.pos[to];
+        let (signal_db, noise_db) = self.cfg.levels_db(&self.pos[f.from as usize], at)?;
+        let interferers: Vec<(Nanos, Nanos, f64)> = self.arriving[to]
+            .iter()
+            .filter(|&&(s, e, id, _)| id != f.id && s < f.arrive_end && f.arrive_start < e)
+            .filter_map(|&(s, e, _, k)| {
+                let (level, _) = self.cfg.levels_db(&self.pos[k as usize], at)?;
+                (level - noise_db >= detection_db).then(|| (s, e, linear(level)))
+            })
+            .collect();
+        let sinr = worst_sinr_db(
+            linear(signal_db),
+            linear(noise_db),
+            f.arrive_start,
+            f.arrive_end,
+            &interferers,
+        );
+        Some((sinr, signal_db - noise_db))
+    }
+
     /// Forgets transmissions and arrivals that ended before `t` (nothing
     /// judged at `t` or later can overlap them), so that a long run keeps
     /// bounded memory.
@@ -787,7 +867,7 @@ impl Medium {
             v.retain(|&(_, e)| e >= t);
         }
         for v in &mut self.arriving {
-            v.retain(|&(_, e, _)| e >= t);
+            v.retain(|&(_, e, _, _)| e >= t);
         }
     }
 }

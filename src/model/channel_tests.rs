@@ -393,3 +393,142 @@ fn the_range_loss_takes_francois_garrison_at_the_path_depth_and_coates_noise() {
     };
     assert_eq!(thorp.validate(2).unwrap_err().key, "channel.loss.water");
 }
+
+/// A loud modem on the range loss (no bit errors at these distances) under
+/// the SINR rule with the given threshold and detection level.
+fn sinr(threshold_db: f64, detection_db: f64) -> AcousticCfg {
+    AcousticCfg {
+        loss: LossCfg::Range {
+            carrier_khz: 12.0,
+            bandwidth_khz: 4.0,
+            source_level_db: 200.0,
+            noise_level_db: 50.0,
+            spreading: 1.5,
+            absorption: Absorption::Thorp,
+            water: None,
+            noise: None,
+        },
+        reception: Reception::Sinr {
+            threshold_db,
+            detection_db,
+        },
+        ..AcousticCfg::default()
+    }
+}
+
+/// Nodes on the x axis at `xs`, linked along `edges` only.
+fn graph(cfg: AcousticCfg, xs: &[f64], edges: &[(u32, u32)]) -> Medium {
+    let mut links = vec![Vec::new(); xs.len()];
+    for &(a, b) in edges {
+        links[a as usize].push(b);
+        links[b as usize].push(a);
+    }
+    Medium::new(cfg, 7, xs.iter().map(|&x| Pt::xy(x, 0.0)).collect(), &links)
+}
+
+#[test]
+fn under_sinr_a_strong_frame_captures_the_receiver_and_the_weak_one_is_lost() {
+    // A (0 m) and C (3000 m) send to B (100 m) at once: A is about 27 dB
+    // louder at B.
+    let cfg = sinr(10.0, 3.0);
+    let bits = cfg.frame_bits(4);
+    let mut m = line(cfg.clone(), &[0.0, 100.0, 3000.0]);
+    let delay_c = m.delay_ns(2, 1) - m.delay_ns(0, 1);
+    let fa = m.send(delay_c, 0, 1, bits);
+    let fc = m.send(0, 2, 1, bits);
+    assert_eq!(fa.arrive_start, fc.arrive_start, "the arrivals coincide");
+    assert_eq!(m.judge(&fa), Fate::Delivered);
+    assert_eq!(m.judge(&fc), Fate::Lost(Reason::Collision));
+    // The recorded SINR is the closed form: A's power over the noise and C's.
+    let (la, n) = cfg
+        .levels_db(&Pt::xy(0.0, 0.0), &Pt::xy(100.0, 0.0))
+        .unwrap();
+    let (lc, _) = cfg
+        .levels_db(&Pt::xy(3000.0, 0.0), &Pt::xy(100.0, 0.0))
+        .unwrap();
+    let p = |db: f64| 10f64.powf(db / 10.0);
+    let want = 10.0 * (p(la) / (p(n) + p(lc))).log10();
+    assert_relative_eq!(m.sinr_db(&fa).unwrap(), want, max_relative = 1e-12);
+    assert!(want > 25.0, "{want}");
+    // The graph rule loses both.
+    let mut g = line(
+        AcousticCfg {
+            reception: Reception::Graph {},
+            ..cfg
+        },
+        &[0.0, 100.0, 3000.0],
+    );
+    let fa = g.send(delay_c, 0, 1, bits);
+    let fc = g.send(0, 2, 1, bits);
+    assert_eq!(g.judge(&fa), Fate::Lost(Reason::Collision));
+    assert_eq!(g.judge(&fc), Fate::Lost(Reason::Collision));
+    assert_eq!(g.sinr_db(&fa), None);
+}
+
+#[test]
+fn under_sinr_an_interferer_outside_the_gossip_graph_still_collides() {
+    // A (0 m) -> B (100 m) while C (200 m), linked only to D, sends to D:
+    // C is as loud as A at B.
+    let edges = [(0, 1), (2, 3)];
+    let xs = [0.0, 100.0, 200.0, 300.0];
+    for (cfg, fate) in [
+        (sinr(10.0, 3.0), Fate::Lost(Reason::Collision)),
+        (
+            AcousticCfg {
+                reception: Reception::Graph {},
+                ..sinr(10.0, 3.0)
+            },
+            Fate::Delivered,
+        ),
+    ] {
+        let bits = cfg.frame_bits(4);
+        let mut m = graph(cfg, &xs, &edges);
+        let fa = m.send(0, 0, 1, bits);
+        let _fc = m.send(0, 2, 3, bits);
+        assert_eq!(m.judge(&fa), fate);
+    }
+}
+
+#[test]
+fn under_sinr_an_interferer_below_the_detection_level_does_not_count() {
+    // C is as loud as A at B, both about 84 dB over the noise: with
+    // detection at 90 dB over the noise C is not counted.
+    let xs = [0.0, 100.0, 200.0];
+    for (detection, fate) in [
+        (3.0, Fate::Lost(Reason::Collision)),
+        (90.0, Fate::Delivered),
+    ] {
+        let cfg = sinr(10.0, detection);
+        let bits = cfg.frame_bits(4);
+        let mut m = line(cfg, &xs);
+        let fa = m.send(0, 0, 1, bits);
+        let _fc = m.send(0, 2, 1, bits);
+        assert_eq!(m.judge(&fa), fate, "detection {detection} dB");
+    }
+}
+
+#[test]
+fn under_sinr_a_frame_too_weak_for_the_threshold_alone_is_lost_to_noise() {
+    // A threshold above the SNR: lost as `loss`, with no interferer.
+    let cfg = sinr(95.0, 3.0);
+    let bits = cfg.frame_bits(4);
+    let mut m = line(cfg, &[0.0, 100.0]);
+    let f = m.send(0, 0, 1, bits);
+    assert_eq!(m.judge(&f), Fate::Lost(Reason::Loss));
+}
+
+#[test]
+fn the_sinr_rule_is_refused_without_the_range_loss_that_gives_its_levels() {
+    let cfg = AcousticCfg {
+        reception: Reception::Sinr {
+            threshold_db: 10.0,
+            detection_db: 3.0,
+        },
+        ..AcousticCfg::default()
+    };
+    assert_eq!(
+        cfg.validate(2).expect_err("no levels").key,
+        "channel.reception"
+    );
+    assert!(sinr(10.0, 3.0).validate(2).is_ok());
+}

@@ -19,6 +19,7 @@ pub mod metrics;
 pub mod motion;
 pub mod names;
 pub mod noise;
+pub mod reception;
 pub mod rng;
 pub mod synth;
 pub mod xy;

@@ -246,13 +246,20 @@ fn run_tables<const D: usize>(
     }
     let messages = run.channel.as_ref().map_or(&[][..], |c| &c.messages[..]);
     if !messages.is_empty() {
+        // The SINR column only under the SINR reception rule.
+        let sinr = messages.iter().any(|r| r.sinr_db.is_some());
+        let mut header = vec![
+            "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason",
+        ];
+        if sinr {
+            header.push("sinr_db");
+        }
+        header.push("seed");
         sink.table(
             "messages",
-            &[
-                "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "seed",
-            ],
+            &header,
             &mut messages.iter().map(|r| {
-                vec![
+                let mut row = vec![
                     num(r.t_send),
                     r.t_recv.map(num).unwrap_or_default(),
                     r.from.to_string(),
@@ -261,8 +268,12 @@ fn run_tables<const D: usize>(
                     r.bits.to_string(),
                     r.fate().to_string(),
                     r.lost.map(|x| x.as_str().to_string()).unwrap_or_default(),
-                    sc.seed.to_string(),
-                ]
+                ];
+                if sinr {
+                    row.push(r.sinr_db.map(num).unwrap_or_default());
+                }
+                row.push(sc.seed.to_string());
+                row
             }),
         )?;
     }

@@ -67,6 +67,9 @@ pub struct MessageRecord {
     /// The run ended before its arrival did: never judged (`t_recv` and
     /// `lost` are `None`).
     pub in_flight: bool,
+    /// Under the SINR reception rule, its worst SINR over the arrival, dB
+    /// (`sinr_db` in `messages.csv`, written only under that rule).
+    pub sinr_db: Option<f64>,
 }
 
 impl MessageRecord {
@@ -89,6 +92,7 @@ impl MessageRecord {
                 Fate::Lost(r) => Some(r),
             },
             in_flight: false,
+            sinr_db: medium.sinr_db(f),
         }
     }
 
@@ -104,6 +108,7 @@ impl MessageRecord {
             bits: f.bits,
             lost: None,
             in_flight: true,
+            sinr_db: None,
         }
     }
 

@@ -550,6 +550,165 @@ fn every_recorded_fate_agrees_with_an_independent_judgement_in_integer_nanosecon
     }
 }
 
+/// The SINR rule's numbers of the `sinr` variant, written out again here.
+const SL_DB: f64 = 170.0;
+const NL_DB: f64 = 50.0;
+const SPREADING: f64 = 1.5;
+const F_KHZ: f64 = 12.0;
+const B_KHZ: f64 = 4.0;
+const THRESHOLD_DB: f64 = 10.0;
+const DETECTION_DB: f64 = 3.0;
+
+/// Judge every frame of an SINR run again from the rows and the positions
+/// alone: levels `SL - k 10 log10 d - d/1000 a(f)` with Thorp's `a(f)` (Thorp
+/// 1967 as Stojanovic 2007 eq. 3 writes it), noise `NL + 10 log10 B`, every
+/// transmission reaching every node; the worst SINR over the arrival, the
+/// interference summed where an interferer starts. Checks the recorded
+/// `sinr_db` and fate; returns how many frames were judged and how many were
+/// delivered although another frame overlapped them (captures).
+fn rejudge_sinr(sc: &Scenario, rows: &[Vec<String>]) -> (usize, usize) {
+    let pos = &sc.geometry.receivers;
+    let dist = |i: usize, j: usize| (pos[i] - pos[j]).norm();
+    let delay = |i: usize, j: usize| -> u64 { (dist(i, j) / 1500.0 * 1e9).round() as u64 };
+    let airtime = |bits: u64| -> u64 { (bits as f64 / 1000.0 * 1e9).round() as u64 };
+    let f2 = F_KHZ * F_KHZ;
+    let thorp = 0.11 * f2 / (1.0 + f2) + 44.0 * f2 / (4100.0 + f2) + 2.75e-4 * f2 + 0.003;
+    let level = |i: usize, j: usize| {
+        let d = dist(i, j);
+        SL_DB - (SPREADING * 10.0 * d.max(1.0).log10() + d / 1000.0 * thorp)
+    };
+    let noise = NL_DB + 10.0 * (B_KHZ * 1e3).log10();
+    let power = |db: f64| 10f64.powf(db / 10.0);
+    // Every transmission: (sender, start, airtime).
+    let mut tx: std::collections::BTreeSet<(usize, u64, u64)> = Default::default();
+    for r in rows {
+        tx.insert((
+            r[2].parse().unwrap(),
+            ns(&r[0]),
+            airtime(r[5].parse().unwrap()),
+        ));
+    }
+    let (mut judged, mut captures) = (0, 0);
+    for r in rows.iter().filter(|r| r[6] != "in_flight") {
+        let (from, to): (usize, usize) = (r[2].parse().unwrap(), r[3].parse().unwrap());
+        let t0 = ns(&r[0]);
+        let a = t0 + delay(from, to);
+        let b = a + airtime(r[5].parse().unwrap());
+        let overlaps = |s: u64, e: u64| s < b && a < e;
+        let half_duplex = tx.iter().any(|&(i, s, t)| i == to && overlaps(s, s + t));
+        // Interferers at `to`: (start, end, power), detected ones only.
+        let others: Vec<(u64, u64, f64)> = tx
+            .iter()
+            .filter(|&&(i, s, _)| i != to && (i, s) != (from, t0))
+            .map(|&(i, s, t)| (s + delay(i, to), s + delay(i, to) + t, i))
+            .filter(|&(s, e, _)| overlaps(s, e))
+            .filter(|&(_, _, i)| level(i, to) - noise >= DETECTION_DB)
+            .map(|(s, e, i)| (s, e, power(level(i, to))))
+            .collect();
+        let sum_at = |t: u64| -> f64 {
+            others
+                .iter()
+                .filter(|x| x.0 <= t && t < x.1)
+                .map(|x| x.2)
+                .sum()
+        };
+        let worst = others
+            .iter()
+            .filter(|x| x.0 > a && x.0 < b)
+            .map(|x| sum_at(x.0))
+            .fold(sum_at(a), f64::max);
+        let sinr = 10.0 * (power(level(from, to)) / (power(noise) + worst)).log10();
+        let recorded: f64 = r[8].parse().expect("an sinr_db");
+        assert!(
+            (recorded - sinr).abs() <= 1e-9 * sinr.abs().max(1.0),
+            "sinr {recorded} recorded, {sinr} judged: {r:?}"
+        );
+        let snr = level(from, to) - noise;
+        let want = if half_duplex {
+            Some("half_duplex")
+        } else if sinr < THRESHOLD_DB {
+            Some(if snr >= THRESHOLD_DB {
+                "collision"
+            } else {
+                "loss"
+            })
+        } else {
+            None
+        };
+        match (r[6].as_str(), want) {
+            ("lost", Some(w)) => assert_eq!(r[7], w, "{r:?}"),
+            ("delivered", Some(w)) => panic!("delivered, but judged {w}: {r:?}"),
+            // Lost for a reason judged after reception (late, node_down).
+            ("lost", None) => assert!(
+                ["late", "node_down", "loss", "blocked"].contains(&r[7].as_str()),
+                "{r:?}"
+            ),
+            _ => {}
+        }
+        if r[6] == "delivered" && !others.is_empty() {
+            captures += 1;
+        }
+        judged += 1;
+    }
+    (judged, captures)
+}
+
+#[test]
+fn every_sinr_fate_and_level_agrees_with_an_independent_judgement_and_strong_frames_capture() {
+    let tmp = TempDir::new("rejudge-sinr");
+    let sc = variant("sinr");
+    run(&sc, tmp.path());
+    let path = tmp.path().join("messages.csv");
+    assert_eq!(
+        crate::util::header(&path),
+        [
+            "t_send", "t_recv", "from", "to", "kind", "bits", "fate", "reason", "sinr_db", "seed"
+        ]
+    );
+    let rows = read_rows(&path);
+    let (judged, captures) = rejudge_sinr(&sc, &rows);
+    assert!(judged > 1000, "{judged} frames");
+    assert!(
+        captures > 100,
+        "{captures} frames delivered through an overlap"
+    );
+}
+
+#[test]
+fn an_sinr_run_on_node_processes_is_judged_by_the_same_rule() {
+    let _cpu = crate::util::cpu_exclusive();
+    let tmp = TempDir::new("sinr-processes");
+    let file = short_acoustic(&tmp, 20);
+    let p = tmp.path().join("p");
+    let out = crate::util::wait_watchdog(
+        crate::util::spawn_sonarnet(&[
+            "run",
+            file.to_str().unwrap(),
+            "--variant",
+            "sinr",
+            "--engine",
+            "processes",
+            "--out",
+            p.to_str().unwrap(),
+        ]),
+        "an sinr processes run",
+        std::time::Duration::from_secs(300),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    crate::util::assert_nothing_left(&crate::util::run_id_of(&p));
+    let sc = Scenario::load_all(&file)
+        .unwrap()
+        .into_iter()
+        .find(|s| s.variant.as_deref() == Some("sinr"))
+        .unwrap();
+    let (judged, _) = rejudge_sinr(&sc, &read_rows(&p.join("messages.csv")));
+    assert!(judged > 100, "{judged} frames");
+}
+
 #[test]
 fn frames_still_in_the_water_when_the_run_ends_are_recorded_in_flight() {
     let tmp = TempDir::new("in-flight");
