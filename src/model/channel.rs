@@ -58,6 +58,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::model::acoustics::thorp_db_per_km;
 use crate::model::acoustics::{Absorption, Noise, Water};
+use crate::model::mac::{Mac, Schedule, distance2_colours};
 use crate::model::reception::{Reception, linear, worst_sinr_db};
 
 /// Transmission loss `k 10 log10(d) + (d / 1000) a(f)` in dB over `d` metres,
@@ -194,6 +195,10 @@ pub struct AcousticCfg {
     /// ([`crate::model::reception`]).
     #[serde(default, skip_serializing_if = "Reception::is_graph")]
     pub reception: Reception,
+    /// Medium access: `{ protocol = "aloha" }` (the default) or
+    /// `{ protocol = "tdma", slot_s }` ([`crate::model::mac`]).
+    #[serde(default, skip_serializing_if = "Mac::is_aloha")]
+    pub mac: Mac,
     /// Emulated seconds per wall-clock second (processes engine), in [1e-3, 1e6].
     #[serde(default = "default_time_scale")]
     pub time_scale: f64,
@@ -274,6 +279,7 @@ impl Default for AcousticCfg {
             loss: LossCfg::None {},
             links: Vec::new(),
             reception: Reception::Graph {},
+            mac: Mac::Aloha {},
             time_scale: 1.0,
             exchange_timeout_s: None,
             round_timeout_s: None,
@@ -298,6 +304,7 @@ impl AcousticCfg {
         }
         self.reception
             .validate(matches!(self.loss, LossCfg::Range { .. }))?;
+        self.mac.validate()?;
         match self.loss {
             LossCfg::None {} => {}
             LossCfg::Bernoulli { p } => in_range("channel.loss.p", p, 0.0, 1.0)?,
@@ -352,12 +359,30 @@ impl AcousticCfg {
         Ok(())
     }
 
-    /// The longest round trip over `links`: twice the longest one-way delay
-    /// between linked nodes plus twice the time to send a frame of `fields`
-    /// values (a Request and its answer), seconds.
-    pub fn round_trip(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
+    /// Who hears whom: `links` (the gossip graph) under the graph reception
+    /// rule, every other node under the SINR rule.
+    pub fn physical_reach(&self, n: usize, links: &[Vec<u32>]) -> Vec<Vec<u32>> {
+        let everyone = !self.reception.is_graph();
+        (0..n)
+            .map(|i| {
+                let mut r: Vec<u32> = if everyone {
+                    (0..n as u32).collect()
+                } else {
+                    links.get(i).map_or(&[][..], |l| &l[..]).to_vec()
+                };
+                r.retain(|&j| (j as usize) < n && j as usize != i);
+                r.sort_unstable();
+                r.dedup();
+                r
+            })
+            .collect()
+    }
+
+    /// The longest one-way delay between nodes that reach each other,
+    /// seconds.
+    fn longest_delay(&self, pos: &[Pt], reach: &[Vec<u32>]) -> f64 {
         let mut max_delay = 0.0f64;
-        for (i, out) in links.iter().enumerate() {
+        for (i, out) in reach.iter().enumerate() {
             for &j in out {
                 let (Some(a), Some(b)) = (pos.get(i), pos.get(j as usize)) else {
                     continue;
@@ -366,7 +391,53 @@ impl AcousticCfg {
                 max_delay = max_delay.max(a.distance(b) / self.sound_speed + extra);
             }
         }
-        2.0 * max_delay + 2.0 * self.transmission_s(self.frame_bits(fields))
+        max_delay
+    }
+
+    /// The shortest TDMA slot that keeps every frame in its slot at every
+    /// node it reaches: the airtime of the longest frame (`dim + 1` values)
+    /// plus the longest delay in reach, seconds.
+    pub fn min_slot_s(&self, pos: &[Pt], links: &[Vec<u32>]) -> f64 {
+        let reach = self.physical_reach(pos.len(), links);
+        let dim = pos.first().map_or(2, Pt::dim) as u32;
+        self.transmission_s(self.frame_bits(dim + 1)) + self.longest_delay(pos, &reach)
+    }
+
+    /// The TDMA schedule for nodes at `pos` linked by `links`; `None` under
+    /// ALOHA.
+    pub fn schedule(&self, pos: &[Pt], links: &[Vec<u32>]) -> Option<Schedule> {
+        let Mac::Tdma { slot_s } = self.mac else {
+            return None;
+        };
+        let reach = self.physical_reach(pos.len(), links);
+        let slot = slot_s.unwrap_or_else(|| self.min_slot_s(pos, links));
+        Some(Schedule::new(distance2_colours(&reach), slot))
+    }
+
+    /// A `slot_s` given for TDMA must hold the longest frame and delay
+    /// ([`AcousticCfg::min_slot_s`]); the [`KeyError`] names the key.
+    pub fn check_slot(&self, pos: &[Pt], links: &[Vec<u32>]) -> Result<(), KeyError> {
+        if let Mac::Tdma { slot_s: Some(s) } = self.mac {
+            let min = self.min_slot_s(pos, links);
+            if s < min {
+                return Err(KeyError::new(
+                    "channel.mac.slot_s",
+                    format!(
+                        "is {s} s, shorter than the longest frame's airtime plus the longest \
+                         delay between nodes in reach, {min} s: frames would spill into the \
+                         next slot"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The longest round trip over `links`: twice the longest one-way delay
+    /// between linked nodes plus twice the time to send a frame of `fields`
+    /// values (a Request and its answer), seconds.
+    pub fn round_trip(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
+        2.0 * self.longest_delay(pos, links) + 2.0 * self.transmission_s(self.frame_bits(fields))
     }
 
     /// The default realtime exchange timeout: the longest round trip
@@ -375,8 +446,15 @@ impl AcousticCfg {
     /// arrive exactly at the timeout, and be late by any jitter (or by the
     /// order of two events at one virtual time), so that link would never
     /// complete an exchange.
+    /// Under TDMA two cycles are added: the Request and the answer each wait
+    /// for a slot.
     pub fn default_exchange_timeout(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
-        self.round_trip(pos, links, fields) + self.transmission_s(self.frame_bits(fields))
+        let base =
+            self.round_trip(pos, links, fields) + self.transmission_s(self.frame_bits(fields));
+        match self.schedule(pos, links) {
+            Some(s) => base + 2.0 * s.cycle_s(),
+            None => base,
+        }
     }
 
     /// The exchange timeout in force (the key, or the default).
@@ -611,6 +689,8 @@ pub struct Medium {
     reach: Vec<Vec<u32>>,
     /// Per node: when its modem is free again.
     free_at: Vec<Nanos>,
+    /// The TDMA schedule, if any.
+    schedule: Option<Schedule>,
     /// Per node: its transmissions `[start, end)`.
     sending: Vec<Vec<(Nanos, Nanos)>>,
     /// Per node: the arrivals at it `[start, end)`, the frame's id and its
@@ -628,25 +708,14 @@ pub struct Medium {
 impl Medium {
     /// A medium for nodes at `pos`, where node `i` reaches the nodes
     /// `links[i]` (the gossip graph), with a validated `cfg` and the run seed.
-    /// Under the SINR rule every node reaches every other, whatever `links`.
+    /// Under the SINR rule every node reaches every other, whatever `links`
+    /// ([`AcousticCfg::physical_reach`]).
     pub fn new(cfg: AcousticCfg, seed: u64, pos: Vec<Pt>, links: &[Vec<u32>]) -> Medium {
         let n = pos.len();
-        let everyone = !cfg.reception.is_graph();
-        let mut reach: Vec<Vec<u32>> = (0..n)
-            .map(|i| {
-                let mut r: Vec<u32> = if everyone {
-                    (0..n as u32).collect()
-                } else {
-                    links.get(i).map_or(&[][..], |l| &l[..]).to_vec()
-                };
-                r.retain(|&j| (j as usize) < n && j as usize != i);
-                r.sort_unstable();
-                r.dedup();
-                r
-            })
-            .collect();
-        reach.truncate(n);
+        let reach = cfg.physical_reach(n, links);
+        let schedule = cfg.schedule(&pos, links);
         Medium {
+            schedule,
             cfg,
             seed,
             reach,
@@ -723,8 +792,22 @@ impl Medium {
         let id = self.sent;
         self.sent += 1;
         let start = t.max(self.free_at[fi]);
-        let end = start.saturating_add(self.cfg.transmission_ns(bits));
-        self.free_at[fi] = end;
+        let (start, end, free) = match &self.schedule {
+            // One frame per slot of its own.
+            Some(s) => {
+                let (slot, slot_end) = s.slot_at_or_after(fi, start);
+                (
+                    slot,
+                    slot.saturating_add(self.cfg.transmission_ns(bits)),
+                    slot_end,
+                )
+            }
+            None => {
+                let end = start.saturating_add(self.cfg.transmission_ns(bits));
+                (start, end, end)
+            }
+        };
+        self.free_at[fi] = free;
         self.sending[fi].push((start, end));
         let mut listeners = self.reach[fi].clone();
         for &j in to {

@@ -532,3 +532,70 @@ fn the_sinr_rule_is_refused_without_the_range_loss_that_gives_its_levels() {
     );
     assert!(sinr(10.0, 3.0).validate(2).is_ok());
 }
+
+#[test]
+fn under_tdma_no_frame_can_collide_or_meet_a_transmitting_receiver() {
+    // Six nodes on a path 0-1-2-3-4-5, 1 km apart, each sending to a
+    // neighbour at pseudo-random times: every frame is delivered.
+    let cfg = AcousticCfg {
+        mac: crate::model::mac::Mac::Tdma { slot_s: None },
+        ..AcousticCfg::default()
+    };
+    let xs: Vec<f64> = (0..6).map(|k| 1000.0 * k as f64).collect();
+    let edges: Vec<(u32, u32)> = (0..5).map(|k| (k, k + 1)).collect();
+    let mut m = graph(cfg.clone(), &xs, &edges);
+    let bits = cfg.frame_bits(3);
+    let mut frames = Vec::new();
+    let mut t: u64 = 0;
+    for k in 0..300u64 {
+        // A deterministic scramble of the senders and times.
+        let from = ((k * 7 + 3) % 6) as u32;
+        let to = if from == 0 || (from < 5 && k % 2 == 0) {
+            from + 1
+        } else {
+            from - 1
+        };
+        t += (k * 7_919) % 900_000_000;
+        frames.push(m.send(t, from, to, bits));
+    }
+    for f in &frames {
+        assert_eq!(m.judge(f), Fate::Delivered, "{f:?}");
+    }
+    // The same traffic under ALOHA collides.
+    let mut aloha = graph(AcousticCfg::default(), &xs, &edges);
+    let mut t: u64 = 0;
+    let mut lost = 0;
+    let mut sent = Vec::new();
+    for k in 0..300u64 {
+        let from = ((k * 7 + 3) % 6) as u32;
+        let to = if from == 0 || (from < 5 && k % 2 == 0) {
+            from + 1
+        } else {
+            from - 1
+        };
+        t += (k * 7_919) % 900_000_000;
+        sent.push(aloha.send(t, from, to, bits));
+    }
+    for f in &sent {
+        if aloha.judge(f) != Fate::Delivered {
+            lost += 1;
+        }
+    }
+    assert!(lost > 10, "{lost} lost under ALOHA");
+}
+
+#[test]
+fn a_tdma_slot_too_short_for_the_longest_frame_and_delay_is_refused_naming_its_key() {
+    let cfg = AcousticCfg {
+        mac: crate::model::mac::Mac::Tdma { slot_s: Some(0.5) },
+        ..AcousticCfg::default()
+    };
+    let pos = [Pt::xy(0.0, 0.0), Pt::xy(1500.0, 0.0)];
+    let links = vec![vec![1], vec![0]];
+    // 240 bits at 1000 bit/s and 1 s of sound: 1.24 s at least.
+    assert_relative_eq!(cfg.min_slot_s(&pos, &links), 1.24, max_relative = 1e-12);
+    assert_eq!(
+        cfg.check_slot(&pos, &links).expect_err("too short").key,
+        "channel.mac.slot_s"
+    );
+}

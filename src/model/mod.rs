@@ -14,6 +14,7 @@ pub mod fault;
 pub mod geometry;
 pub mod graph;
 pub mod linalg;
+pub mod mac;
 pub mod measure;
 pub mod metrics;
 pub mod motion;

@@ -16,6 +16,39 @@ use std::path::PathBuf;
 /// against them: a [`KeyError`]. The one check for the file and for
 /// `--baselines`, which replaces the list (so `bounds.tracks` must still name
 /// existing tracks).
+/// TDMA on the acoustic channel: a given slot must hold the longest frame
+/// and delay, and sync rounds need the SINR reception rule (their frames go
+/// to and from the root, outside the gossip graph the slots are coloured on
+/// under the graph rule).
+fn check_tdma<const D: usize>(
+    ch: &crate::model::channel::AcousticCfg,
+    geometry: &Geometry<D>,
+    graph: &crate::model::graph::Graph,
+    mode: super::Mode,
+) -> Result<(), KeyError> {
+    if ch.mac.is_aloha() {
+        return Ok(());
+    }
+    let pos: Vec<crate::model::xy::Pt> = geometry
+        .receivers
+        .iter()
+        .map(crate::model::xy::Pt::of)
+        .collect();
+    let links: Vec<Vec<u32>> = (0..pos.len())
+        .map(|v| graph.neighbours(v).iter().map(|&j| j as u32).collect())
+        .collect();
+    ch.check_slot(&pos, &links)?;
+    if mode == super::Mode::Sync && ch.reception.is_graph() {
+        return Err(KeyError::new(
+            "channel.mac",
+            "tdma with sync rounds needs reception = { model = \"sinr\", ... }: the rounds' \
+             frames go to and from the root, outside the gossip graph whose distance-2 \
+             colouring gives the slots under the graph rule",
+        ));
+    }
+    Ok(())
+}
+
 /// Whether the scenario's receivers measure one-way ranges: asked for in
 /// `[measurements]`, or present in its trace.
 pub(super) fn has_one_way_ranges<const D: usize>(
@@ -242,6 +275,7 @@ impl<const D: usize> Scenario<D> {
         if let Some(ch) = file.channel.acoustic() {
             ch.validate(geometry.receivers.len())
                 .map_err(|e| e.in_file(path))?;
+            check_tdma::<D>(ch, &geometry, &graph, algorithm.mode).map_err(|e| e.in_file(path))?;
         }
         if let Some(d) = &file.deploy {
             d.validate(geometry.receivers.len())
