@@ -9,7 +9,9 @@
 //! * **transmission time** `bits / bit_rate`; `bits = header_bits + fields x
 //!   value_bits` ([`AcousticCfg::frame_bits`]). A node's modem sends one frame
 //!   at a time: a frame queued while the modem is busy starts when it is free;
-//! * **propagation delay** `||r_i - r_j|| / sound_speed + extra_delay_s`;
+//! * **propagation delay** `||r_i - r_j|| / sound_speed + extra_delay_s`, or
+//!   the travel time along the straight path through a depth-dependent
+//!   speed ([`crate::model::sound_speed`]);
 //! * the frame **arrives** at `j` over `[t0 + delay, t0 + delay + bits / bit_rate)`,
 //!   `t0` the start of its transmission;
 //! * **time is exact**: every instant is an integer number of nanoseconds
@@ -60,6 +62,7 @@ pub use crate::model::acoustics::thorp_db_per_km;
 use crate::model::acoustics::{Absorption, Noise, Water};
 use crate::model::mac::{Mac, Schedule, distance2_colours};
 use crate::model::reception::{Reception, linear, worst_sinr_db};
+use crate::model::sound_speed::SoundSpeedProfile;
 
 /// Transmission loss `k 10 log10(d) + (d / 1000) a(f)` in dB over `d` metres,
 /// with Thorp's absorption.
@@ -169,6 +172,11 @@ pub struct AcousticCfg {
     /// Speed of sound, m/s, in [1, 1e5].
     #[serde(default = "default_sound_speed")]
     pub sound_speed: f64,
+    /// A depth-dependent speed instead of `sound_speed`: `{ model =
+    /// "mackenzie", temperature_c, salinity_psu, depth_m }`
+    /// ([`crate::model::sound_speed`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sound_speed_profile: Option<SoundSpeedProfile>,
     /// Modem bit rate, bit/s, in [1, 1e9].
     #[serde(default = "default_bit_rate")]
     pub bit_rate: f64,
@@ -271,6 +279,7 @@ impl Default for AcousticCfg {
     fn default() -> Self {
         AcousticCfg {
             sound_speed: default_sound_speed(),
+            sound_speed_profile: None,
             bit_rate: default_bit_rate(),
             header_bits: default_header_bits(),
             value_bits: default_value_bits(),
@@ -305,6 +314,9 @@ impl AcousticCfg {
         self.reception
             .validate(matches!(self.loss, LossCfg::Range { .. }))?;
         self.mac.validate()?;
+        if let Some(p) = &self.sound_speed_profile {
+            p.validate()?;
+        }
         match self.loss {
             LossCfg::None {} => {}
             LossCfg::Bernoulli { p } => in_range("channel.loss.p", p, 0.0, 1.0)?,
@@ -388,10 +400,19 @@ impl AcousticCfg {
                     continue;
                 };
                 let extra = self.link(i as u32, j).map_or(0.0, |l| l.extra_delay_s);
-                max_delay = max_delay.max(a.distance(b) / self.sound_speed + extra);
+                max_delay = max_delay.max(self.travel_time_s(a, b) + extra);
             }
         }
         max_delay
+    }
+
+    /// Seconds of sound from `a` to `b`: the distance over `sound_speed`, or
+    /// along the straight path through `sound_speed_profile`.
+    pub fn travel_time_s(&self, a: &Pt, b: &Pt) -> f64 {
+        match &self.sound_speed_profile {
+            None => a.distance(b) / self.sound_speed,
+            Some(p) => p.travel_time_s(a, b),
+        }
     }
 
     /// The shortest TDMA slot that keeps every frame in its slot at every
@@ -731,8 +752,8 @@ impl Medium {
 
     /// One-way delay of the link `i -> j`, seconds.
     pub fn delay(&self, i: u32, j: u32) -> f64 {
-        let d = self.pos[i as usize].distance(&self.pos[j as usize]);
-        d / self.cfg.sound_speed
+        self.cfg
+            .travel_time_s(&self.pos[i as usize], &self.pos[j as usize])
             + self.cfg.link(i, j).map_or(0.0, |l| l.extra_delay_s)
             + self.link_faults.delay(i, j)
     }

@@ -22,5 +22,6 @@ pub mod names;
 pub mod noise;
 pub mod reception;
 pub mod rng;
+pub mod sound_speed;
 pub mod synth;
 pub mod xy;

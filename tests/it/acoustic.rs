@@ -111,6 +111,72 @@ fn in_3d_every_delivered_frame_takes_the_3d_distance_over_the_sound_speed_plus_i
 }
 
 #[test]
+fn through_mackenzies_sound_speed_every_delivered_frame_takes_its_slanted_paths_travel_time() {
+    let tmp = TempDir::new("acoustic-mackenzie");
+    let text = std::fs::read_to_string(scenario("mourya2017-spiral-3d-acoustic.toml"))
+        .expect("reads")
+        .replace(
+            "[channel]\n",
+            "[channel]\nsound_speed_profile = { model = \"mackenzie\", temperature_c = 10.0, salinity_psu = 35.0 }\n",
+        );
+    let file = tmp.write("mackenzie.toml", &text);
+    let Some(sonarnet::scenario::AnyScenario::Space(sc)) =
+        sonarnet::scenario::AnyScenario::load_all(&file)
+            .expect("loads")
+            .into_iter()
+            .next()
+    else {
+        panic!("3-D");
+    };
+    let sc = sc.with_samples(15).expect("15 samples");
+    let dir = tmp.path().join("out");
+    let opts = RunOptions {
+        command_line: vec!["test".into()],
+        ..RunOptions::inprocess()
+            .with_out_dir(&dir)
+            .with_clock(pipeline::default_clock(&sc))
+    };
+    let out = sc.run_and_write(&opts).expect("writes");
+    assert!(out.run.error.is_none(), "{:?}", out.run.error);
+    // Mackenzie 1981 written out again, integrated along the path by a
+    // midpoint sum on 20000 pieces.
+    let c = |d: f64| {
+        let (t, s) = (10.0, 35.0);
+        1448.96 + 4.591 * t - 5.304e-2 * t * t
+            + 2.374e-4 * t * t * t
+            + 1.340 * (s - 35.0)
+            + 1.630e-2 * d
+            + 1.675e-7 * d * d
+            - 1.025e-2 * t * (s - 35.0)
+            - 7.139e-13 * t * d * d * d
+    };
+    let rx = &sc.geometry.receivers;
+    let mut delivered = 0;
+    for r in read_rows(&dir.join("messages.csv"))
+        .iter()
+        .filter(|r| r[6] == "delivered")
+    {
+        let (from, to): (usize, usize) = (r[2].parse().unwrap(), r[3].parse().unwrap());
+        let (a, b) = (rx[from], rx[to]);
+        let n = 20_000;
+        let travel: f64 = (0..n)
+            .map(|k| {
+                let p = a + (b - a) * ((k as f64 + 0.5) / n as f64);
+                (b - a).norm() / n as f64 / c((-p.z).max(0.0))
+            })
+            .sum();
+        let bits: f64 = r[5].parse().unwrap();
+        let took = r[1].parse::<f64>().unwrap() - r[0].parse::<f64>().unwrap();
+        let want = travel + bits / 1000.0;
+        // The medium rounds the delay and the airtime to the nanosecond.
+        assert!((took - want).abs() < 5e-9, "{r:?}: {took} vs {want}");
+        assert!((took - ((b - a).norm() / 1500.0 + bits / 1000.0)).abs() > 1e-4);
+        delivered += 1;
+    }
+    assert!(delivered > 50, "{delivered} delivered");
+}
+
+#[test]
 fn the_discrete_event_engine_gives_identical_files_from_the_same_seed() {
     let tmp = TempDir::new("acoustic-determinism");
     let sc = variant("range-loss");
