@@ -322,7 +322,11 @@ impl Des<'_> {
             Ev::ToNode(node, input) => (node, input),
             Ev::Arrive(f) => {
                 let dead = self.nodes.get(f.to() as usize).is_none_or(|s| s.dead);
-                let Some((to, msg)) = self.channel.arrive(f, dead) else {
+                let delivered = self.channel.due(f, dead, self.now, &mut self.sends);
+                for (t, f) in self.sends.drain(..) {
+                    self.queue.push(t, Ev::Arrive(f));
+                }
+                let Some((to, msg)) = delivered else {
                     return;
                 };
                 (to, Input::Peer(msg))

@@ -189,10 +189,18 @@ impl Water {
             if entry.key().0.as_secs_f64() + grace_s > now_s {
                 break;
             }
+            let (due, _) = *entry.key();
             let f = entry.remove();
             let arrive_end = f.arrive_end_s();
             let dead = self.dead.get(f.to() as usize).copied().unwrap_or(true);
-            if let Some(delivered) = self.channel.arrive(f, dead) {
+            // A CSMA frame senses at its own due time (every frame sent
+            // before it has reached the coordinator by now, the grace later).
+            let delivered = self.channel.due(f, dead, due, &mut self.sends);
+            for (due, f) in self.sends.drain(..) {
+                self.pending.insert((due, self.next), f);
+                self.next += 1;
+            }
+            if let Some(delivered) = delivered {
                 if let Some(end) = arrive_end {
                     self.errors_ms.push((now_s - end) * 1e3);
                 }

@@ -472,9 +472,10 @@ impl AcousticCfg {
     pub fn default_exchange_timeout(&self, pos: &[Pt], links: &[Vec<u32>], fields: u32) -> f64 {
         let base =
             self.round_trip(pos, links, fields) + self.transmission_s(self.frame_bits(fields));
-        match self.schedule(pos, links) {
-            Some(s) => base + 2.0 * s.cycle_s(),
-            None => base,
+        match (self.mac, self.schedule(pos, links)) {
+            (_, Some(s)) => base + 2.0 * s.cycle_s(),
+            (Mac::Csma { backoff_s, .. }, None) => base + 4.0 * backoff_s,
+            _ => base,
         }
     }
 
@@ -929,6 +930,32 @@ impl Medium {
             return Fate::Lost(Reason::Loss);
         }
         Fate::Delivered
+    }
+
+    /// Carrier sense at node `i` at instant `t`: its modem is busy, or an
+    /// arrival it detects is in progress at its receiver (any under the graph
+    /// rule; under the SINR rule one at least `detection_db` over the noise).
+    pub fn senses_busy(&self, i: u32, t: Nanos) -> bool {
+        let iu = i as usize;
+        if self.free_at.get(iu).is_some_and(|&f| f > t) {
+            return true;
+        }
+        let Some(at) = self.pos.get(iu) else {
+            return false;
+        };
+        self.arriving.get(iu).is_some_and(|v| {
+            v.iter().any(|&(s, e, _, k)| {
+                s <= t
+                    && t < e
+                    && match self.cfg.reception {
+                        Reception::Graph {} => true,
+                        Reception::Sinr { detection_db, .. } => self
+                            .cfg
+                            .levels_db(&self.pos[k as usize], at)
+                            .is_some_and(|(l, n)| l - n >= detection_db),
+                    }
+            })
+        })
     }
 
     /// Under the SINR rule, the worst SINR of `f` over its arrival, dB

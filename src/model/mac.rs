@@ -16,6 +16,19 @@
 //!   overlap and no node receives while it transmits: under TDMA the
 //!   `collision` and `half_duplex` losses cannot happen.
 //!
+//! * `csma`: carrier sense on the node's own receiver, non-persistent with a
+//!   random backoff. A frame the protocol hands over is offered to the
+//!   medium at that instant, after every transmission started before it is
+//!   known (the engines hold it as a pending copy due at once). If the
+//!   node's modem is busy, or an arrival it would detect is in progress at
+//!   its receiver (under the graph rule any arrival, under the SINR rule one
+//!   at least `detection_db` over the noise), it waits a backoff uniform in
+//!   `[0, backoff_s)` (a seeded draw keyed by the node and its backoff count)
+//!   and senses again; after `max_attempts` busy senses it sends regardless.
+//!   Sensing cannot hear a transmission whose sound has not reached the node
+//!   yet, so collisions remain possible; the default timeouts add four
+//!   backoff windows.
+//!
 //! Gossip maps onto the slots frame by frame: a node sends at most one
 //! frame per slot of its own; a frame the protocol hands over waits for the
 //! node's next slot that starts at or after the modem is free. An exchange
@@ -36,6 +49,17 @@ use serde::{Deserialize, Serialize};
 pub enum Mac {
     /// Send when the modem is free (the default).
     Aloha {},
+    /// Carrier sense (module docs).
+    Csma {
+        /// The backoff is uniform in `[0, backoff_s)`, seconds, in [1e-6,
+        /// 3600] (default 1).
+        #[serde(default = "default_backoff")]
+        backoff_s: f64,
+        /// Sensing attempts before the frame is sent regardless, in [1,
+        /// 1000] (default 8).
+        #[serde(default = "default_attempts")]
+        max_attempts: u32,
+    },
     /// The slotted schedule of the module docs.
     Tdma {
         /// Slot length, seconds, in [1e-6, 3600]; default the longest
@@ -43,6 +67,13 @@ pub enum Mac {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         slot_s: Option<f64>,
     },
+}
+
+fn default_backoff() -> f64 {
+    1.0
+}
+fn default_attempts() -> u32 {
+    8
 }
 
 impl Default for Mac {
@@ -59,10 +90,22 @@ impl Mac {
 
     /// Checks the numbers.
     pub fn validate(&self) -> Result<(), KeyError> {
-        if let Mac::Tdma { slot_s: Some(s) } = *self {
-            in_range("channel.mac.slot_s", s, 1e-6, 3600.0)?;
+        match *self {
+            Mac::Tdma { slot_s: Some(s) } => in_range("channel.mac.slot_s", s, 1e-6, 3600.0),
+            Mac::Csma {
+                backoff_s,
+                max_attempts,
+            } => {
+                in_range("channel.mac.backoff_s", backoff_s, 1e-6, 3600.0)?;
+                in_range(
+                    "channel.mac.max_attempts",
+                    f64::from(max_attempts),
+                    1.0,
+                    1000.0,
+                )
+            }
+            _ => Ok(()),
         }
-        Ok(())
     }
 }
 

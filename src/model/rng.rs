@@ -37,6 +37,9 @@ pub enum Stream {
     /// Fault draws: `link_loss` fates (keyed by link and frame number) and the
     /// random nemesis (index 0).
     Faults = 9,
+    /// CSMA backoffs on the acoustic channel (keyed by node and its backoff
+    /// count, [`crate::model::mac`]).
+    Mac = 10,
 }
 
 /// SplitMix64's output function: a bijective mix of 64 bits.

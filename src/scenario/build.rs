@@ -26,7 +26,7 @@ fn check_tdma<const D: usize>(
     graph: &crate::model::graph::Graph,
     mode: super::Mode,
 ) -> Result<(), KeyError> {
-    if ch.mac.is_aloha() {
+    if !matches!(ch.mac, crate::model::mac::Mac::Tdma { .. }) {
         return Ok(());
     }
     let pos: Vec<crate::model::xy::Pt> = geometry

@@ -23,6 +23,8 @@
 use crate::model::channel::{Fate, Frame, Medium, Nanos, Reason, nanos, seconds};
 use crate::model::drift::Drift;
 use crate::model::fault::{FaultKind, IdealLinks};
+use crate::model::mac::Mac;
+use crate::model::rng::{Stream, link_draw};
 use crate::model::xy::Pt;
 use crate::protocol::{ChannelPlan, PeerMsg};
 use crate::world::time::wait;
@@ -145,14 +147,20 @@ enum Way {
     Acoustic(Frame),
     /// On the ideal channel, already judged to arrive: for this addressee.
     Ideal(u32),
+    /// Under CSMA, not yet on the water: due when its sender senses the
+    /// channel (again), addressed to `to` ([`ALL`]: every other node).
+    Pending { from: u32, to: u32, attempt: u32 },
 }
+
+/// The addressee of a pending broadcast.
+const ALL: u32 = u32::MAX;
 
 impl InFlight {
     /// The addressee.
     pub fn to(&self) -> u32 {
         match &self.way {
             Way::Acoustic(f) => f.to,
-            Way::Ideal(to) => *to,
+            Way::Ideal(to) | Way::Pending { to, .. } => *to,
         }
     }
 
@@ -160,7 +168,7 @@ impl InFlight {
     pub fn arrive_end_s(&self) -> Option<f64> {
         match &self.way {
             Way::Acoustic(f) => Some(seconds(f.arrive_end)),
-            Way::Ideal(_) => None,
+            Way::Ideal(_) | Way::Pending { .. } => None,
         }
     }
 }
@@ -177,6 +185,8 @@ pub struct Channel {
     flying: BTreeMap<(u64, u32), (Frame, &'static str)>,
     /// Receivers that drift: their sample-0 positions and their drifts.
     drift: Option<(Vec<Pt>, Vec<Option<Drift>>)>,
+    /// Per node: CSMA backoffs drawn so far.
+    backoffs: Vec<u64>,
 }
 
 impl Channel {
@@ -228,6 +238,7 @@ impl Channel {
             records: Vec::new(),
             flying: BTreeMap::new(),
             drift: None,
+            backoffs: vec![0; n],
         }
     }
 
@@ -265,6 +276,9 @@ impl Channel {
             return;
         }
         match &mut self.carrier {
+            Carrier::Acoustic(m) if matches!(m.cfg().mac, Mac::Csma { .. }) => {
+                out.push((now, pending(msg, from, to, 0)));
+            }
             Carrier::Acoustic(m) => {
                 let bits = m.cfg().frame_bits(msg.values());
                 let f = m.send(nanos_of(now), from, to, bits);
@@ -294,6 +308,9 @@ impl Channel {
             return;
         }
         match &mut self.carrier {
+            Carrier::Acoustic(m) if matches!(m.cfg().mac, Mac::Csma { .. }) => {
+                out.push((now, pending(msg, from, ALL, 0)));
+            }
             Carrier::Acoustic(m) => {
                 let others: Vec<u32> = (0..self.n).filter(|&j| j != from).collect();
                 let bits = m.cfg().frame_bits(msg.values());
@@ -310,6 +327,56 @@ impl Channel {
         }
     }
 
+    /// What the engines call when a copy they hold is due at `now`: a copy
+    /// in the water is judged ([`Channel::arrive`]); a CSMA frame pending its
+    /// sender's carrier sense is sensed for, and either put on the water or
+    /// given another backoff, the copies pushed to `out` as
+    /// [`Channel::send`] does.
+    pub fn due(
+        &mut self,
+        f: InFlight,
+        to_dead: bool,
+        now: Duration,
+        out: &mut Vec<(Duration, InFlight)>,
+    ) -> Option<(u32, PeerMsg)> {
+        let Way::Pending { from, to, attempt } = f.way else {
+            return self.arrive(f, to_dead);
+        };
+        let Carrier::Acoustic(m) = &mut self.carrier else {
+            return None;
+        };
+        let Mac::Csma {
+            backoff_s,
+            max_attempts,
+        } = m.cfg().mac
+        else {
+            return None;
+        };
+        let t = nanos_of(now);
+        if m.senses_busy(from, t) && attempt + 1 < max_attempts {
+            let k = &mut self.backoffs[from as usize];
+            let draw = link_draw(self.seed, Stream::Mac, from, 0, *k);
+            *k += 1;
+            out.push((
+                now + wait(draw * backoff_s),
+                pending(f.msg, from, to, attempt + 1),
+            ));
+            return None;
+        }
+        let bits = m.cfg().frame_bits(f.msg.values());
+        let frames = if to == ALL {
+            let others: Vec<u32> = (0..self.n).filter(|&j| j != from).collect();
+            m.broadcast(t, from, &others, bits)
+        } else {
+            vec![m.send(t, from, to, bits)]
+        };
+        for fr in frames {
+            self.flying.insert((fr.id, fr.to), (fr, f.msg.kind()));
+            out.push(acoustic(fr, f.msg));
+        }
+        None
+    }
+
     /// The copy `f` is due, and its addressee is down (`to_dead`) or not:
     /// judged (and recorded on the acoustic channel). `Some((to, msg))` if
     /// it is delivered.
@@ -324,7 +391,7 @@ impl Channel {
                 delivered.then_some((frame.to, msg))
             }
             (Way::Ideal(to), _) => (!to_dead).then_some((to, msg)),
-            (Way::Acoustic(_), Carrier::Ideal(_)) => None,
+            (Way::Acoustic(_), Carrier::Ideal(_)) | (Way::Pending { .. }, _) => None,
         }
     }
 
@@ -397,6 +464,13 @@ fn acoustic(f: Frame, msg: PeerMsg) -> (Duration, InFlight) {
             way: Way::Acoustic(f),
         },
     )
+}
+
+fn pending(msg: PeerMsg, from: u32, to: u32, attempt: u32) -> InFlight {
+    InFlight {
+        msg,
+        way: Way::Pending { from, to, attempt },
+    }
 }
 
 fn ideal(to: u32, msg: PeerMsg) -> InFlight {
@@ -549,5 +623,44 @@ mod tests {
         let cfg = AcousticCfg::default();
         let airtime = cfg.transmission_s(cfg.frame_bits(PeerMsg::max_values(2)));
         assert_relative_eq!(ch.overlap_horizon_s(), 2.0 * airtime);
+    }
+
+    #[test]
+    fn under_csma_a_node_that_hears_an_arrival_backs_off_and_an_idle_one_sends_at_once() {
+        let cfg = AcousticCfg {
+            mac: crate::model::mac::Mac::Csma {
+                backoff_s: 0.5,
+                max_attempts: 8,
+            },
+            ..AcousticCfg::default()
+        };
+        let pos = vec![Pt::xy(0.0, 0.0), Pt::xy(1500.0, 0.0), Pt::xy(0.0, 3000.0)];
+        let links = vec![vec![1, 2], vec![0], vec![0]];
+        let mut ch = Channel::acoustic(Medium::new(cfg, 7, pos, &links), 7);
+        // Node 0 sends to 1 at 0 s: pending, sensed at once, on the water.
+        let first = sent(&mut ch, 0.0, 0, 1, reflect(0, 1));
+        assert_eq!(first.len(), 1);
+        assert_eq!(first[0].0, at(0.0), "due at once for its carrier sense");
+        let mut out = Vec::new();
+        assert!(ch.due(first[0].1, false, at(0.0), &mut out).is_none());
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].1.arrive_end_s(), Some(1.0 + 0.24), "sent at 0 s");
+        // Node 1 hears it over [1, 1.24) s: at 1.1 s it backs off.
+        let second = sent(&mut ch, 1.1, 1, 0, reflect(1, 2));
+        let mut out2 = Vec::new();
+        assert!(ch.due(second[0].1, false, at(1.1), &mut out2).is_none());
+        assert_eq!(out2.len(), 1);
+        assert_eq!(out2[0].1.arrive_end_s(), None, "still pending");
+        assert!(
+            out2[0].0 > at(1.1) && out2[0].0 < at(1.6),
+            "{:?}",
+            out2[0].0
+        );
+        // At 1.3 s the channel at node 1 is idle: it sends at once.
+        let mut out3 = Vec::new();
+        assert!(ch.due(out2[0].1, false, at(1.3), &mut out3).is_none());
+        assert_eq!(out3[0].1.arrive_end_s(), Some(1.3 + 1.0 + 0.24));
+        // The first copy arrives whole.
+        assert_eq!(ch.arrive(out[0].1, false), Some((1, reflect(0, 1))));
     }
 }

@@ -606,7 +606,7 @@ fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
 
 #[test]
 fn every_recorded_fate_agrees_with_an_independent_judgement_in_integer_nanoseconds() {
-    for name in ["modem", "logical-modem", "sync-modem"] {
+    for name in ["modem", "logical-modem", "sync-modem", "tdma", "csma"] {
         let tmp = TempDir::new(&format!("rejudge-{name}"));
         let sc = variant(name);
         run(&sc, tmp.path());
@@ -772,6 +772,41 @@ fn an_sinr_run_on_node_processes_is_judged_by_the_same_rule() {
         .find(|s| s.variant.as_deref() == Some("sinr"))
         .unwrap();
     let (judged, _) = rejudge_sinr(&sc, &read_rows(&p.join("messages.csv")));
+    assert!(judged > 100, "{judged} frames");
+}
+
+#[test]
+fn a_csma_run_on_node_processes_is_judged_by_the_same_rules() {
+    let _cpu = crate::util::cpu_exclusive();
+    let tmp = TempDir::new("csma-processes");
+    let file = short_acoustic(&tmp, 20);
+    let p = tmp.path().join("p");
+    let out = crate::util::wait_watchdog(
+        crate::util::spawn_sonarnet(&[
+            "run",
+            file.to_str().unwrap(),
+            "--variant",
+            "csma",
+            "--engine",
+            "processes",
+            "--out",
+            p.to_str().unwrap(),
+        ]),
+        "a csma processes run",
+        std::time::Duration::from_secs(300),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    crate::util::assert_nothing_left(&crate::util::run_id_of(&p));
+    let sc = Scenario::load_all(&file)
+        .unwrap()
+        .into_iter()
+        .find(|s| s.variant.as_deref() == Some("csma"))
+        .unwrap();
+    let judged = rejudge(&sc, &read_rows(&p.join("messages.csv")));
     assert!(judged > 100, "{judged} frames");
 }
 
