@@ -61,6 +61,7 @@ use serde::{Deserialize, Serialize};
 pub use crate::model::acoustics::thorp_db_per_km;
 use crate::model::acoustics::{Absorption, Noise, Water};
 use crate::model::mac::{Mac, Schedule, distance2_colours};
+pub use crate::model::nanos::{Nanos, nanos, seconds};
 use crate::model::reception::{Reception, linear, worst_sinr_db};
 use crate::model::sound_speed::SoundSpeedProfile;
 
@@ -675,29 +676,6 @@ pub struct Frame {
     pub arrive_start: Nanos,
     /// When its arrival ends: the time its fate is judged ([`Medium::judge`]).
     pub arrive_end: Nanos,
-}
-
-/// Emulated time in integer nanoseconds since the start of the run: the one
-/// time of the medium, and of the discrete-event engine's queue (a
-/// `Duration` there), so that two instants compare exactly.
-pub type Nanos = u64;
-
-/// `secs` seconds as [`Nanos`], rounded to the nearest nanosecond (0 for
-/// negative or NaN input, saturating above about 584 years).
-pub fn nanos(secs: f64) -> Nanos {
-    let ns = (secs * 1e9).round();
-    if ns.is_nan() || ns <= 0.0 {
-        0
-    } else if ns >= u64::MAX as f64 {
-        u64::MAX
-    } else {
-        ns as u64
-    }
-}
-
-/// [`Nanos`] as seconds (for the records and the CSVs).
-pub fn seconds(ns: Nanos) -> f64 {
-    ns as f64 / 1e9
 }
 
 /// The shared medium of one run: the nodes' positions and links, every

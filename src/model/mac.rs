@@ -39,8 +39,8 @@
 //! With drifting receivers the default guard is taken from the positions the
 //! medium starts with; give `slot_s` for the longest link the drift reaches.
 
-use crate::model::channel::{Nanos, nanos};
 use crate::model::error::{KeyError, in_range};
+use crate::model::nanos::{Nanos, nanos, seconds};
 use serde::{Deserialize, Serialize};
 
 /// `[channel] mac`.
@@ -167,7 +167,7 @@ impl Schedule {
 
     /// The cycle, seconds: the longest a frame waits for its slot.
     pub fn cycle_s(&self) -> f64 {
-        crate::model::channel::seconds(self.cycle)
+        seconds(self.cycle)
     }
 
     /// The start and end of node `i`'s first slot that starts at or after

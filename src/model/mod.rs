@@ -19,6 +19,7 @@ pub mod measure;
 pub mod metrics;
 pub mod motion;
 pub mod names;
+pub mod nanos;
 pub mod noise;
 pub mod reception;
 pub mod rng;

@@ -20,7 +20,7 @@ use std::path::PathBuf;
 /// and delay, and sync rounds need the SINR reception rule (their frames go
 /// to and from the root, outside the gossip graph the slots are coloured on
 /// under the graph rule).
-fn check_tdma<const D: usize>(
+pub(super) fn check_tdma<const D: usize>(
     ch: &crate::model::channel::AcousticCfg,
     geometry: &Geometry<D>,
     graph: &crate::model::graph::Graph,

@@ -438,6 +438,10 @@ impl<const D: usize> Scenario<D> {
     pub fn with_mode(mut self, mode: Mode) -> Result<Self, InputError> {
         self.algorithm.mode = mode;
         self.check_schedule()?;
+        if let Some(ch) = self.channel.acoustic() {
+            build::check_tdma(ch, &self.geometry, &self.graph, mode)
+                .map_err(|e| cli_error("--mode", e.to_string()))?;
+        }
         Ok(self)
     }
 

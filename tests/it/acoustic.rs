@@ -606,7 +606,16 @@ fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
 
 #[test]
 fn every_recorded_fate_agrees_with_an_independent_judgement_in_integer_nanoseconds() {
-    for name in ["modem", "logical-modem", "sync-modem", "tdma", "csma"] {
+    for name in [
+        "modem",
+        "range-loss",
+        "bernoulli-0.2",
+        "graph-quiet",
+        "logical-modem",
+        "sync-modem",
+        "tdma",
+        "csma",
+    ] {
         let tmp = TempDir::new(&format!("rejudge-{name}"));
         let sc = variant(name);
         run(&sc, tmp.path());
@@ -836,4 +845,27 @@ fn frames_still_in_the_water_when_the_run_ends_are_recorded_in_flight() {
     let ch = out.metrics.channel.as_ref().expect("channel stats");
     assert_eq!(ch.in_flight as usize, flying.len());
     assert_eq!(ch.frames as usize, rows.len() - flying.len());
+}
+
+#[test]
+fn tdma_with_sync_rounds_under_the_graph_rule_is_refused_naming_the_key() {
+    let tmp = TempDir::new("tdma-sync");
+    let out = crate::util::sonarnet(
+        &[
+            "run",
+            scenario("mourya2017-spiral-acoustic.toml")
+                .to_str()
+                .unwrap(),
+            "--variant",
+            "tdma",
+            "--mode",
+            "sync",
+            "--out",
+            tmp.path().join("o").to_str().unwrap(),
+        ],
+        std::time::Duration::from_secs(60),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("channel.mac") && err.contains("sinr"), "{err}");
 }

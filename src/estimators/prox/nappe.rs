@@ -29,7 +29,7 @@
 //!
 //! # Method
 //!
-//! First the fast path of [`monotone`]: the minimiser over the whole cone is
+//! First the fast path of the `monotone` submodule: the minimiser over the whole cone is
 //! the one root of the secular function on the interval where `A + lambda S`
 //! (`S = diag(1, ..., 1, -1)`) is positive definite, found by a bracketed
 //! Newton iteration on Cholesky factors and certified by the factor itself;
