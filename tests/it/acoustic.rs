@@ -530,8 +530,8 @@ fn ns(cell: &str) -> u64 {
 /// alone, in integer nanoseconds with half-open intervals, and compare with
 /// the recorded fate: `half_duplex` exactly when the addressee transmitted
 /// during the arrival, `collision` exactly when (else) another transmission
-/// that reaches the addressee arrived during it, and a delivered frame
-/// neither. Returns how many frames were judged.
+/// that reaches the addressee arrived during it (each only when the
+/// variant's channel has the rule on), and a delivered frame neither. Returns how many frames were judged.
 fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
     let n = sc.geometry.receivers.len();
     let c = 1500.0;
@@ -561,6 +561,9 @@ fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
         v[k..].iter().take_while(move |x| x.0 < hi)
     };
     let reach = |i: usize, j: usize| sc.graph.neighbours(i).contains(&j);
+    // Which rules are on: (half-duplex, collisions).
+    let cfg = sc.channel.acoustic().expect("an acoustic variant");
+    let rules = (cfg.half_duplex, cfg.collisions);
     let mut judged = 0;
     for r in rows.iter().filter(|r| r[6] != "in_flight") {
         let (from, to): (usize, usize) = (r[2].parse().unwrap(), r[3].parse().unwrap());
@@ -569,15 +572,16 @@ fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
         let b = a + airtime(r[5].parse().unwrap());
         let overlaps = |s: u64, e: u64| s < b && a < e;
         let half_duplex =
-            starting(to, a.saturating_sub(longest), b).any(|x| overlaps(x.0, x.0 + x.1));
-        let collision = (0..n).filter(|&i| i != to).any(|i| {
-            let d = delay(i, to);
-            starting(i, a.saturating_sub(longest + d), b.saturating_sub(d)).any(|x| {
-                (i, x.0) != (from, t0)
-                    && (reach(i, to) || x.2.contains(&to))
-                    && overlaps(x.0 + d, x.0 + d + x.1)
-            })
-        });
+            rules.0 && starting(to, a.saturating_sub(longest), b).any(|x| overlaps(x.0, x.0 + x.1));
+        let collision = rules.1
+            && (0..n).filter(|&i| i != to).any(|i| {
+                let d = delay(i, to);
+                starting(i, a.saturating_sub(longest + d), b.saturating_sub(d)).any(|x| {
+                    (i, x.0) != (from, t0)
+                        && (reach(i, to) || x.2.contains(&to))
+                        && overlaps(x.0 + d, x.0 + d + x.1)
+                })
+            });
         let want = if half_duplex {
             Some("half_duplex")
         } else if collision {
@@ -607,6 +611,7 @@ fn rejudge(sc: &Scenario, rows: &[Vec<String>]) -> usize {
 #[test]
 fn every_recorded_fate_agrees_with_an_independent_judgement_in_integer_nanoseconds() {
     for name in [
+        "delay",
         "modem",
         "range-loss",
         "bernoulli-0.2",
