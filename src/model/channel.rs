@@ -860,6 +860,19 @@ impl Medium {
     /// can overlap its arrival has been sent by then, when sends are made in
     /// time order).
     pub fn judge(&self, f: &Frame) -> Fate {
+        self.judge_with(f, self.sinr_and_snr_db(f))
+    }
+
+    /// [`Medium::judge`] and, under the SINR rule, the frame's worst SINR
+    /// (dB), computed once for both.
+    pub fn judged(&self, f: &Frame) -> (Fate, Option<f64>) {
+        let levels = self.sinr_and_snr_db(f);
+        (self.judge_with(f, levels), levels.map(|(sinr, _)| sinr))
+    }
+
+    /// The judgement, given the frame's worst SINR and its SNR (dB) under
+    /// the SINR rule.
+    fn judge_with(&self, f: &Frame, levels: Option<(f64, f64)>) -> Fate {
         if self.cfg.link(f.from, f.to).is_some_and(|l| l.blocked)
             || self.link_faults.blocked(f.from, f.to)
         {
@@ -875,7 +888,7 @@ impl Medium {
             return Fate::Lost(Reason::HalfDuplex);
         }
         if let Reception::Sinr { threshold_db, .. } = self.cfg.reception {
-            if let Some((sinr, snr)) = self.sinr_and_snr_db(f)
+            if let Some((sinr, snr)) = levels
                 && sinr < threshold_db
             {
                 return Fate::Lost(if snr >= threshold_db {

@@ -543,44 +543,32 @@ fn under_tdma_no_frame_can_collide_or_meet_a_transmitting_receiver() {
     };
     let xs: Vec<f64> = (0..6).map(|k| 1000.0 * k as f64).collect();
     let edges: Vec<(u32, u32)> = (0..5).map(|k| (k, k + 1)).collect();
-    let mut m = graph(cfg.clone(), &xs, &edges);
     let bits = cfg.frame_bits(3);
-    let mut frames = Vec::new();
-    let mut t: u64 = 0;
-    for k in 0..300u64 {
-        // A deterministic scramble of the senders and times.
-        let from = ((k * 7 + 3) % 6) as u32;
-        let to = if from == 0 || (from < 5 && k % 2 == 0) {
-            from + 1
-        } else {
-            from - 1
-        };
-        t += (k * 7_919) % 900_000_000;
-        frames.push(m.send(t, from, to, bits));
-    }
-    for f in &frames {
-        assert_eq!(m.judge(f), Fate::Delivered, "{f:?}");
-    }
+    // The fates of the same scrambled senders and times on `cfg`.
+    let fates = |cfg: AcousticCfg| -> Vec<Fate> {
+        let mut m = graph(cfg, &xs, &edges);
+        let mut t: u64 = 0;
+        let frames: Vec<Frame> = (0..300u64)
+            .map(|k| {
+                let from = ((k * 7 + 3) % 6) as u32;
+                let to = if from == 0 || (from < 5 && k % 2 == 0) {
+                    from + 1
+                } else {
+                    from - 1
+                };
+                t += (k * 7_919) % 900_000_000;
+                m.send(t, from, to, bits)
+            })
+            .collect();
+        frames.iter().map(|f| m.judge(f)).collect()
+    };
+    let tdma = fates(cfg);
+    assert!(tdma.iter().all(|f| *f == Fate::Delivered), "{tdma:?}");
     // The same traffic under ALOHA collides.
-    let mut aloha = graph(AcousticCfg::default(), &xs, &edges);
-    let mut t: u64 = 0;
-    let mut lost = 0;
-    let mut sent = Vec::new();
-    for k in 0..300u64 {
-        let from = ((k * 7 + 3) % 6) as u32;
-        let to = if from == 0 || (from < 5 && k % 2 == 0) {
-            from + 1
-        } else {
-            from - 1
-        };
-        t += (k * 7_919) % 900_000_000;
-        sent.push(aloha.send(t, from, to, bits));
-    }
-    for f in &sent {
-        if aloha.judge(f) != Fate::Delivered {
-            lost += 1;
-        }
-    }
+    let lost = fates(AcousticCfg::default())
+        .iter()
+        .filter(|f| **f != Fate::Delivered)
+        .count();
     assert!(lost > 10, "{lost} lost under ALOHA");
 }
 

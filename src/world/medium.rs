@@ -78,7 +78,8 @@ impl MessageRecord {
     /// Judge frame `f` carrying `msg` on `medium` (a frame to a dead node is
     /// lost as `node_down`): its record.
     fn judge(medium: &Medium, f: &Frame, msg: &PeerMsg, to_dead: bool) -> MessageRecord {
-        let fate = match medium.judge(f) {
+        let (fate, sinr_db) = medium.judged(f);
+        let fate = match fate {
             Fate::Delivered if to_dead => Fate::Lost(Reason::NodeDown),
             fate => fate,
         };
@@ -94,7 +95,7 @@ impl MessageRecord {
                 Fate::Lost(r) => Some(r),
             },
             in_flight: false,
-            sinr_db: medium.sinr_db(f),
+            sinr_db,
         }
     }
 

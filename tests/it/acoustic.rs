@@ -754,10 +754,11 @@ fn every_sinr_fate_and_level_agrees_with_an_independent_judgement_and_strong_fra
     );
 }
 
-#[test]
-fn an_sinr_run_on_node_processes_is_judged_by_the_same_rule() {
+/// Variant `name` of the short acoustic scenario run on node processes into
+/// `p` under the returned directory (nothing left behind), and its scenario.
+fn processes_run_of(name: &str) -> (TempDir, Scenario) {
     let _cpu = crate::util::cpu_exclusive();
-    let tmp = TempDir::new("sinr-processes");
+    let tmp = TempDir::new(&format!("{name}-processes"));
     let file = short_acoustic(&tmp, 20);
     let p = tmp.path().join("p");
     let out = crate::util::wait_watchdog(
@@ -765,13 +766,13 @@ fn an_sinr_run_on_node_processes_is_judged_by_the_same_rule() {
             "run",
             file.to_str().unwrap(),
             "--variant",
-            "sinr",
+            name,
             "--engine",
             "processes",
             "--out",
             p.to_str().unwrap(),
         ]),
-        "an sinr processes run",
+        &format!("a {name} processes run"),
         std::time::Duration::from_secs(300),
     );
     assert!(
@@ -783,43 +784,23 @@ fn an_sinr_run_on_node_processes_is_judged_by_the_same_rule() {
     let sc = Scenario::load_all(&file)
         .unwrap()
         .into_iter()
-        .find(|s| s.variant.as_deref() == Some("sinr"))
+        .find(|s| s.variant.as_deref() == Some(name))
         .unwrap();
+    (tmp, sc)
+}
+
+#[test]
+fn an_sinr_run_on_node_processes_is_judged_by_the_same_rule() {
+    let (tmp, sc) = processes_run_of("sinr");
+    let p = tmp.path().join("p");
     let (judged, _) = rejudge_sinr(&sc, &read_rows(&p.join("messages.csv")));
     assert!(judged > 100, "{judged} frames");
 }
 
 #[test]
 fn a_csma_run_on_node_processes_is_judged_by_the_same_rules() {
-    let _cpu = crate::util::cpu_exclusive();
-    let tmp = TempDir::new("csma-processes");
-    let file = short_acoustic(&tmp, 20);
+    let (tmp, sc) = processes_run_of("csma");
     let p = tmp.path().join("p");
-    let out = crate::util::wait_watchdog(
-        crate::util::spawn_sonarnet(&[
-            "run",
-            file.to_str().unwrap(),
-            "--variant",
-            "csma",
-            "--engine",
-            "processes",
-            "--out",
-            p.to_str().unwrap(),
-        ]),
-        "a csma processes run",
-        std::time::Duration::from_secs(300),
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    crate::util::assert_nothing_left(&crate::util::run_id_of(&p));
-    let sc = Scenario::load_all(&file)
-        .unwrap()
-        .into_iter()
-        .find(|s| s.variant.as_deref() == Some("csma"))
-        .unwrap();
     let judged = rejudge(&sc, &read_rows(&p.join("messages.csv")));
     assert!(judged > 100, "{judged} frames");
 }
