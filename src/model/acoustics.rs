@@ -1,5 +1,5 @@
 //! The sea's acoustics as the field's link models use them: absorption
-//! (Thorp, Francois-Garrison) and ambient noise (constant, or Coates'
+//! (Thorp, Francois-Garrison, Schulkin-Marsh) and ambient noise (constant, or Coates'
 //! four components as Stojanovic 2007 gives them), integrated over the band.
 //!
 //! # Units
@@ -9,7 +9,12 @@
 //! kiloyard; the `0.11` and `44` of the dB/km form are those coefficients
 //! times 1.094 (km per kyd), and ns-3's UAN `GetAttenDbKyd` returns the dB/km
 //! coefficients under a dB/kyd name, with the two frequency branches
-//! swapped. Noise levels are spectral densities in dB re 1 uPa^2/Hz.
+//! swapped. Schulkin and Marsh's formula comes in two forms too: with
+//! `A = 2.34e-6`, `B = 3.38e-6` and the factor `8.686e3` (nepers per metre
+//! to dB/km) it is in dB/km, the form used here; Urick's `A = 1.86e-2`,
+//! `B = 2.68e-2` are the same coefficients in dB per kiloyard (times
+//! 1.094 they give `8.686e3 A` and `8.686e3 B`). Noise levels are spectral
+//! densities in dB re 1 uPa^2/Hz.
 
 use crate::model::error::{KeyError, in_range};
 use serde::{Deserialize, Serialize};
@@ -27,7 +32,8 @@ pub fn thorp_db_per_km(f_khz: f64) -> f64 {
     }
 }
 
-/// The water a path crosses, for [`Absorption::FrancoisGarrison`].
+/// The water a path crosses, for [`Absorption::FrancoisGarrison`] and
+/// [`Absorption::MarshSchulkin`] (which does not take the pH).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Water {
@@ -115,6 +121,32 @@ pub fn francois_garrison_db_per_km(f_khz: f64, w: &Water, z_m: f64) -> f64 {
     a1 * f1 * f2 / (f1 * f1 + f2) + a2 * p2 * f2r * f2 / (f2r * f2r + f2) + a3 * p3 * f2
 }
 
+/// The absolute pressure at depth `z_m` metres, kg/cm^2: one standard
+/// atmosphere plus a column of sea water of density 1025 kg/m^3 under
+/// standard gravity (about 1.033 + 0.1025 z).
+pub fn pressure_kg_per_cm2(z_m: f64) -> f64 {
+    (101_325.0 + 1025.0 * 9.806_65 * z_m) / 98_066.5
+}
+
+/// Schulkin and Marsh (1962, J. Acoust. Soc. Am. 34(6), "Sound absorption
+/// in sea water") in dB/km, `f` in kHz, at depth `z_m` metres: magnesium
+/// sulphate relaxation and pure water,
+/// `8.686e3 (S A fT f^2/(fT^2+f^2) + B f^2/fT) (1 - 6.54e-4 P)` with
+/// `A = 2.34e-6`, `B = 3.38e-6`, the relaxation frequency
+/// `fT = 21.9 10^(6 - 1520/(T+273))` kHz and the pressure `P` in kg/cm^2
+/// ([`pressure_kg_per_cm2`]). Fitted to measurements from 2 to 25 kHz; it
+/// has no boric acid term, so below about 5 kHz it absorbs far less than
+/// [`francois_garrison_db_per_km`] (a fifth to a third at 1-2 kHz).
+pub fn schulkin_marsh_db_per_km(f_khz: f64, w: &Water, z_m: f64) -> f64 {
+    const A: f64 = 2.34e-6;
+    const B: f64 = 3.38e-6;
+    let f2 = f_khz * f_khz;
+    let ft = 21.9 * 10f64.powf(6.0 - 1520.0 / (w.temperature_c + 273.0));
+    let relaxation = w.salinity_psu * A * ft * f2 / (ft * ft + f2);
+    let viscous = B * f2 / ft;
+    8.686e3 * (relaxation + viscous) * (1.0 - 6.54e-4 * pressure_kg_per_cm2(z_m))
+}
+
 /// Which absorption a link's transmission loss takes
 /// (`channel.loss.absorption`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -125,6 +157,9 @@ pub enum Absorption {
     Thorp,
     /// [`francois_garrison_db_per_km`] in the link's [`Water`].
     FrancoisGarrison,
+    /// [`schulkin_marsh_db_per_km`] in the link's [`Water`]
+    /// (`"marsh_schulkin"`, the name ns-3 and the UASN simulators use).
+    MarshSchulkin,
 }
 
 impl Absorption {
@@ -133,6 +168,7 @@ impl Absorption {
         match self {
             Absorption::Thorp => thorp_db_per_km(f_khz),
             Absorption::FrancoisGarrison => francois_garrison_db_per_km(f_khz, w, z_m),
+            Absorption::MarshSchulkin => schulkin_marsh_db_per_km(f_khz, w, z_m),
         }
     }
 }

@@ -43,8 +43,8 @@
 //!   dB (d in m, k the spreading factor, Stojanovic eq. 1-2); the SNR
 //!   `SL - TL - (NL + 10 log10 B)` (B in Hz); the BPSK bit error rate
 //!   `1/2 erfc(sqrt(SNR B / R))` (SNR linear, R the bit rate); and the frame
-//!   success `(1 - BER)^bits`. Francois and Garrison's absorption can stand
-//!   for Thorp's, and Coates' noise spectrum, integrated over the band, for
+//!   success `(1 - BER)^bits`. Francois and Garrison's or Schulkin and
+//!   Marsh's absorption can stand for Thorp's, and Coates' noise spectrum, integrated over the band, for
 //!   the flat `NL + 10 log10 B` ([`crate::model::acoustics`]).
 //!
 //! # Seeding
@@ -110,12 +110,12 @@ pub enum LossCfg {
         /// Spreading factor `k`, in [1, 2] (1 cylindrical, 2 spherical).
         #[serde(default = "default_spreading")]
         spreading: f64,
-        /// Absorption model: `"thorp"` (default) or `"francois_garrison"`
-        /// (in `water`, at the path's depth).
+        /// Absorption model: `"thorp"` (default), `"francois_garrison"` or
+        /// `"marsh_schulkin"` (the last two in `water`, at the path's depth).
         #[serde(default, skip_serializing_if = "is_thorp")]
         absorption: Absorption,
-        /// The water for `francois_garrison` (temperature, salinity, pH,
-        /// and a 2-D scenario's depth).
+        /// The water for `francois_garrison` and `marsh_schulkin`
+        /// (temperature, salinity, pH, and a 2-D scenario's depth).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         water: Option<Water>,
         /// The ambient noise, instead of the flat `noise_level_db`:
@@ -342,7 +342,8 @@ impl AcousticCfg {
                         return Err(KeyError::new(
                             "channel.loss.water",
                             "Thorp's absorption depends on the frequency only: give \
-                             absorption = \"francois_garrison\" to use the water",
+                             absorption = \"francois_garrison\" or \"marsh_schulkin\" \
+                             to use the water",
                         ));
                     }
                 }

@@ -377,6 +377,18 @@ fn the_range_loss_takes_francois_garrison_at_the_path_depth_and_coates_noise() {
         (flat - deep).abs() <= 1e-12 * deep.max(1e-300),
         "{flat} vs {deep}"
     );
+    // Schulkin-Marsh too takes the water and the path's depth.
+    let sm = cfg(", absorption = \"marsh_schulkin\", water = { temperature_c = 10.0 }");
+    let (sm_near, sm_deep) = (
+        p(&sm, Pt::xyz(0.0, 0.0, -10.0), Pt::xyz(6000.0, 0.0, -10.0)),
+        p(
+            &sm,
+            Pt::xyz(0.0, 0.0, -3000.0),
+            Pt::xyz(6000.0, 0.0, -3000.0),
+        ),
+    );
+    assert!(sm_deep < sm_near, "deep {sm_deep} near {sm_near}");
+    assert!((sm_near - near).abs() > 1e-6, "{sm_near} vs {near}");
     // A shipping lane and a gale are louder than a calm empty sea.
     let calm = cfg(", noise = { model = \"coates\", shipping = 0.0, wind_mps = 0.0 }");
     let rough = cfg(", noise = { model = \"coates\", shipping = 1.0, wind_mps = 20.0 }");
@@ -386,7 +398,7 @@ fn the_range_loss_takes_francois_garrison_at_the_path_depth_and_coates_noise() {
     let flat_noise = cfg(", noise = { model = \"constant\", level_db = 60.0 }");
     let legacy = cfg(", noise_level_db = 60.0");
     assert_eq!(p(&flat_noise, a, b).to_bits(), p(&legacy, a, b).to_bits());
-    // Water only means something to Francois-Garrison.
+    // Water only means something to Francois-Garrison and Schulkin-Marsh.
     let text = "model = \"acoustic\"\nloss = { model = \"range\", water = { ph = 7.5 } }\n";
     let Ok(ChannelCfg::Acoustic(thorp)) = toml::from_str::<ChannelCfg>(text) else {
         panic!("parses");
