@@ -418,6 +418,7 @@ impl Des<'_> {
         }
         slot.dead = true;
         slot.held.clear();
+        self.channel.sender_died(node);
         self.faults.died(node, self.now.as_secs_f64());
         self.coord.handle(
             self.now,

@@ -243,9 +243,14 @@ impl Water {
         self.channel.is_acoustic()
     }
 
-    /// Node `node` is dead (or left out): frames to it are lost as `node_down`.
+    /// Node `node` is dead (or left out): frames to it are lost as
+    /// `node_down`, and what it still had pending its carrier sense is
+    /// withdrawn ([`Channel::sender_died`]).
     pub fn set_dead(&mut self, node: u32) {
         if let Some(d) = self.dead.get_mut(node as usize) {
+            if !*d {
+                self.channel.sender_died(node);
+            }
             *d = true;
         }
     }

@@ -149,8 +149,14 @@ enum Way {
     /// On the ideal channel, already judged to arrive: for this addressee.
     Ideal(u32),
     /// Under CSMA, not yet on the water: due when its sender senses the
-    /// channel (again), addressed to `to` ([`ALL`]: every other node).
-    Pending { from: u32, to: u32, attempt: u32 },
+    /// channel (again), addressed to `to` ([`ALL`]: every other node), from
+    /// the sender's life `life` (a crash ends it and withdraws the frame).
+    Pending {
+        from: u32,
+        to: u32,
+        attempt: u32,
+        life: u32,
+    },
 }
 
 /// The addressee of a pending broadcast.
@@ -188,6 +194,9 @@ pub struct Channel {
     drift: Option<(Vec<Pt>, Vec<Option<Drift>>)>,
     /// Per node: CSMA backoffs drawn so far.
     backoffs: Vec<u64>,
+    /// Per node: how many times it died; a pending frame of an earlier
+    /// life is withdrawn.
+    lives: Vec<u32>,
 }
 
 impl Channel {
@@ -240,6 +249,7 @@ impl Channel {
             flying: BTreeMap::new(),
             drift: None,
             backoffs: vec![0; n],
+            lives: vec![0; n],
         }
     }
 
@@ -278,7 +288,8 @@ impl Channel {
         }
         match &mut self.carrier {
             Carrier::Acoustic(m) if matches!(m.cfg().mac, Mac::Csma { .. }) => {
-                out.push((now, pending(msg, from, to, 0)));
+                let life = self.lives[from as usize];
+                out.push((now, pending(msg, from, to, 0, life)));
             }
             Carrier::Acoustic(m) => {
                 let bits = m.cfg().frame_bits(msg.values());
@@ -310,7 +321,8 @@ impl Channel {
         }
         match &mut self.carrier {
             Carrier::Acoustic(m) if matches!(m.cfg().mac, Mac::Csma { .. }) => {
-                out.push((now, pending(msg, from, ALL, 0)));
+                let life = self.lives[from as usize];
+                out.push((now, pending(msg, from, ALL, 0, life)));
             }
             Carrier::Acoustic(m) => {
                 let others: Vec<u32> = (0..self.n).filter(|&j| j != from).collect();
@@ -332,7 +344,9 @@ impl Channel {
     /// in the water is judged ([`Channel::arrive`]); a CSMA frame pending its
     /// sender's carrier sense is sensed for, and either put on the water or
     /// given another backoff, the copies pushed to `out` as
-    /// [`Channel::send`] does.
+    /// [`Channel::send`] does. A pending frame whose sender died since it was
+    /// sent ([`Channel::sender_died`]) is withdrawn: it never reaches the
+    /// water (and `messages.csv`), as a crashed modem sends nothing.
     pub fn due(
         &mut self,
         f: InFlight,
@@ -340,9 +354,18 @@ impl Channel {
         now: Duration,
         out: &mut Vec<(Duration, InFlight)>,
     ) -> Option<(u32, PeerMsg)> {
-        let Way::Pending { from, to, attempt } = f.way else {
+        let Way::Pending {
+            from,
+            to,
+            attempt,
+            life,
+        } = f.way
+        else {
             return self.arrive(f, to_dead);
         };
+        if self.lives.get(from as usize) != Some(&life) {
+            return None;
+        }
         let Carrier::Acoustic(m) = &mut self.carrier else {
             return None;
         };
@@ -360,7 +383,7 @@ impl Channel {
             *k += 1;
             out.push((
                 now + wait(draw * backoff_s),
-                pending(f.msg, from, to, attempt + 1),
+                pending(f.msg, from, to, attempt + 1, life),
             ));
             return None;
         }
@@ -376,6 +399,15 @@ impl Channel {
             out.push(acoustic(fr, f.msg));
         }
         None
+    }
+
+    /// Node `node` died (a crash, a cut-off, the old life of a restart):
+    /// what it still had pending its carrier sense is withdrawn. Frames
+    /// already on the water travel on.
+    pub fn sender_died(&mut self, node: u32) {
+        if let Some(l) = self.lives.get_mut(node as usize) {
+            *l = l.wrapping_add(1);
+        }
     }
 
     /// The copy `f` is due, and its addressee is down (`to_dead`) or not:
@@ -467,10 +499,15 @@ fn acoustic(f: Frame, msg: PeerMsg) -> (Duration, InFlight) {
     )
 }
 
-fn pending(msg: PeerMsg, from: u32, to: u32, attempt: u32) -> InFlight {
+fn pending(msg: PeerMsg, from: u32, to: u32, attempt: u32, life: u32) -> InFlight {
     InFlight {
         msg,
-        way: Way::Pending { from, to, attempt },
+        way: Way::Pending {
+            from,
+            to,
+            attempt,
+            life,
+        },
     }
 }
 
@@ -663,5 +700,35 @@ mod tests {
         assert_eq!(out3[0].1.arrive_end_s(), Some(1.3 + 1.0 + 0.24));
         // The first copy arrives whole.
         assert_eq!(ch.arrive(out[0].1, false), Some((1, reflect(0, 1))));
+    }
+
+    #[test]
+    fn under_csma_a_frame_pending_its_senders_carrier_sense_is_withdrawn_when_the_sender_dies() {
+        let cfg = AcousticCfg {
+            mac: crate::model::mac::Mac::Csma {
+                backoff_s: 0.5,
+                max_attempts: 8,
+            },
+            ..AcousticCfg::default()
+        };
+        let pos = vec![Pt::xy(0.0, 0.0), Pt::xy(1500.0, 0.0)];
+        let links = vec![vec![1], vec![0]];
+        let mut ch = Channel::acoustic(Medium::new(cfg, 7, pos, &links), 7);
+        let before = sent(&mut ch, 0.0, 0, 1, reflect(0, 1));
+        ch.sender_died(0);
+        let mut out = Vec::new();
+        assert!(ch.due(before[0].1, false, at(0.0), &mut out).is_none());
+        assert!(out.is_empty(), "withdrawn: {out:?}");
+        // The next life (a restart) sends as before; its addressee's death
+        // does not withdraw it.
+        let after = sent(&mut ch, 1.0, 0, 1, reflect(0, 2));
+        ch.sender_died(1);
+        assert!(ch.due(after[0].1, false, at(1.0), &mut out).is_none());
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].1.arrive_end_s(), Some(1.0 + 1.0 + 0.24));
+        // Only the frame of the new life is in the water (in flight).
+        let recs = ch.into_records();
+        assert_eq!(recs.len(), 1);
+        assert_eq!(recs[0].t_send.to_bits(), 1f64.to_bits());
     }
 }

@@ -855,3 +855,55 @@ fn tdma_with_sync_rounds_under_the_graph_rule_is_refused_naming_the_key() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("channel.mac") && err.contains("sinr"), "{err}");
 }
+
+#[test]
+fn under_csma_a_crashed_node_sends_nothing_after_its_crash_not_even_a_frame_it_was_backing_off() {
+    use sonarnet::model::fault::{Fault, FaultKind};
+    let tmp = TempDir::new("csma-crash");
+    let mut sc = variant("csma");
+    sc.samples = 12;
+    let base = tmp.path().join("base");
+    run(&sc, &base);
+    let rows = read_rows(&base.join("messages.csv"));
+    let node = 2usize;
+    let mut sends: Vec<u64> = rows
+        .iter()
+        .filter(|r| r[2].parse::<usize>().ok() == Some(node))
+        .map(|r| ns(&r[0]))
+        .collect();
+    sends.dedup();
+    let delivered: Vec<u64> = rows
+        .iter()
+        .filter(|r| r[3].parse::<usize>().ok() == Some(node) && r[6] == "delivered")
+        .map(|r| ns(&r[1]))
+        .collect();
+    // Instants between a delivery to the node and its next transmission,
+    // less than a second later, with nothing sent in between: where a
+    // frame of the node may be pending its carrier sense. The crashed run
+    // is the base run up to the crash.
+    let crash_times: Vec<u64> = sends
+        .windows(2)
+        .filter_map(|w| {
+            let r = *delivered.iter().filter(|&&r| r > w[0] && r < w[1]).max()?;
+            (w[1] - r < 1_000_000_000).then_some(r + (w[1] - r) / 2)
+        })
+        .filter(|&c| c > 180_000_000_000)
+        .take(4)
+        .collect();
+    assert!(!crash_times.is_empty(), "no backoff to crash into");
+    for c in crash_times {
+        let mut crashed = sc.clone();
+        crashed.faults.push(Fault {
+            kind: FaultKind::Crash { node: node as u32 },
+            at_s: c as f64 / 1e9,
+            until_s: None,
+        });
+        let dir = tmp.path().join(format!("crash-{c}"));
+        run(&crashed, &dir);
+        let late: Vec<Vec<String>> = read_rows(&dir.join("messages.csv"))
+            .into_iter()
+            .filter(|r| r[2].parse::<usize>().ok() == Some(node) && ns(&r[0]) >= c)
+            .collect();
+        assert!(late.is_empty(), "crashed at {c} ns, sent {late:?}");
+    }
+}
