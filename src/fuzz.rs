@@ -164,6 +164,57 @@ pub fn results_files(data: &[u8]) {
     let _ = crate::plot::data::parse_messages(p, &csv);
 }
 
+/// The shipped spirals, read once: 2-D and 3-D.
+fn spirals() -> &'static (
+    Option<crate::scenario::Scenario<2>>,
+    Option<crate::scenario::Scenario<3>>,
+) {
+    static SPIRALS: std::sync::OnceLock<(
+        Option<crate::scenario::Scenario<2>>,
+        Option<crate::scenario::Scenario<3>>,
+    )> = std::sync::OnceLock::new();
+    SPIRALS.get_or_init(|| {
+        let read = |name: &str| {
+            crate::scenario::shipped::text(name).and_then(|t| {
+                crate::scenario::AnyScenario::all_from_toml_str(t, Path::new("fuzz.toml"))
+                    .ok()?
+                    .into_iter()
+                    .next()
+            })
+        };
+        let plane = match read("mourya2017-spiral") {
+            Some(crate::scenario::AnyScenario::Plane(sc)) => Some(sc),
+            _ => None,
+        };
+        let space = match read("mourya2017-spiral-3d") {
+            Some(crate::scenario::AnyScenario::Space(sc)) => Some(sc),
+            _ => None,
+        };
+        (plane, space)
+    })
+}
+
+/// The files a user hands sonarnet besides the scenario, and the one a
+/// restarted node reads: the bytes as a measurement trace, a truth file and
+/// an async schedule of the shipped spiral (2-D and 3-D), and as a node's
+/// checkpoint file (2-D and 3-D).
+pub fn user_files(data: &[u8]) {
+    let p = Path::new("fuzz.csv");
+    let (plane, space) = spirals();
+    if let Some(sc) = plane {
+        let _ = crate::scenario::trace_from(data, p, &sc.geometry);
+        let _ = crate::scenario::truth_from::<2, _>(data, p);
+        let _ = crate::scenario::schedule_from(data, p, &sc.graph);
+    }
+    if let Some(sc) = space {
+        let _ = crate::scenario::trace_from(data, p, &sc.geometry);
+        let _ = crate::scenario::truth_from::<3, _>(data, p);
+    }
+    for dim in [2, 3] {
+        let _ = crate::engine::checkpoint::Checkpoint::parse(data, p, 3, dim);
+    }
+}
+
 /// The harness of the fuzz target `name`, for the corpus tests.
 pub fn harness(name: &str) -> Option<fn(&[u8])> {
     Some(match name {
@@ -171,14 +222,16 @@ pub fn harness(name: &str) -> Option<fn(&[u8])> {
         "scenario_text" => scenario_text,
         "command_line_values" => command_line_values,
         "results_files" => results_files,
+        "user_files" => user_files,
         _ => return None,
     })
 }
 
 /// The fuzz targets, by name.
-pub const TARGETS: [&str; 4] = [
+pub const TARGETS: [&str; 5] = [
     "node_frames",
     "scenario_text",
     "command_line_values",
     "results_files",
+    "user_files",
 ];

@@ -14,6 +14,9 @@ use crate::model::coords::Coords;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+/// The longest checkpoint file read (a real one is under 1 kB).
+pub const MAX_CHECKPOINT_BYTES: u64 = 64 * 1024;
+
 /// One node's checkpoint.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -78,13 +81,30 @@ impl Checkpoint {
     /// Read node `node`'s checkpoint of a `dim`-dimensional run from
     /// `path`: `Ok(None)` if there is none yet; an error if the file is not a
     /// checkpoint of that node and dimension or holds a non-finite value.
+    /// A file over [`MAX_CHECKPOINT_BYTES`] is refused before it is read.
     pub fn read(path: &Path, node: u32, dim: usize) -> Result<Option<Checkpoint>, String> {
-        let text = match std::fs::read_to_string(path) {
-            Ok(t) => t,
+        use std::io::Read;
+        let file = match std::fs::File::open(path) {
+            Ok(f) => f,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(e) => return Err(format!("{}: {e}", path.display())),
         };
-        let ck: Checkpoint = serde_json::from_str(&text)
+        let mut bytes = Vec::new();
+        file.take(MAX_CHECKPOINT_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Checkpoint::parse(&bytes, path, node, dim).map(Some)
+    }
+
+    /// [`Checkpoint::read`] of the contents `bytes` of the file `path`.
+    pub fn parse(bytes: &[u8], path: &Path, node: u32, dim: usize) -> Result<Checkpoint, String> {
+        if bytes.len() as u64 > MAX_CHECKPOINT_BYTES {
+            return Err(format!(
+                "{}: longer than the {MAX_CHECKPOINT_BYTES} bytes a checkpoint takes at most",
+                path.display()
+            ));
+        }
+        let ck: Checkpoint = serde_json::from_slice(bytes)
             .map_err(|e| format!("{}: not a checkpoint: {e}", path.display()))?;
         if ck.node != node {
             return Err(format!(
@@ -99,7 +119,7 @@ impl Checkpoint {
         if !(u.is_finite() && theta.is_finite()) {
             return Err(format!("{}: a non-finite value", path.display()));
         }
-        Ok(Some(ck))
+        Ok(ck)
     }
 }
 

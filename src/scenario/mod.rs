@@ -41,7 +41,10 @@ pub use limits::{
     MAX_TRIALS, SizeKey,
 };
 pub use overrides::Override;
-pub use readers::{read_schedule, read_trace, read_truth};
+pub use readers::{
+    MAX_SCHEDULE_STEPS, read_schedule, read_trace, read_truth, schedule_from, trace_from,
+    truth_from,
+};
 pub use schema::{
     AlgorithmCfg, BoundKind, BoundsCfg, ClockCfg, GeneratorCfg, GeometryCfg, InitMode, InitU,
     MonteCarloCfg, NetworkCfg, RealtimeCfg, RowWeights, ScenarioFile, ScoringCfg, TargetCfg,

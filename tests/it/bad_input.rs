@@ -122,6 +122,49 @@ fn a_nan_in_a_trace_names_the_trace_and_line() {
 }
 
 #[test]
+fn a_trace_sample_far_ahead_is_refused_naming_the_line_before_anything_is_allocated() {
+    let text = GOOD
+        .replace(
+            "[target]\nsamples = 3\nmotion = { model = \"static\", position = [10.0, 20.0] }\n",
+            "",
+        )
+        .replace("doa = true", "doa = true\ntrace = \"trace.csv\"");
+    // Sample 10^12 would size the trace at terabytes.
+    let trace = "sample,receiver,transmitter,kind,value\n0,0,0,bistatic_range,200.0\n\
+                 999999999999,1,,doa,0.5\n";
+    let (code, stderr, _) = run_bad(&text, &[("trace.csv", trace)]);
+    let tmp = std::path::PathBuf::from("trace.csv");
+    assert_clear(code, &stderr, &tmp, &["line 3", "at most 1000000 samples"]);
+    // A row that is not a row names its column.
+    let corrupt = "sample,receiver,transmitter,kind,value\n0,0,0,bistatic_range,200.0\n\
+                   1,0,0,bistatic_range,200.0\n1,x,,doa,0.5\n";
+    let (code, stderr, _) = run_bad(&text, &[("trace.csv", corrupt)]);
+    assert_clear(code, &stderr, &tmp, &["line 4", "column `receiver`"]);
+}
+
+#[test]
+fn a_corrupted_truth_file_names_the_file_and_line() {
+    let text = GOOD
+        .replace(
+            "[target]\nsamples = 3\nmotion = { model = \"static\", position = [10.0, 20.0] }\n",
+            "",
+        )
+        .replace(
+            "doa = true",
+            "doa = true\ntrace = \"trace.csv\"\ntruth = \"truth.csv\"",
+        );
+    let trace = "sample,receiver,transmitter,kind,value\n0,0,0,bistatic_range,200.0\n";
+    let truth = "sample,x,y\n0,10.0,20.0\n1,1e999x,20.0\n";
+    let (code, stderr, _) = run_bad(&text, &[("trace.csv", trace), ("truth.csv", truth)]);
+    assert_clear(
+        code,
+        &stderr,
+        std::path::Path::new("truth.csv"),
+        &["line 3", "column `x`"],
+    );
+}
+
+#[test]
 fn a_missing_trace_file_is_named() {
     let text = GOOD
         .replace(

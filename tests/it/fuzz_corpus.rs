@@ -87,3 +87,59 @@ fn every_kept_fuzz_input_runs_through_its_harness_without_a_panic() {
         assert!(n > 0, "fuzz/corpus/{target}/ has no input");
     }
 }
+
+#[test]
+fn the_user_files_seeds_are_files_sonarnet_accepts_and_the_kept_crash_is_refused() {
+    use sonarnet::engine::checkpoint::Checkpoint;
+    use sonarnet::scenario::{AnyScenario, schedule_from, trace_from, truth_from};
+    let dir = root().join("fuzz/corpus/user_files");
+    let read = |name: &str| std::fs::read(dir.join(name)).expect("a seed");
+    let p = std::path::Path::new("seed.csv");
+    let spiral = |name: &str| {
+        AnyScenario::all_from_toml_str(
+            &std::fs::read_to_string(crate::util::scenario(name)).expect("shipped"),
+            std::path::Path::new(name),
+        )
+        .expect("loads")
+        .remove(0)
+    };
+    let AnyScenario::Plane(plane) = spiral("mourya2017-spiral.toml") else {
+        panic!("2-D");
+    };
+    let AnyScenario::Space(space) = spiral("mourya2017-spiral-3d.toml") else {
+        panic!("3-D");
+    };
+    let t2 = trace_from(&read("trace-2d.csv")[..], p, &plane.geometry).expect("2-D trace");
+    assert_eq!(t2.len(), 3, "samples 0-2 of the head of a real trace");
+    trace_from(&read("trace-3d.csv")[..], p, &space.geometry).expect("3-D trace");
+    assert_eq!(
+        truth_from::<2, _>(&read("truth-2d.csv")[..], p)
+            .expect("2-D truth")
+            .len(),
+        5
+    );
+    assert_eq!(
+        truth_from::<3, _>(&read("truth-3d.csv")[..], p)
+            .expect("3-D truth")
+            .len(),
+        5
+    );
+    assert_eq!(
+        schedule_from(&read("schedule.csv")[..], p, &plane.graph).expect("schedule"),
+        vec![(0, 1), (3, 4), (2, 3), (3, 5)]
+    );
+    let ck = Checkpoint::parse(&read("checkpoint-2d.json"), p, 3, 2).expect("2-D checkpoint");
+    assert_eq!(ck.sample, 12);
+    Checkpoint::parse(&read("checkpoint-3d.json"), p, 3, 3).expect("3-D checkpoint");
+    // A checkpoint longer than the limit is refused before it is parsed.
+    let long = vec![b' '; 64 * 1024 + 1];
+    let e = Checkpoint::parse(&long, p, 3, 2).unwrap_err();
+    assert!(e.contains("65536 bytes"), "{e}");
+    // The kept crash: a sample 10^12 far ahead.
+    let crash = std::fs::read(
+        root().join("fuzz/regressions/user_files/trace-sample-far-ahead-allocates-terabytes"),
+    )
+    .expect("kept");
+    let e = trace_from(&crash[..], p, &plane.geometry).unwrap_err();
+    assert!(e.to_string().contains("line 3"), "{e}");
+}
