@@ -2,7 +2,9 @@
 //! that sends garbage: node `$SONARNET_GARBAGE_NODE` says READY and then
 //! sends the coordinator frames that do not decode, every millisecond,
 //! until it is killed or its coordinator is gone; every other node is the
-//! real node program (`nodes/main.rs`, compiled in).
+//! real node program (`nodes/main.rs`, compiled in). With
+//! `SONARNET_GARBAGE_MODE=impostor` it sends frames that decode instead, in
+//! the name of the next node: reports of sample 0 with a wild `theta`.
 //!
 //! ```sh
 //! cargo build --release --examples
@@ -57,16 +59,33 @@ fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
     let mut tx = open_node(&l.transport, &topo, id, Duration::ZERO)?;
     tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
     tx.flush()?;
-    let junk = Frame {
+    let impostor = std::env::var("SONARNET_GARBAGE_MODE").as_deref() == Ok("impostor");
+    let mut junk = vec![Frame {
         kind: 0xdead,
         from: id,
         ..Frame::default()
-    };
+    }];
+    if impostor {
+        let victim = (id + 1) % l.node.n_nodes.max(1);
+        junk.clear();
+        let wild = sonarnet::model::coords::Coords::from([1e9, 1e9, 1e9]);
+        codec::encode_report(
+            &sonarnet::protocol::Report::SampleDone {
+                node: victim,
+                sample: 0,
+                theta: wild,
+                counters: Default::default(),
+            },
+            &mut junk,
+        );
+    }
     let start = Instant::now();
     let mut inbox = Vec::new();
     while std::os::unix::process::parent_id() == parent && start.elapsed() < Duration::from_secs(60)
     {
-        tx.send(Endpoint::Coordinator, &junk)?;
+        for f in &junk {
+            tx.send(Endpoint::Coordinator, f)?;
+        }
         tx.flush()?;
         inbox.clear();
         tx.recv(&mut inbox, Some(Duration::from_millis(1)))?;

@@ -34,7 +34,7 @@ use crate::protocol::codec::{self, Control, CoordinatorInput, ReportDecoder, Tim
 use crate::protocol::config::Driver;
 use crate::protocol::coordinator::Event;
 use crate::protocol::plan::RunPlan;
-use crate::transport::wire::Frame;
+use crate::transport::wire::{Frame, IMPOSTOR};
 use crate::transport::{Endpoint, Transport, TransportChoice, TransportError};
 use crate::world::faults::FaultWorld;
 use crate::world::medium::ChannelLog;
@@ -111,8 +111,12 @@ struct Inbox {
     /// Per node: frames from it that did not decode, dropped (the last
     /// slot: frames claiming a sender that is no node of the run).
     bad: Vec<u64>,
-    /// Per node: cut off for sending [`CUT_OFF_BAD_FRAMES`] bad frames.
+    /// Per node: cut off for sending [`CUT_OFF_BAD_FRAMES`] bad frames, or
+    /// a frame in another node's name.
     cut: Vec<bool>,
+    /// Per node: the node it claimed to be, when it sent a frame in another
+    /// node's name ([`IMPOSTOR`]).
+    posed_as: Vec<Option<u32>>,
 }
 
 /// Frames that do not decode after which the coordinator cuts a node off:
@@ -215,6 +219,7 @@ impl Processes {
                 events: Vec::new(),
                 bad: vec![0; n + 1],
                 cut: vec![false; n],
+                posed_as: vec![None; n],
             },
             interrupt,
             timing: vec![Timing::default(); n],
@@ -263,6 +268,34 @@ impl Processes {
         }
     }
 
+    /// A frame from node `real`'s process named node `claimed` (or, with
+    /// `real` no node of the run, came from a process the coordinator did
+    /// not start): dropped; the impostor is named and cut off at once, as
+    /// no honest node ever writes another's id.
+    fn impostor(&mut self, real: u32, claimed: u32) {
+        let n = self.inbox.bad.len() - 1;
+        let slot = (real as usize).min(n);
+        self.inbox.bad[slot] += 1;
+        if slot == n {
+            if self.inbox.bad[slot] == 1 {
+                eprintln!(
+                    "warning: a process that is no node of this run sent a frame in the name of                      node {claimed}: dropped"
+                );
+            }
+            return;
+        }
+        if self.inbox.cut[slot] || self.nodes.dead[slot] {
+            return;
+        }
+        self.inbox.cut[slot] = true;
+        self.inbox.posed_as[slot] = Some(claimed);
+        eprintln!(
+            "error: node {real} sent a frame in the name of node {claimed}: cut off (its \
+             process is killed, and the run goes on as after a crash)"
+        );
+        self.signal(real, libc::SIGKILL);
+    }
+
     /// Check every child; returns the first newly dead node and how it died.
     pub fn check_children(&mut self) -> Option<(u32, String)> {
         for (i, c) in self.nodes.children.iter_mut().enumerate() {
@@ -283,6 +316,14 @@ impl Processes {
                     continue;
                 }
                 self.nodes.dead[i] = true;
+                if let Some(claimed) = self.inbox.posed_as.get(i).copied().flatten() {
+                    return Some((
+                        i as u32,
+                        format!(
+                            "cut off by the coordinator for a frame in the name of node {claimed}"
+                        ),
+                    ));
+                }
                 if self.inbox.cut.get(i).copied().unwrap_or(false) {
                     return Some((
                         i as u32,
@@ -330,7 +371,12 @@ impl Processes {
             .map_err(EngineError::Transport)?;
         let mut out = Vec::new();
         let mut bad = false;
+        let mut posers = Vec::new();
         for f in &self.inbox.frames {
+            if f.kind == IMPOSTOR {
+                posers.push((f.from, f.aux));
+                continue;
+            }
             match self.inbox.decoder.feed(f) {
                 Ok(Some(CoordinatorInput::Timing { node, timing })) => {
                     if let Some(t) = self.timing.get_mut(node as usize) {
@@ -370,6 +416,9 @@ impl Processes {
                     bad = true;
                 }
             }
+        }
+        for (real, claimed) in posers {
+            self.impostor(real, claimed);
         }
         if bad {
             self.cut_off_garbage();

@@ -398,6 +398,13 @@ pub trait Transport {
     /// ended a second after the kill was noticed. Nothing by default (frames
     /// delivered at once need no wait).
     fn forget_unread(&mut self, _keep: Option<Endpoint>) {}
+
+    /// Node `node` runs as the local process `pid`: a transport that can
+    /// tell which process sent a frame hands one from any other process
+    /// that names `node` to [`Transport::recv`] as an
+    /// [`IMPOSTOR`](wire::IMPOSTOR) frame (iceoryx2 does; the coordinator
+    /// calls it for every node process it starts). Nothing by default.
+    fn authenticate_sender(&mut self, _node: u32, _pid: u32) {}
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -428,6 +435,9 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn forget_unread(&mut self, keep: Option<Endpoint>) {
         (**self).forget_unread(keep)
+    }
+    fn authenticate_sender(&mut self, node: u32, pid: u32) {
+        (**self).authenticate_sender(node, pid)
     }
 }
 

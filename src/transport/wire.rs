@@ -27,6 +27,12 @@ pub struct Frame {
 /// The sender id used by the coordinator.
 pub const COORDINATOR_ID: u32 = u32::MAX;
 
+/// The kind of a frame a transport that knows who sent it found to come
+/// from a process other than the node it claims (`from`: the node the
+/// process is, `u32::MAX` if none; `aux`: the claimed sender). No sender
+/// writes it.
+pub const IMPOSTOR: u32 = 0xFFFF_FFF0;
+
 /// Bytes of one [`Frame`] on a byte stream (little-endian, field order).
 pub const FRAME_BYTES: usize = 64;
 

@@ -950,14 +950,13 @@ fn the_one_hop_measurement_between_neighbouring_node_processes_answers_every_pro
     }
 }
 
-/// A node that sends frames the coordinator cannot decode
-/// (`examples/garbage_node.rs` as node 1, the real node program for the
-/// others) is counted, named and cut off after
-/// `CUT_OFF_BAD_FRAMES` of them: its process is killed, the run goes on as
-/// after a crash (realtime clock), `theta_bar` is the mean of the live
-/// nodes, and nothing is left behind.
-#[test]
-fn a_node_that_sends_garbage_is_named_and_cut_off_and_the_run_goes_on() {
+/// Runs the faults spiral (`pause` variant, 30 samples, realtime clock) on
+/// node processes with `examples/garbage_node.rs` as node 1 in `mode`
+/// (the real node program for the others), checks that the run finished
+/// with node 1 dead from the first sample, `theta_bar` the mean of the live
+/// nodes' `theta` and nothing left behind, and returns its standard error
+/// and metrics.
+fn run_with_a_broken_node_1(mode: &str) -> (String, serde_json::Value) {
     let _cpu = cpu_exclusive();
     let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_sonarnet"));
     let garbage = exe
@@ -986,24 +985,16 @@ fn a_node_that_sends_garbage_is_named_and_cut_off_and_the_run_goes_on() {
         ])
         .env("SONARNET_NODE_BIN", &garbage)
         .env("SONARNET_GARBAGE_NODE", "1")
+        .env("SONARNET_GARBAGE_MODE", mode)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("spawn sonarnet");
-    let o = wait_watchdog(child, "sonarnet run with a garbage node", LIMIT);
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let o = wait_watchdog(child, "sonarnet run with a broken node", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr).to_string();
     assert!(o.status.success(), "{stderr}");
-    assert!(
-        stderr.contains("node 1 sent") && stderr.contains("cut off"),
-        "{stderr}"
-    );
     let m = metrics(&dir);
     assert_eq!(m["status"], "ok");
-    let sent = m["nodes"][1]["bad_frames_sent"].as_u64().unwrap_or(0);
-    assert!(
-        sent >= sonarnet::runtime::processes::CUT_OFF_BAD_FRAMES,
-        "{sent}"
-    );
     for i in [0usize, 2, 3, 4, 5] {
         assert!(m["nodes"][i].get("bad_frames_sent").is_none(), "node {i}");
     }
@@ -1032,4 +1023,43 @@ fn a_node_that_sends_garbage_is_named_and_cut_off_and_the_run_goes_on() {
         }
     }
     assert_nothing_left(&run_id_of(&dir));
+    (stderr, m)
+}
+
+/// A node that sends frames the coordinator cannot decode
+/// (`examples/garbage_node.rs` as node 1) is counted, named and cut off
+/// after `CUT_OFF_BAD_FRAMES` of them: its process is killed, the run goes
+/// on as after a crash (realtime clock), `theta_bar` is the mean of the
+/// live nodes, and nothing is left behind.
+#[test]
+fn a_node_that_sends_garbage_is_named_and_cut_off_and_the_run_goes_on() {
+    let (stderr, m) = run_with_a_broken_node_1("junk");
+    assert!(
+        stderr.contains("node 1 sent") && stderr.contains("cut off"),
+        "{stderr}"
+    );
+    let sent = m["nodes"][1]["bad_frames_sent"].as_u64().unwrap_or(0);
+    assert!(
+        sent >= sonarnet::runtime::processes::CUT_OFF_BAD_FRAMES,
+        "{sent}"
+    );
+}
+
+/// A node process that sends well-formed reports in another node's name
+/// (node 1 posing as node 2, with a `theta` of 1e9 m) is caught by the
+/// process id iceoryx2 records for every publisher, named and cut off at
+/// its first frame; none of its reports reaches `theta_bar` (checked
+/// against the live nodes' own `theta`), and node 2 runs on.
+#[test]
+fn a_node_that_sends_frames_in_another_nodes_name_is_named_and_cut_off() {
+    let (stderr, m) = run_with_a_broken_node_1("impostor");
+    assert!(
+        stderr.contains("node 1 sent a frame in the name of node 2") && stderr.contains("cut off"),
+        "{stderr}"
+    );
+    let sent = m["nodes"][1]["bad_frames_sent"].as_u64().unwrap_or(0);
+    assert!(sent >= 1, "{sent}");
+    let deaths = m["deaths"].to_string();
+    assert!(deaths.contains("in the name of node 2"), "{deaths}");
+    assert!(!deaths.contains("\"node\":2"), "node 2 lives: {deaths}");
 }

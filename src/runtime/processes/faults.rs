@@ -114,6 +114,9 @@ impl Processes {
         let launch = self.launch_of(&self.nodes.relaunch.configs[i], checkpoint);
         match self.start_node(&launch) {
             Ok(child) => {
+                if let (Some(pid), Some(tx)) = (child.local_pid(), self.tx.as_mut()) {
+                    tx.authenticate_sender(node, pid);
+                }
                 self.nodes.children[i] = Some(child);
                 self.nodes.restarting[i] = true;
                 Processes::log(

@@ -9,7 +9,7 @@ use crate::protocol::EngineError;
 use crate::protocol::NodeConfig;
 use crate::protocol::codec::CoordinatorInput;
 use crate::protocol::error::Cause;
-use crate::transport::IoxTransport;
+use crate::transport::{IoxTransport, Transport};
 use std::time::{Duration, Instant};
 
 impl Processes {
@@ -47,9 +47,13 @@ impl Processes {
             )?)));
         }
         drop(gate);
-        p.tx = Some(Box::new(
-            IoxTransport::coordinator(topo).map_err(EngineError::Transport)?,
-        ));
+        let mut tx = IoxTransport::coordinator(topo).map_err(EngineError::Transport)?;
+        for (i, c) in p.nodes.children.iter().enumerate() {
+            if let Some(pid) = c.as_ref().and_then(NodeProc::local_pid) {
+                tx.authenticate_sender(i as u32, pid);
+            }
+        }
+        p.tx = Some(Box::new(tx));
         // Open the gate: every node reads end-of-file and opens its ports.
         drop(gate_writer);
         Ok(())

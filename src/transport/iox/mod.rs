@@ -101,6 +101,7 @@
 
 mod cleanup;
 mod open;
+mod senders;
 mod services;
 pub use cleanup::{
     CleanupReport, cleanup_run, cleanup_stale_resources, resource_prefix, run_resources,
@@ -217,6 +218,9 @@ pub struct IoxTransport {
     poll: Duration,
     pubsub_services: Vec<PubSub>,
     event_services: Vec<EventSvc>,
+    /// The node processes whose frames this endpoint authenticates
+    /// ([`Transport::authenticate_sender`]); `None`: it does not.
+    senders: Option<senders::Senders>,
     node: Node<Svc>,
 }
 
@@ -308,16 +312,30 @@ impl IoxTransport {
         Ok(())
     }
 
+    /// The authentication of the inbox (the first service), if on.
+    fn auth<'a>(
+        senders: &'a mut Option<senders::Senders>,
+        services: &'a [PubSub],
+    ) -> Option<(&'a mut senders::Senders, &'a PubSub)> {
+        Some((senders.as_mut()?, services.first()?))
+    }
+
     fn drain_subscribers(
         inbox: &Subscriber<Svc, Frame, ()>,
         bcast: Option<&BroadcastPorts>,
+        auth: Option<(&mut senders::Senders, &PubSub)>,
         out: &mut Vec<Frame>,
     ) -> Result<(), TransportError> {
+        let mut auth = auth;
         while let Some(sample) = inbox
             .receive()
             .map_err(|e| TransportError::ipc("receiving from inbox", e))?
         {
-            out.push(*sample.payload());
+            let f = *sample.payload();
+            out.push(match auth.as_mut() {
+                Some((s, svc)) => s.stamp(svc, sample.header().publisher_id().value(), f),
+                None => f,
+            });
         }
         if let Some(b) = bcast {
             while let Some(sample) = b
@@ -334,7 +352,12 @@ impl IoxTransport {
     /// Moves everything readable now into the private stash (used while waiting for
     /// a full receiver, so that we never hold up someone who is waiting for us).
     fn stash_incoming(&mut self) -> Result<(), TransportError> {
-        Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), &mut self.stash)
+        Self::drain_subscribers(
+            &self.inbox,
+            self.bcast.as_ref(),
+            Self::auth(&mut self.senders, &self.pubsub_services),
+            &mut self.stash,
+        )
     }
 
     fn wait_broadcast_members(&mut self, start: Instant) -> Result<(), TransportError> {
@@ -510,6 +533,17 @@ impl Transport for IoxTransport {
         }
     }
 
+    /// From the first call on, every frame in this endpoint's inbox is
+    /// checked: the process that created its publisher (iceoryx2 records
+    /// the process id in the publisher's node id) must be the node the
+    /// frame names, else it comes back as an
+    /// [`IMPOSTOR`](crate::transport::wire::IMPOSTOR) frame naming both.
+    fn authenticate_sender(&mut self, node: u32, pid: u32) {
+        self.senders
+            .get_or_insert_with(Default::default)
+            .set(node, pid);
+    }
+
     fn forget_unread(&mut self, keep: Option<Endpoint>) {
         for p in self.peers.iter_mut().filter(|p| Some(p.endpoint) != keep) {
             p.unconfirmed = false;
@@ -631,7 +665,12 @@ impl Transport for IoxTransport {
             // the wake-up notifications are only read (system calls) right before
             // blocking, once per wait instead of once per call.
             out.append(&mut self.stash);
-            Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), out)?;
+            Self::drain_subscribers(
+                &self.inbox,
+                self.bcast.as_ref(),
+                Self::auth(&mut self.senders, &self.pubsub_services),
+                out,
+            )?;
             if out.len() > before {
                 return Ok(out.len() - before);
             }
@@ -649,7 +688,12 @@ impl Transport for IoxTransport {
             // Clear the notifications, then look again: a frame sent after the
             // look still leaves a notification behind, so the wait below wakes up.
             self.consume_wakeups()?;
-            Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), out)?;
+            Self::drain_subscribers(
+                &self.inbox,
+                self.bcast.as_ref(),
+                Self::auth(&mut self.senders, &self.pubsub_services),
+                out,
+            )?;
             if out.len() > before {
                 return Ok(out.len() - before);
             }

@@ -256,6 +256,7 @@ impl IoxTransport {
             poll: Duration::ZERO,
             pubsub_services,
             event_services,
+            senders: None,
             node,
         })
     }
