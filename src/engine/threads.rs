@@ -31,6 +31,9 @@ pub struct Threads {
     encoded: Vec<Frame>,
     nodes: Vec<Option<JoinHandle<Result<(), NodeError>>>>,
     term: Arc<AtomicBool>,
+    /// Per node (the last slot: a sender that is no node): frames that did
+    /// not decode, dropped.
+    bad: Vec<u64>,
 }
 
 impl Threads {
@@ -66,6 +69,7 @@ impl Threads {
             decoder: ReportDecoder::new(dim),
             frames: Vec::new(),
             encoded: Vec::new(),
+            bad: vec![0; nodes.len() + 1],
             nodes,
             term,
         })
@@ -144,7 +148,18 @@ impl Network for Threads {
                         out.push(Event::Pong { node, seq })
                     }
                     Ok(_) => {}
-                    Err(e) => return Err(EngineError::BadFrame(e)),
+                    Err(e) => {
+                        // Counted and dropped, as the coordinator of node
+                        // processes does; the first from each sender is named.
+                        let slot = (f.from as usize).min(self.bad.len() - 1);
+                        if self.bad[slot] == 0 {
+                            eprintln!(
+                                "warning: node {} sent a frame that does not decode ({e}): dropped",
+                                f.from
+                            );
+                        }
+                        self.bad[slot] += 1;
+                    }
                 }
             }
             if out.is_empty() {

@@ -86,9 +86,6 @@ pub enum EngineError {
     /// separate cause, so that it is printed once).
     #[error("transport: {0}")]
     Transport(crate::transport::TransportError),
-    /// A frame from a node could not be decoded.
-    #[error("bad frame: {0}")]
-    BadFrame(crate::protocol::codec::DecodeError),
     /// The coordinator's transport was already closed.
     #[error("the coordinator's transport is closed")]
     TransportClosed,
