@@ -4,7 +4,9 @@
 //! until it is killed or its coordinator is gone; every other node is the
 //! real node program (`nodes/main.rs`, compiled in). With
 //! `SONARNET_GARBAGE_MODE=impostor` it sends frames that decode instead, in
-//! the name of the next node: reports of sample 0 with a wild `theta`.
+//! the name of the next node: reports of sample 0 with a wild `theta`; with
+//! `SONARNET_GARBAGE_MODE=flood`, well-formed timing reports in its own
+//! name, 256 at a time.
 //!
 //! ```sh
 //! cargo build --release --examples
@@ -59,7 +61,8 @@ fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
     let mut tx = open_node(&l.transport, &topo, id, Duration::ZERO)?;
     tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
     tx.flush()?;
-    let impostor = std::env::var("SONARNET_GARBAGE_MODE").as_deref() == Ok("impostor");
+    let mode = std::env::var("SONARNET_GARBAGE_MODE").unwrap_or_default();
+    let impostor = mode == "impostor";
     let mut junk = vec![Frame {
         kind: 0xdead,
         from: id,
@@ -78,6 +81,13 @@ fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
             },
             &mut junk,
         );
+    }
+    if mode == "flood" {
+        let timing = codec::Timing {
+            busy_seconds: 0.0,
+            wait_seconds: 0.0,
+        };
+        junk = vec![codec::encode_timing(id, &timing); 256];
     }
     let start = Instant::now();
     let mut inbox = Vec::new();

@@ -132,6 +132,33 @@ pub(super) fn list_command(dir: Option<&Path>) -> Result<(), CliError> {
     Ok(())
 }
 
+/// `names` after `head`, comma-separated, in lines of at most `width`
+/// characters (a name longer than a line gets one of its own); the
+/// continuation lines indented under the first name. None for no names.
+fn wrap_names(head: &str, names: &[&str], width: usize) -> Vec<String> {
+    let indent = " ".repeat(head.chars().count());
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = head.to_string();
+    let mut empty = true;
+    for (k, name) in names.iter().enumerate() {
+        let comma = if k + 1 < names.len() { "," } else { "" };
+        let piece = format!("{name}{comma}");
+        if !empty && cur.chars().count() + 1 + piece.chars().count() > width {
+            lines.push(std::mem::replace(&mut cur, indent.clone()));
+            empty = true;
+        }
+        if !empty {
+            cur.push(' ');
+        }
+        cur.push_str(&piece);
+        empty = false;
+    }
+    if !names.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
 /// One entry of `sonarnet list`: the file, its description and variants.
 fn print_listed(file: &str, loaded: Result<Vec<AnyScenario>, InputError>) {
     match loaded {
@@ -143,8 +170,8 @@ fn print_listed(file: &str, loaded: Result<Vec<AnyScenario>, InputError>) {
                 one_line(&all[0].file().description)
             );
             let variants: Vec<&str> = all.iter().filter_map(AnyScenario::variant).collect();
-            if !variants.is_empty() {
-                println!("    variants: {}", variants.join(", "));
+            for line in wrap_names("    variants: ", &variants, 120) {
+                println!("{line}");
             }
         }
         Ok(_) => println!("{file}\n    (no scenario)"),
@@ -208,4 +235,28 @@ fn one_line(desc: &str) -> String {
         out.push_str(w);
     }
     format!("{out} …")
+}
+
+#[cfg(test)]
+mod wrap_tests {
+    use super::wrap_names;
+
+    #[test]
+    fn variant_names_wrap_at_the_width_with_continuation_lines_indented() {
+        let names = ["alpha", "beta", "gamma", "delta"];
+        assert_eq!(
+            wrap_names("  v: ", &names, 18),
+            vec!["  v: alpha, beta,", "     gamma, delta"]
+        );
+        assert_eq!(
+            wrap_names("  v: ", &names, 200),
+            vec!["  v: alpha, beta, gamma, delta"]
+        );
+        assert!(wrap_names("  v: ", &[], 20).is_empty());
+        // A name longer than the width gets a line of its own.
+        assert_eq!(
+            wrap_names("v: ", &["a", "much-too-long-a-name", "b"], 10),
+            vec!["v: a,", "   much-too-long-a-name,", "   b"]
+        );
+    }
 }

@@ -19,6 +19,34 @@ pub struct NetworkLayout {
     pub inbox: usize,
     /// Sync runs answer rounds over the broadcast group.
     pub broadcast: bool,
+    /// The most frames an honest node sends the coordinator per sample it
+    /// is given ([`flood_budget`]); beyond that it floods.
+    pub flood_frames_per_sample: u64,
+}
+
+/// The most frames a node sends the coordinator per sample, with room to
+/// spare: its reports (a few frames), a report per iteration when
+/// iterations are traced, and on a channel the coordinator relays every
+/// gossip frame it sends (an exchange or an iteration costs a node at most
+/// three). On a logical clock `1024 + 8 x iterations_per_sample`; on the
+/// realtime clock `1024 + 16 x (wakes per sample) x (1 + largest degree)`,
+/// the node's own wakes and its neighbours' calls to it.
+pub fn flood_budget(plan: &RunPlan) -> u64 {
+    let max_deg = plan
+        .nodes
+        .iter()
+        .map(|c| c.neighbours.len())
+        .max()
+        .unwrap_or(0) as u64;
+    match (&plan.realtime, plan.clock) {
+        (Some(rt), Clock::Realtime) => {
+            let wakes = (rt.wake_rate_hz * rt.sample_period.as_secs_f64())
+                .ceil()
+                .clamp(1.0, 1e9) as u64;
+            1024u64.saturating_add(16u64.saturating_mul(wakes).saturating_mul(1 + max_deg))
+        }
+        _ => 1024u64.saturating_add(8u64.saturating_mul(plan.iterations_per_sample as u64)),
+    }
 }
 
 /// The layout of `plan`'s nodes over a transport.
@@ -33,6 +61,7 @@ pub fn network_layout(plan: &RunPlan) -> NetworkLayout {
             neighbours,
             inbox: 4 * max_deg + m + 64,
             broadcast: false,
+            flood_frames_per_sample: flood_budget(plan),
         };
     }
     let broadcast = plan.mode == Mode::Sync;
@@ -63,5 +92,6 @@ pub fn network_layout(plan: &RunPlan) -> NetworkLayout {
         neighbours,
         inbox,
         broadcast,
+        flood_frames_per_sample: flood_budget(plan),
     }
 }

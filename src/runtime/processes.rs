@@ -117,6 +117,29 @@ struct Inbox {
     /// Per node: the node it claimed to be, when it sent a frame in another
     /// node's name ([`IMPOSTOR`]).
     posed_as: Vec<Option<u32>>,
+    /// Per node: frames received from it, and samples sent to it.
+    received: Vec<u64>,
+    samples: Vec<u64>,
+    /// Frames a node may send per sample it was given (and one more
+    /// sample's worth) before it is cut off as a flood.
+    flood_frames_per_sample: u64,
+    /// Per node: cut off as a flood.
+    flooded: Vec<bool>,
+}
+
+/// "1 sample", "2 samples".
+fn samples_word(k: u64) -> String {
+    format!("{k} sample{}", if k == 1 { "" } else { "s" })
+}
+
+impl Inbox {
+    /// How many frames node `i` may have sent so far: a sample's budget for
+    /// every sample it was given, and one more.
+    fn allowance(&self, i: usize) -> u64 {
+        let samples = self.samples.get(i).copied().unwrap_or(0);
+        self.flood_frames_per_sample
+            .saturating_mul(samples.saturating_add(1))
+    }
 }
 
 /// Frames that do not decode after which the coordinator cuts a node off:
@@ -154,6 +177,7 @@ impl Processes {
             neighbours: graph_neighbours,
             inbox: inbox_buffer,
             broadcast,
+            flood_frames_per_sample,
         } = layout;
         let prog = &opts.node_program;
         if !prog.program.exists() {
@@ -220,6 +244,10 @@ impl Processes {
                 bad: vec![0; n + 1],
                 cut: vec![false; n],
                 posed_as: vec![None; n],
+                received: vec![0; n],
+                samples: vec![0; n],
+                flood_frames_per_sample,
+                flooded: vec![false; n],
             },
             interrupt,
             timing: vec![Timing::default(); n],
@@ -262,6 +290,30 @@ impl Processes {
                     "error: node {i} sent {} frames that do not decode: cut off (its process \
                      is killed, and the run goes on as after a crash)",
                     self.inbox.bad[i]
+                );
+                self.signal(i as u32, libc::SIGKILL);
+            }
+        }
+    }
+
+    /// Kill every node that sent more frames than its allowance
+    /// ([`Inbox::allowance`]), naming it; its death is then seen as a
+    /// crash's.
+    fn cut_off_floods(&mut self) {
+        for i in 0..self.inbox.cut.len() {
+            if self.inbox.received[i] > self.inbox.allowance(i)
+                && !self.inbox.cut[i]
+                && !self.nodes.dead[i]
+            {
+                self.inbox.cut[i] = true;
+                self.inbox.flooded[i] = true;
+                eprintln!(
+                    "error: node {i} sent {} frames for {}, more than the {} a sample allows: \
+                     cut off as a flood (its process is killed, and the run goes on as after a \
+                     crash)",
+                    self.inbox.received[i],
+                    samples_word(self.inbox.samples[i]),
+                    self.inbox.flood_frames_per_sample
                 );
                 self.signal(i as u32, libc::SIGKILL);
             }
@@ -324,6 +376,16 @@ impl Processes {
                         ),
                     ));
                 }
+                if self.inbox.flooded.get(i).copied().unwrap_or(false) {
+                    return Some((
+                        i as u32,
+                        format!(
+                            "cut off by the coordinator as a flood ({} frames for {})",
+                            self.inbox.received[i],
+                            samples_word(self.inbox.samples[i])
+                        ),
+                    ));
+                }
                 if self.inbox.cut.get(i).copied().unwrap_or(false) {
                     return Some((
                         i as u32,
@@ -372,7 +434,12 @@ impl Processes {
         let mut out = Vec::new();
         let mut bad = false;
         let mut posers = Vec::new();
+        let mut flood = false;
         for f in &self.inbox.frames {
+            if let Some(k) = self.inbox.received.get_mut(f.from as usize) {
+                *k += 1;
+                flood |= *k > self.inbox.allowance(f.from as usize);
+            }
             if f.kind == IMPOSTOR {
                 posers.push((f.from, f.aux));
                 continue;
@@ -419,6 +486,9 @@ impl Processes {
         }
         for (real, claimed) in posers {
             self.impostor(real, claimed);
+        }
+        if flood {
+            self.cut_off_floods();
         }
         if bad {
             self.cut_off_garbage();
@@ -512,6 +582,11 @@ impl Processes {
     pub fn control(&mut self, node: u32, c: &Control) -> Result<(), EngineError> {
         if self.stopped || self.nodes.dead.get(node as usize).copied().unwrap_or(true) {
             return Ok(());
+        }
+        if let Control::Command(crate::protocol::Command::Sample { .. }) = c
+            && let Some(k) = self.inbox.samples.get_mut(node as usize)
+        {
+            *k += 1;
         }
         let mut encoded = std::mem::take(&mut self.inbox.encoded);
         encoded.clear();
@@ -842,6 +917,7 @@ mod tests {
             neighbours: vec![],
             inbox: 8,
             broadcast: false,
+            flood_frames_per_sample: 1024,
         };
         let Err(e) = Processes::spawn("r".into(), layout, None, &opts) else {
             panic!("spawned without a node program");

@@ -1063,3 +1063,22 @@ fn a_node_that_sends_frames_in_another_nodes_name_is_named_and_cut_off() {
     assert!(deaths.contains("in the name of node 2"), "{deaths}");
     assert!(!deaths.contains("\"node\":2"), "node 2 lives: {deaths}");
 }
+
+/// A node that floods the coordinator with well-formed frames in its own
+/// name (timing reports, 256 at a time) is named and cut off once it sends
+/// more than its allowance (`flood_budget` frames per sample it was
+/// given); the run goes on without it.
+#[test]
+fn a_node_that_floods_the_coordinator_with_well_formed_frames_is_named_and_cut_off() {
+    let (stderr, m) = run_with_a_broken_node_1("flood");
+    assert!(
+        stderr.contains("error: node 1 sent") && stderr.contains("cut off as a flood"),
+        "{stderr}"
+    );
+    let deaths = m["deaths"].to_string();
+    assert!(deaths.contains("as a flood"), "{deaths}");
+    assert!(
+        m["nodes"][1].get("bad_frames_sent").is_none(),
+        "they decode"
+    );
+}
