@@ -74,13 +74,53 @@ fn spiral_node(dim: usize) -> Option<NodeCore> {
     plan.nodes.get(3).cloned().map(NodeCore::new)
 }
 
-/// A node's side of the wire: the frames of `data` through the node's
+/// The shipped 2-D spiral's run plan and realization, made once, for the
+/// coordinator's side of [`node_frames`].
+fn spiral_run() -> Option<&'static (
+    crate::protocol::RunPlan,
+    crate::model::synth::Realization<2>,
+)> {
+    static RUN: std::sync::OnceLock<
+        Option<(
+            crate::protocol::RunPlan,
+            crate::model::synth::Realization<2>,
+        )>,
+    > = std::sync::OnceLock::new();
+    RUN.get_or_init(|| {
+        let sc = spirals().0.as_ref()?;
+        let plan = crate::protocol::RunPlan::new(sc, crate::protocol::RunConfig::default()).ok()?;
+        Some((plan, sc.realize()))
+    })
+    .as_ref()
+}
+
+/// Both sides of the wire: the frames of `data` through the node's
 /// decoder, in 2-D and in 3-D, and every decoded input into a running node
 /// of that dimension (what a node process does with what reaches its
 /// inbox); the coordinator's report decoder and the peer decoder on the
-/// same frames.
+/// same frames, and every report and answer it decodes into the running
+/// coordinator of the 2-D spiral (what the coordinator does with what
+/// reaches its inbox).
 pub fn node_frames(data: &[u8]) {
     let frames = frames_of(data);
+    if let Some((plan, real)) = spiral_run() {
+        use crate::protocol::codec::CoordinatorInput;
+        use crate::protocol::coordinator::{Coordinator, Event};
+        let mut coord = Coordinator::new(plan, real.feed());
+        let mut actions = Vec::new();
+        coord.handle(std::time::Duration::ZERO, [Event::Start], &mut actions);
+        let mut reports = ReportDecoder::new(2);
+        for (k, f) in frames.iter().enumerate() {
+            let event = match reports.feed(f) {
+                Ok(Some(CoordinatorInput::Report(r))) => Event::Report(r),
+                Ok(Some(CoordinatorInput::Pong { node, seq })) => Event::Pong { node, seq },
+                _ => continue,
+            };
+            actions.clear();
+            let now = std::time::Duration::from_millis(k as u64 + 1);
+            coord.handle(now, [event], &mut actions);
+        }
+    }
     for dim in [2, 3] {
         let mut node = spiral_node(dim);
         let mut dec = NodeDecoder::new(dim);

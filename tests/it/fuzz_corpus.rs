@@ -143,3 +143,43 @@ fn the_user_files_seeds_are_files_sonarnet_accepts_and_the_kept_crash_is_refused
     let e = trace_from(&crash[..], p, &plane.geometry).unwrap_err();
     assert!(e.to_string().contains("line 3"), "{e}");
 }
+
+/// The reports every node of the spiral sends the coordinator for its
+/// first three samples (a `theta` each), and an answer to a liveness check.
+fn real_reports() -> Vec<sonarnet::transport::wire::Frame> {
+    use sonarnet::protocol::Report;
+    let mut out = Vec::new();
+    for sample in 0..3u32 {
+        for node in 0..6u32 {
+            sonarnet::protocol::codec::encode_report(
+                &Report::SampleDone {
+                    node,
+                    sample,
+                    theta: Coords::from([480.0 + f64::from(node), 510.0, 1700.0]),
+                    counters: Default::default(),
+                },
+                &mut out,
+            );
+        }
+    }
+    out.push(sonarnet::protocol::codec::encode_pong(2, 0));
+    out
+}
+
+#[test]
+fn the_coordinator_seed_holds_real_reports_of_every_node() {
+    let bytes = fuzz::bytes_of(&real_reports());
+    let seed = root().join("fuzz/corpus/node_frames/spiral-reports-0");
+    if std::env::var_os("SONARNET_WRITE_FUZZ_SEEDS").is_some() {
+        std::fs::write(&seed, &bytes).expect("write seed");
+    }
+    assert_eq!(std::fs::read(&seed).expect("the seed is kept"), bytes);
+    // They decode as the coordinator's reports.
+    let mut dec = sonarnet::protocol::codec::ReportDecoder::new(2);
+    let decoded = fuzz::frames_of(&bytes)
+        .iter()
+        .filter(|f| matches!(dec.feed(f), Ok(Some(_))))
+        .count();
+    assert_eq!(decoded, 19);
+    fuzz::node_frames(&bytes);
+}
