@@ -6,6 +6,9 @@ use super::errors::CliError;
 use crate::pipeline::RunStatus;
 use clap::Parser;
 
+/// The longest `run.json` replay reads (a real one is a few kB).
+const MAX_RUN_JSON_BYTES: u64 = 16 << 20;
+
 /// `sonarnet replay DIR`: run `DIR/scenario.toml` with the engine, clock,
 /// polling and watchdog of `DIR/run.json` into a temporary directory, and
 /// compare ([`crate::pipeline::replay::compare_results`]).
@@ -20,7 +23,14 @@ pub(super) fn replay_command(args: &ReplayArgs) -> Result<(), CliError> {
                 .into(),
         ));
     }
-    let rj: crate::pipeline::RunJson = std::fs::read_to_string(dir.join("run.json"))
+    let run_json = dir.join("run.json");
+    let too_long = std::fs::metadata(&run_json).is_ok_and(|m| m.len() > MAX_RUN_JSON_BYTES);
+    if too_long {
+        return Err(bad(format!(
+            "run.json is longer than the {MAX_RUN_JSON_BYTES} bytes sonarnet ever writes there"
+        )));
+    }
+    let rj: crate::pipeline::RunJson = std::fs::read_to_string(&run_json)
         .map_err(|e| bad(format!("cannot read run.json: {e}")))
         .and_then(|t| serde_json::from_str(&t).map_err(|e| bad(format!("run.json: {e}"))))?;
     let engine = rj.engine.as_deref().unwrap_or("inprocess");

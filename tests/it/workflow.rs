@@ -240,6 +240,29 @@ fn replay_refuses_what_it_cannot_reproduce_with_exit_2() {
 }
 
 #[test]
+fn replay_of_a_corrupted_run_json_names_the_file_and_line_with_exit_2() {
+    let t = TempDir::new("replay-corrupt");
+    let dir = t.path().join("r");
+    let spiral = scenario("mourya2017-spiral.toml");
+    let o = run_file(
+        &spiral,
+        &dir,
+        &["--engine", "inprocess", "--quiet", "--samples", "12"],
+        LIMIT,
+    );
+    assert!(o.status.success(), "{:?}", text(&o));
+    let good = std::fs::read_to_string(dir.join("run.json")).unwrap();
+    // Cut in the middle of its third line.
+    let cut: String = good.lines().take(3).collect::<Vec<_>>().join("\n");
+    std::fs::write(dir.join("run.json"), &cut[..cut.len() - 3]).unwrap();
+    let o = sonarnet(&["replay", dir.to_str().unwrap()], LIMIT);
+    let (_, err) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("run.json") && err.contains("line 3"), "{err}");
+    assert_eq!(err.matches("error:").count(), 1, "{err}");
+}
+
+#[test]
 fn a_run_into_a_previous_runs_directory_replaces_its_files_and_refuses_foreign_ones() {
     let t = TempDir::new("outdir");
     let out = t.path().join("r");
