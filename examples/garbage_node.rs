@@ -6,7 +6,9 @@
 //! `SONARNET_GARBAGE_MODE=impostor` it sends frames that decode instead, in
 //! the name of the next node: reports of sample 0 with a wild `theta`; with
 //! `SONARNET_GARBAGE_MODE=flood`, well-formed timing reports in its own
-//! name, 256 at a time.
+//! name, 256 at a time; with `SONARNET_GARBAGE_MODE=peer-flood`, well-formed
+//! gossip requests to its first neighbour, 256 at a time (and nothing to
+//! the coordinator after READY).
 //!
 //! ```sh
 //! cargo build --release --examples
@@ -89,12 +91,24 @@ fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
         };
         junk = vec![codec::encode_timing(id, &timing); 256];
     }
+    let mut to = Endpoint::Coordinator;
+    if mode == "peer-flood"
+        && let Some(&nb) = l.node.neighbours.first()
+    {
+        to = Endpoint::Node(nb);
+        let r = sonarnet::model::coords::Coords::from([480.0, 510.0, 1700.0]);
+        junk = (0..256u64)
+            .map(|seq| {
+                codec::encode_peer(&sonarnet::protocol::PeerMsg::Request { from: id, seq, r })
+            })
+            .collect();
+    }
     let start = Instant::now();
     let mut inbox = Vec::new();
     while std::os::unix::process::parent_id() == parent && start.elapsed() < Duration::from_secs(60)
     {
         for f in &junk {
-            tx.send(Endpoint::Coordinator, f)?;
+            tx.send(to, f)?;
         }
         tx.flush()?;
         inbox.clear();

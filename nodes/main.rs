@@ -124,6 +124,8 @@ fn run(launch: NodeLaunch) -> Result<Ended, NodeProcessError> {
         channel: launch.channel,
         checkpoint: checkpoint.clone(),
         resume: launch.resume,
+        peer_frames_per_sample: launch.peer_frames_per_sample,
+        budget_period: launch.budget_period,
     };
     let result = run_node(&mut tx, launch.node, &opts);
     drop(tx);

@@ -22,6 +22,58 @@ pub struct NetworkLayout {
     /// The most frames an honest node sends the coordinator per sample it
     /// is given ([`flood_budget`]); beyond that it floods.
     pub flood_frames_per_sample: u64,
+    /// The most gossip frames a node takes from one peer per sample
+    /// ([`peer_budget`]).
+    pub peer_frames_per_sample: u64,
+    /// On the realtime clock, the wall time of one sample period: the
+    /// budgets also grow by one sample's worth per period gone by, so that
+    /// gossip that goes on while no new sample comes (a stall) stays
+    /// within them. `None` on a logical clock.
+    pub budget_period: Option<std::time::Duration>,
+}
+
+/// [`NetworkLayout::budget_period`] of `plan`: the sample period over the
+/// channel's time scale (1 without a channel).
+pub fn budget_period(plan: &RunPlan) -> Option<std::time::Duration> {
+    let rt = plan
+        .realtime
+        .as_ref()
+        .filter(|_| plan.clock == Clock::Realtime)?;
+    let scale = plan
+        .channel
+        .as_ref()
+        .map_or(1.0, |c| c.cfg.time_scale)
+        .max(1e-9);
+    std::time::Duration::try_from_secs_f64(rt.sample_period.as_secs_f64() / scale).ok()
+}
+
+/// How many budgets a party has earned: one per sample given, or per
+/// `period` gone by since `start` if more (the realtime clock), and one
+/// more.
+pub fn budgets_earned(
+    samples_given: u64,
+    period: Option<std::time::Duration>,
+    start: std::time::Instant,
+) -> u64 {
+    let by_time = period.map_or(0, |p| {
+        (start.elapsed().as_secs_f64() / p.as_secs_f64().max(1e-9)).min(1e12) as u64
+    });
+    samples_given.max(by_time).saturating_add(1)
+}
+
+/// The most gossip frames a node takes from one peer per sample:
+/// [`flood_budget`] over `2 (1 + largest degree)`, so that a node that
+/// answers every frame its peers may send still stays within its own
+/// budget with the coordinator (which relays its answers on a channel);
+/// at least 64.
+pub fn peer_budget(plan: &RunPlan) -> u64 {
+    let max_deg = plan
+        .nodes
+        .iter()
+        .map(|c| c.neighbours.len())
+        .max()
+        .unwrap_or(0) as u64;
+    (flood_budget(plan) / (2 * (1 + max_deg))).max(64)
 }
 
 /// The most frames a node sends the coordinator per sample, with room to
@@ -62,6 +114,8 @@ pub fn network_layout(plan: &RunPlan) -> NetworkLayout {
             inbox: 4 * max_deg + m + 64,
             broadcast: false,
             flood_frames_per_sample: flood_budget(plan),
+            peer_frames_per_sample: peer_budget(plan),
+            budget_period: budget_period(plan),
         };
     }
     let broadcast = plan.mode == Mode::Sync;
@@ -93,5 +147,28 @@ pub fn network_layout(plan: &RunPlan) -> NetworkLayout {
         inbox,
         broadcast,
         flood_frames_per_sample: flood_budget(plan),
+        peer_frames_per_sample: peer_budget(plan),
+        budget_period: budget_period(plan),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::budgets_earned;
+    use std::time::{Duration, Instant};
+
+    #[test]
+    fn budgets_are_earned_per_sample_given_or_per_period_gone_by() {
+        let now = Instant::now();
+        assert_eq!(budgets_earned(0, None, now), 1);
+        assert_eq!(budgets_earned(4, None, now), 5);
+        // Ten periods of 1 ms gone by count more than two samples.
+        let start = now
+            .checked_sub(Duration::from_millis(10))
+            .expect("an instant");
+        let earned = budgets_earned(2, Some(Duration::from_millis(1)), start);
+        assert!(earned >= 11, "{earned}");
+        // Samples count when they are more.
+        assert_eq!(budgets_earned(50, Some(Duration::from_secs(3600)), now), 51);
     }
 }

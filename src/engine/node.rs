@@ -38,6 +38,15 @@ pub struct NodeLoop<'a> {
     /// Start from the checkpoint file, if there is one (a restart with
     /// `state = "checkpoint"`); else from `init_u`.
     pub resume: bool,
+    /// Gossip frames a peer may send this node per sample the node was
+    /// given (and one more sample's worth); past that the peer's frames
+    /// are dropped, counted as bad frames, and the peer is named once
+    /// ([`crate::engine::layout::peer_budget`]). `u64::MAX`: no bound.
+    pub peer_frames_per_sample: u64,
+    /// On the realtime clock, a sample period in wall time: the peers'
+    /// budgets also grow by one per period gone by
+    /// ([`crate::engine::layout::budgets_earned`]).
+    pub budget_period: Option<Duration>,
 }
 
 impl<'a> NodeLoop<'a> {
@@ -55,6 +64,8 @@ impl<'a> NodeLoop<'a> {
             channel: None,
             checkpoint: None,
             resume: false,
+            peer_frames_per_sample: u64::MAX,
+            budget_period: None,
         }
     }
 }
@@ -166,6 +177,11 @@ struct Loop<'o, 'a> {
     timers: Vec<(Instant, Command)>,
     /// A hop measurement in progress ([`Control::ProbePeer`]).
     probe: Option<Probe>,
+    /// Samples given to this node, and gossip frames each peer sent it
+    /// ([`NodeLoop::peer_frames_per_sample`]).
+    samples_given: u64,
+    peer_frames: std::collections::BTreeMap<u32, u64>,
+    started: Instant,
 }
 
 impl<'o, 'a> Loop<'o, 'a> {
@@ -184,7 +200,35 @@ impl<'o, 'a> Loop<'o, 'a> {
             clock: None,
             timers: Vec::new(),
             probe: None,
+            samples_given: 0,
+            peer_frames: std::collections::BTreeMap::new(),
+            started: Instant::now(),
         }
+    }
+
+    /// Count a gossip frame from `peer`; `false` once the peer is past its
+    /// allowance (named the first time).
+    fn within_allowance(&mut self, peer: u32) -> bool {
+        let budget = self.opts.peer_frames_per_sample;
+        let earned = crate::engine::layout::budgets_earned(
+            self.samples_given,
+            self.opts.budget_period,
+            self.started,
+        );
+        let allowance = budget.saturating_mul(earned);
+        let sent = self.peer_frames.entry(peer).or_insert(0);
+        *sent = sent.saturating_add(1);
+        if *sent <= allowance {
+            return true;
+        }
+        if *sent == allowance.saturating_add(1) {
+            eprintln!(
+                "[node {}] warning: node {peer} sent more than the {budget} gossip frames a \
+                 sample allows ({} samples given): its frames are dropped",
+                self.id, self.samples_given
+            );
+        }
+        false
     }
 
     /// Emulated seconds as wall seconds, times the clock's drift.
@@ -225,6 +269,10 @@ impl<'o, 'a> Loop<'o, 'a> {
         match input {
             None => {}
             Some(NodeInput::Peer(m)) => {
+                if !self.within_allowance(m.from()) {
+                    self.core.note_bad_frame();
+                    return Ok(false);
+                }
                 let late = self.core.counters().late;
                 self.core.handle(Input::Peer(m), &mut self.outputs);
                 if self.opts.channel.is_some() && self.core.counters().late > late {
@@ -234,6 +282,9 @@ impl<'o, 'a> Loop<'o, 'a> {
             Some(NodeInput::Control(Control::Command(c))) => {
                 if self.opts.verbose {
                     log_command(id, &c);
+                }
+                if matches!(c, crate::protocol::Command::Sample { .. }) {
+                    self.samples_given += 1;
                 }
                 self.core.handle(Input::Command(c), &mut self.outputs)
             }

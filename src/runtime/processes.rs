@@ -123,6 +123,10 @@ struct Inbox {
     /// Frames a node may send per sample it was given (and one more
     /// sample's worth) before it is cut off as a flood.
     flood_frames_per_sample: u64,
+    /// The realtime clock's sample period in wall time, and when the
+    /// nodes started ([`crate::engine::layout::budgets_earned`]).
+    budget_period: Option<Duration>,
+    started: Instant,
     /// Per node: cut off as a flood.
     flooded: Vec<bool>,
 }
@@ -134,11 +138,13 @@ fn samples_word(k: u64) -> String {
 
 impl Inbox {
     /// How many frames node `i` may have sent so far: a sample's budget for
-    /// every sample it was given, and one more.
+    /// every sample it was given (on the realtime clock, for every sample
+    /// period gone by, if more), and one more.
     fn allowance(&self, i: usize) -> u64 {
         let samples = self.samples.get(i).copied().unwrap_or(0);
-        self.flood_frames_per_sample
-            .saturating_mul(samples.saturating_add(1))
+        let earned =
+            crate::engine::layout::budgets_earned(samples, self.budget_period, self.started);
+        self.flood_frames_per_sample.saturating_mul(earned)
     }
 }
 
@@ -178,6 +184,8 @@ impl Processes {
             inbox: inbox_buffer,
             broadcast,
             flood_frames_per_sample,
+            peer_frames_per_sample,
+            budget_period,
         } = layout;
         let prog = &opts.node_program;
         if !prog.program.exists() {
@@ -217,6 +225,8 @@ impl Processes {
                 Some(z) => TransportChoice::Zenoh(z.for_local_nodes()),
                 None => TransportChoice::Iceoryx2,
             },
+            peer_frames_per_sample,
+            budget_period,
         };
         let topo = launch0.run_topology().map_err(EngineError::Transport)?;
         let start = Instant::now();
@@ -247,6 +257,8 @@ impl Processes {
                 received: vec![0; n],
                 samples: vec![0; n],
                 flood_frames_per_sample,
+                budget_period,
+                started: Instant::now(),
                 flooded: vec![false; n],
             },
             interrupt,
@@ -918,6 +930,8 @@ mod tests {
             inbox: 8,
             broadcast: false,
             flood_frames_per_sample: 1024,
+            peer_frames_per_sample: 64,
+            budget_period: None,
         };
         let Err(e) = Processes::spawn("r".into(), layout, None, &opts) else {
             panic!("spawned without a node program");

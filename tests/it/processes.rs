@@ -1082,3 +1082,25 @@ fn a_node_that_floods_the_coordinator_with_well_formed_frames_is_named_and_cut_o
         "they decode"
     );
 }
+
+/// A node that floods a neighbour with well-formed gossip requests (256
+/// at a time) is named by that neighbour, which drops its frames past the
+/// per-peer allowance (`peer_budget` per sample, or per sample period on
+/// the realtime clock) instead of answering them; no honest node is taken
+/// for a flood, and the run finishes without the flooder.
+#[test]
+fn a_node_that_floods_a_neighbour_is_named_by_it_and_its_frames_are_dropped() {
+    let (stderr, m) = run_with_a_broken_node_1("peer-flood");
+    assert!(
+        stderr.contains("warning: node 1 sent more than the") && stderr.contains("are dropped"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("as a flood"), "{stderr}");
+    let dropped: u64 = (0..6)
+        .filter(|&i| i != 1)
+        .map(|i| m["nodes"][i]["bad_frames"].as_u64().unwrap_or(0))
+        .sum();
+    assert!(dropped > 1000, "{dropped}");
+    let deaths = m["deaths"].as_array().expect("deaths").len();
+    assert_eq!(deaths, 1, "{}", m["deaths"]);
+}

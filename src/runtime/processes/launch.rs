@@ -55,6 +55,18 @@ pub struct NodeLaunch {
     /// endpoints).
     #[serde(default)]
     pub transport: crate::transport::TransportChoice,
+    /// Gossip frames a peer may send per sample
+    /// ([`NodeLoop::peer_frames_per_sample`](crate::engine::node::NodeLoop)).
+    #[serde(default = "unbounded")]
+    pub peer_frames_per_sample: u64,
+    /// The realtime clock's sample period in wall time, for that budget
+    /// ([`NodeLoop::budget_period`](crate::engine::node::NodeLoop)).
+    #[serde(default)]
+    pub budget_period: Option<std::time::Duration>,
+}
+
+fn unbounded() -> u64 {
+    u64::MAX
 }
 
 /// Why a node process ends with an error (exit 1): its start, its
