@@ -35,6 +35,26 @@ impl InputError {
     }
 }
 
+/// The text of the file `path`, `what` it is for the reason, refused
+/// before more than `limit` bytes are read (a larger file is no file
+/// sonarnet reads: its error says so and names the limit).
+pub fn read_text_at_most(path: &Path, limit: u64, what: &str) -> Result<String, InputError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path)
+        .map_err(|e| InputError::file(path, format!("cannot read {what}: {e}")))?;
+    let mut text = String::new();
+    file.take(limit.saturating_add(1))
+        .read_to_string(&mut text)
+        .map_err(|e| InputError::file(path, format!("cannot read {what}: {e}")))?;
+    if text.len() as u64 > limit {
+        return Err(InputError::file(
+            path,
+            format!("longer than {limit} bytes, the most a {what} file may hold"),
+        ));
+    }
+    Ok(text)
+}
+
 impl fmt::Display for InputError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.file.display())?;

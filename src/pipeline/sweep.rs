@@ -150,8 +150,7 @@ impl SweepPlan {
         seeds: Vec<u64>,
         variants: &[String],
     ) -> Result<SweepPlan, InputError> {
-        let text = std::fs::read_to_string(file)
-            .map_err(|e| InputError::file(file, format!("cannot read scenario: {e}")))?;
+        let text = crate::scenario::read_scenario_text(file)?;
         Self::of_text(file, &text, sets, axes, seeds, variants)
     }
 

@@ -188,8 +188,7 @@ impl Scenario {
 }
 
 fn read_text(path: &Path) -> Result<String, InputError> {
-    std::fs::read_to_string(path)
-        .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))
+    crate::scenario::limits::read_scenario_text(path)
 }
 
 /// [`Scenario::load`] in `D` dimensions.

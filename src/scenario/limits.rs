@@ -27,6 +27,16 @@ pub const MAX_TRIALS: usize = 1_000_000;
 /// measurements, the async schedule, the `--trace-iterations` trace).
 pub const MAX_RECORD_BYTES: u64 = 4 << 30;
 
+/// The longest scenario file read (16 MiB; the shipped ones are under
+/// 20 kB).
+pub const MAX_SCENARIO_BYTES: u64 = 16 << 20;
+
+/// The text of the scenario file `path`, refused when longer than
+/// [`MAX_SCENARIO_BYTES`] before more is read.
+pub fn read_scenario_text(path: &std::path::Path) -> Result<String, InputError> {
+    crate::model::error::read_text_at_most(path, MAX_SCENARIO_BYTES, "scenario")
+}
+
 /// Which input a size check is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SizeKey {

@@ -37,8 +37,8 @@ mod schema;
 use build::check_tracks;
 pub use build::merge_tables;
 pub use limits::{
-    MAX_ITERATIONS_PER_SAMPLE, MAX_RECEIVERS, MAX_RECORD_BYTES, MAX_SAMPLES, MAX_TRANSMITTERS,
-    MAX_TRIALS, SizeKey,
+    MAX_ITERATIONS_PER_SAMPLE, MAX_RECEIVERS, MAX_RECORD_BYTES, MAX_SAMPLES, MAX_SCENARIO_BYTES,
+    MAX_TRANSMITTERS, MAX_TRIALS, SizeKey, read_scenario_text,
 };
 pub use overrides::Override;
 pub use readers::{
@@ -116,8 +116,7 @@ impl AnyScenario {
     /// scenario, or one per `[[variants]]` entry (a variant keeps the
     /// file's dimension).
     pub fn load_all(path: &Path) -> Result<Vec<AnyScenario>, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))?;
+        let text = limits::read_scenario_text(path)?;
         Self::all_from_toml_str(&text, path)
     }
 

@@ -242,8 +242,7 @@ impl Scenario {
 }
 
 fn read(path: &Path) -> Result<String, InputError> {
-    std::fs::read_to_string(path)
-        .map_err(|e| InputError::file(path, format!("cannot read scenario: {e}")))
+    crate::scenario::limits::read_scenario_text(path)
 }
 
 impl super::AnyScenario {

@@ -165,6 +165,14 @@ fn a_corrupted_truth_file_names_the_file_and_line() {
 }
 
 #[test]
+fn a_scenario_file_longer_than_16_mib_is_refused_before_it_is_read() {
+    // Valid TOML: a comment line of 17 MiB after the scenario.
+    let text = format!("{GOOD}\n# {}\n", "x".repeat(17 << 20));
+    let (code, stderr, p) = run_bad(&text, &[]);
+    assert_clear(code, &stderr, &p, &["longer than 16777216 bytes"]);
+}
+
+#[test]
 fn a_missing_trace_file_is_named() {
     let text = GOOD
         .replace(

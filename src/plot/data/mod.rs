@@ -420,7 +420,7 @@ pub fn load_run(dir: &Path) -> Result<RunData, InputError> {
 }
 
 fn read_json(p: &Path) -> Result<Value, InputError> {
-    let text = std::fs::read_to_string(p).map_err(|e| InputError::file(p, e.to_string()))?;
+    let text = crate::model::error::read_text_at_most(p, 16 << 20, "results JSON")?;
     serde_json::from_str(&text).map_err(|e| {
         InputError::at(
             p,
