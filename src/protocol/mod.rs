@@ -326,7 +326,8 @@ impl NodeCore {
                 let mut st = SyncState {
                     sample,
                     round: first_round,
-                    last_round: first_round + rounds as u64 - 1,
+                    // A command's numbers come off the wire: no overflow.
+                    last_round: first_round.saturating_add(u64::from(rounds) - 1),
                     mine: None,
                     received: BTreeMap::new(),
                 };
@@ -918,6 +919,22 @@ mod tests {
         node.handle(sample(1), &mut out);
         assert_eq!(node.u(), want, "a later sample does not restart the node");
         assert!(out.is_empty());
+    }
+
+    #[test]
+    fn sync_rounds_numbered_at_the_end_of_u64_end_there_without_overflow() {
+        let mut node = NodeCore::new(config(LocalSolver::Relaxed, 1));
+        let mut out = Vec::new();
+        node.handle(
+            Input::Command(Command::SyncRounds {
+                sample: 0,
+                first_round: u64::MAX - 1,
+                rounds: 5,
+            }),
+            &mut out,
+        );
+        let st = node.sync.as_ref().expect("in sync rounds");
+        assert_eq!((st.round, st.last_round), (u64::MAX - 1, u64::MAX));
     }
 
     #[test]
