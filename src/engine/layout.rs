@@ -47,6 +47,20 @@ pub fn budget_period(plan: &RunPlan) -> Option<std::time::Duration> {
     std::time::Duration::try_from_secs_f64(rt.sample_period.as_secs_f64() / scale).ok()
 }
 
+/// Whether `sent` frames are within `budget` per budget earned
+/// ([`budgets_earned`]); the clock is read only when the samples given
+/// alone do not cover them (it is asked once per frame).
+pub fn within_budget(
+    sent: u64,
+    budget: u64,
+    samples_given: u64,
+    period: Option<std::time::Duration>,
+    start: std::time::Instant,
+) -> bool {
+    sent <= budget.saturating_mul(samples_given.saturating_add(1))
+        || sent <= budget.saturating_mul(budgets_earned(samples_given, period, start))
+}
+
 /// How many budgets a party has earned: one per sample given, or per
 /// `period` gone by since `start` if more (the realtime clock), and one
 /// more.
@@ -61,18 +75,22 @@ pub fn budgets_earned(
     samples_given.max(by_time).saturating_add(1)
 }
 
+/// The largest number of neighbours a node of `plan` has.
+fn max_degree(plan: &RunPlan) -> u64 {
+    plan.nodes
+        .iter()
+        .map(|c| c.neighbours.len())
+        .max()
+        .unwrap_or(0) as u64
+}
+
 /// The most gossip frames a node takes from one peer per sample:
 /// [`flood_budget`] over `2 (1 + largest degree)`, so that a node that
 /// answers every frame its peers may send still stays within its own
 /// budget with the coordinator (which relays its answers on a channel);
 /// at least 64.
 pub fn peer_budget(plan: &RunPlan) -> u64 {
-    let max_deg = plan
-        .nodes
-        .iter()
-        .map(|c| c.neighbours.len())
-        .max()
-        .unwrap_or(0) as u64;
+    let max_deg = max_degree(plan);
     (flood_budget(plan) / (2 * (1 + max_deg))).max(64)
 }
 
@@ -84,12 +102,7 @@ pub fn peer_budget(plan: &RunPlan) -> u64 {
 /// realtime clock `1024 + 16 x (wakes per sample) x (1 + largest degree)`,
 /// the node's own wakes and its neighbours' calls to it.
 pub fn flood_budget(plan: &RunPlan) -> u64 {
-    let max_deg = plan
-        .nodes
-        .iter()
-        .map(|c| c.neighbours.len())
-        .max()
-        .unwrap_or(0) as u64;
+    let max_deg = max_degree(plan);
     match (&plan.realtime, plan.clock) {
         (Some(rt), Clock::Realtime) => {
             let wakes = (rt.wake_rate_hz * rt.sample_period.as_secs_f64())
@@ -170,5 +183,15 @@ mod tests {
         assert!(earned >= 11, "{earned}");
         // Samples count when they are more.
         assert_eq!(budgets_earned(50, Some(Duration::from_secs(3600)), now), 51);
+        // Within: budget x earned, the clock read only past the samples' share.
+        assert!(super::within_budget(10, 5, 1, None, now));
+        assert!(!super::within_budget(11, 5, 1, None, now));
+        assert!(super::within_budget(
+            11,
+            5,
+            1,
+            Some(Duration::from_millis(1)),
+            start
+        ));
     }
 }

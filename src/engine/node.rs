@@ -210,22 +210,19 @@ impl<'o, 'a> Loop<'o, 'a> {
     /// allowance (named the first time).
     fn within_allowance(&mut self, peer: u32) -> bool {
         let budget = self.opts.peer_frames_per_sample;
-        let earned = crate::engine::layout::budgets_earned(
-            self.samples_given,
-            self.opts.budget_period,
-            self.started,
-        );
-        let allowance = budget.saturating_mul(earned);
         let sent = self.peer_frames.entry(peer).or_insert(0);
         *sent = sent.saturating_add(1);
-        if *sent <= allowance {
+        let sent = *sent;
+        let (given, period, start) = (self.samples_given, self.opts.budget_period, self.started);
+        if crate::engine::layout::within_budget(sent, budget, given, period, start) {
             return true;
         }
-        if *sent == allowance.saturating_add(1) {
+        let earned = crate::engine::layout::budgets_earned(given, period, start);
+        if sent == budget.saturating_mul(earned).saturating_add(1) {
             eprintln!(
                 "[node {}] warning: node {peer} sent more than the {budget} gossip frames a \
-                 sample allows ({} samples given): its frames are dropped",
-                self.id, self.samples_given
+                 sample allows ({given} samples given): its frames are dropped",
+                self.id
             );
         }
         false

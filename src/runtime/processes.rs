@@ -137,14 +137,18 @@ fn samples_word(k: u64) -> String {
 }
 
 impl Inbox {
-    /// How many frames node `i` may have sent so far: a sample's budget for
-    /// every sample it was given (on the realtime clock, for every sample
-    /// period gone by, if more), and one more.
-    fn allowance(&self, i: usize) -> u64 {
+    /// Whether `sent` frames are within node `i`'s allowance so far: a
+    /// sample's budget for every sample it was given (on the realtime
+    /// clock, for every sample period gone by, if more), and one more.
+    fn within_allowance(&self, i: usize, sent: u64) -> bool {
         let samples = self.samples.get(i).copied().unwrap_or(0);
-        let earned =
-            crate::engine::layout::budgets_earned(samples, self.budget_period, self.started);
-        self.flood_frames_per_sample.saturating_mul(earned)
+        crate::engine::layout::within_budget(
+            sent,
+            self.flood_frames_per_sample,
+            samples,
+            self.budget_period,
+            self.started,
+        )
     }
 }
 
@@ -309,11 +313,11 @@ impl Processes {
     }
 
     /// Kill every node that sent more frames than its allowance
-    /// ([`Inbox::allowance`]), naming it; its death is then seen as a
+    /// ([`Inbox::within_allowance`]), naming it; its death is then seen as a
     /// crash's.
     fn cut_off_floods(&mut self) {
         for i in 0..self.inbox.cut.len() {
-            if self.inbox.received[i] > self.inbox.allowance(i)
+            if !self.inbox.within_allowance(i, self.inbox.received[i])
                 && !self.inbox.cut[i]
                 && !self.nodes.dead[i]
             {
@@ -450,7 +454,8 @@ impl Processes {
         for f in &self.inbox.frames {
             if let Some(k) = self.inbox.received.get_mut(f.from as usize) {
                 *k += 1;
-                flood |= *k > self.inbox.allowance(f.from as usize);
+                let sent = *k;
+                flood |= !self.inbox.within_allowance(f.from as usize, sent);
             }
             if f.kind == IMPOSTOR {
                 posers.push((f.from, f.aux));

@@ -312,12 +312,15 @@ impl IoxTransport {
         Ok(())
     }
 
-    /// The authentication of the inbox (the first service), if on.
-    fn auth<'a>(
-        senders: &'a mut Option<senders::Senders>,
-        services: &'a [PubSub],
-    ) -> Option<(&'a mut senders::Senders, &'a PubSub)> {
-        Some((senders.as_mut()?, services.first()?))
+    /// Everything readable now in this endpoint's inbox and broadcast
+    /// group, appended to `out`, authenticated when that is on (against the
+    /// inbox, the first service).
+    fn drain_into(&mut self, out: &mut Vec<Frame>) -> Result<(), TransportError> {
+        let auth = match (self.senders.as_mut(), self.pubsub_services.first()) {
+            (Some(s), Some(svc)) => Some((s, svc)),
+            _ => None,
+        };
+        Self::drain_subscribers(&self.inbox, self.bcast.as_ref(), auth, out)
     }
 
     fn drain_subscribers(
@@ -352,12 +355,10 @@ impl IoxTransport {
     /// Moves everything readable now into the private stash (used while waiting for
     /// a full receiver, so that we never hold up someone who is waiting for us).
     fn stash_incoming(&mut self) -> Result<(), TransportError> {
-        Self::drain_subscribers(
-            &self.inbox,
-            self.bcast.as_ref(),
-            Self::auth(&mut self.senders, &self.pubsub_services),
-            &mut self.stash,
-        )
+        let mut stash = std::mem::take(&mut self.stash);
+        let r = self.drain_into(&mut stash);
+        self.stash = stash;
+        r
     }
 
     fn wait_broadcast_members(&mut self, start: Instant) -> Result<(), TransportError> {
@@ -665,12 +666,7 @@ impl Transport for IoxTransport {
             // the wake-up notifications are only read (system calls) right before
             // blocking, once per wait instead of once per call.
             out.append(&mut self.stash);
-            Self::drain_subscribers(
-                &self.inbox,
-                self.bcast.as_ref(),
-                Self::auth(&mut self.senders, &self.pubsub_services),
-                out,
-            )?;
+            self.drain_into(out)?;
             if out.len() > before {
                 return Ok(out.len() - before);
             }
@@ -688,12 +684,7 @@ impl Transport for IoxTransport {
             // Clear the notifications, then look again: a frame sent after the
             // look still leaves a notification behind, so the wait below wakes up.
             self.consume_wakeups()?;
-            Self::drain_subscribers(
-                &self.inbox,
-                self.bcast.as_ref(),
-                Self::auth(&mut self.senders, &self.pubsub_services),
-                out,
-            )?;
+            self.drain_into(out)?;
             if out.len() > before {
                 return Ok(out.len() - before);
             }
