@@ -73,6 +73,14 @@ pub enum Command {
     /// to the coordinator (`sonarnet run --transport zenoh` with a placement)
     /// and run the nodes it assigns to --host.
     Agent(AgentArgs),
+    /// Write a fresh fleet key to FILE (mode 600; never overwritten): the
+    /// secret the coordinator (`sonarnet run --fleet-key`) and every agent
+    /// (`sonarnet agent --fleet-key`) of runs spread over hosts share.
+    FleetKey {
+        /// The key file to create.
+        #[arg(value_name = "FILE")]
+        file: PathBuf,
+    },
 }
 
 /// `sonarnet agent`.
@@ -88,6 +96,10 @@ pub struct AgentArgs {
     /// This host's name in the run's placement (`[deploy] hosts`, `--place`).
     #[arg(long, value_name = "NAME")]
     pub host: String,
+    /// The fleet's key file, the same as the coordinator's `--fleet-key`
+    /// (`sonarnet fleet-key FILE` makes one; readable by its owner only).
+    #[arg(long, value_name = "FILE")]
+    pub fleet_key: PathBuf,
     /// A zenoh configuration file (JSON5) to start from: TLS, access control.
     #[arg(long, value_name = "FILE")]
     pub zenoh_config: Option<PathBuf>,
@@ -427,6 +439,11 @@ pub struct RunArgs {
     /// certificates, your own access control (the book, "Across hosts").
     #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "FILE")]
     pub zenoh_config: Option<PathBuf>,
+    /// zenoh: the fleet's key file, which the agents of a placement log in
+    /// with (`sonarnet fleet-key FILE` makes one; copy it to every host,
+    /// readable by its owner only). Needed when nodes are on other hosts.
+    #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "FILE")]
+    pub fleet_key: Option<PathBuf>,
     /// zenoh: seconds to wait for the agents of a placement (0.1 to 3600).
     #[arg(help_heading = "Across hosts (zenoh)", hide = !cfg!(feature = "zenoh"), long, value_name = "SECONDS", default_value_t = 30.0, value_parser = seconds_up_to_an_hour)]
     pub agent_wait: f64,

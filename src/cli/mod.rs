@@ -49,6 +49,7 @@ pub fn dispatch(cli: Cli) -> Result<(), CliError> {
         }
         Command::Run(args) => run_command(args),
         Command::Agent(args) => net::agent_command(&args),
+        Command::FleetKey { file } => net::fleet_key_command(&file),
         Command::Replay(args) => replay::replay_command(&args),
         Command::Sweep(args) => sweep::sweep_command(&args),
         Command::New(args) => scaffold::new_command(&args),

@@ -141,6 +141,25 @@ pub(super) fn net_options<const D: usize>(
             "a restart from a checkpoint needs its node on this host (the checkpoint file is here)",
         ));
     }
+    let fleet_key = match (&args.fleet_key, remote) {
+        (Some(f), _) => Some(
+            crate::transport::credentials::read_fleet_key(f)
+                .map_err(|e| cli_error("--fleet-key", e.to_string()))?,
+        ),
+        (None, true) => {
+            return Err(cli_error(
+                "--fleet-key",
+                format!(
+                    "nodes placed on the agents of {} need the fleet's key, the file their agents were given: --fleet-key FILE (`sonarnet fleet-key FILE` makes one; copy it to every host, mode 600)",
+                    placement
+                        .as_ref()
+                        .map(|p| p.agents().join(", "))
+                        .unwrap_or_default()
+                ),
+            ));
+        }
+        (None, false) => None,
+    };
     let listen = if !args.listen.is_empty() {
         args.listen.clone()
     } else if remote {
@@ -174,7 +193,7 @@ pub(super) fn net_options<const D: usize>(
         );
         for h in p.agents() {
             eprintln!(
-                "  sonarnet agent --connect {proto}/<this host's address>:{port} --run-id {id} --host {h}{config}"
+                "  sonarnet agent --connect {proto}/<this host's address>:{port} --run-id {id} --host {h} --fleet-key <the same key file>{config}"
             );
         }
     }
@@ -188,7 +207,19 @@ pub(super) fn net_options<const D: usize>(
         agent_wait: Some(Duration::from_secs_f64(args.agent_wait)),
         run_id,
         node_program: None,
+        fleet_key,
     })
+}
+
+/// `sonarnet fleet-key FILE`: a fresh key, in a new file of mode 600.
+pub(super) fn fleet_key_command(file: &Path) -> Result<(), CliError> {
+    crate::transport::credentials::write_fleet_key(file)
+        .map_err(|e| cli_error("fleet-key FILE", e.to_string()))?;
+    eprintln!(
+        "wrote a fresh fleet key to {} (mode 600): copy it to every host of the fleet and give it to `sonarnet run --fleet-key` and `sonarnet agent --fleet-key`",
+        file.display()
+    );
+    Ok(())
 }
 
 /// `sonarnet agent`.
@@ -212,7 +243,10 @@ pub(super) fn agent_command(args: &AgentArgs) -> Result<(), CliError> {
     }
     check_endpoints("--connect", &args.connect)?;
     let term = crate::engine::interrupt::flag();
+    let fleet_key = crate::transport::credentials::read_fleet_key(&args.fleet_key)
+        .map_err(|e| cli_error("--fleet-key", e.to_string()))?;
     let opts = AgentOptions {
+        fleet_key,
         zenoh: ZenohSettings {
             listen: Vec::new(),
             connect: args.connect.clone(),

@@ -181,6 +181,8 @@ struct Loop<'o, 'a> {
     /// ([`NodeLoop::peer_frames_per_sample`]).
     samples_given: u64,
     peer_frames: std::collections::BTreeMap<u32, u64>,
+    /// Peers already named for a frame written in another's name.
+    posers: std::collections::BTreeSet<u32>,
     started: Instant,
 }
 
@@ -202,6 +204,7 @@ impl<'o, 'a> Loop<'o, 'a> {
             probe: None,
             samples_given: 0,
             peer_frames: std::collections::BTreeMap::new(),
+            posers: std::collections::BTreeSet::new(),
             started: Instant::now(),
         }
     }
@@ -251,6 +254,18 @@ impl<'o, 'a> Loop<'o, 'a> {
     /// Decode frame `f` and act on it; `true` for STOP.
     fn take<T: Transport>(&mut self, tx: &mut T, f: &Frame) -> Result<bool, NodeError> {
         let id = self.id;
+        if f.kind == crate::transport::wire::IMPOSTOR {
+            // The transport knows the sender, and it is not the one the
+            // frame names: dropped, and the sender named once.
+            if self.posers.insert(f.from) {
+                eprintln!(
+                    "[node {id}] warning: node {} sent a frame in node {}'s name: dropped, as is every such frame",
+                    f.from, f.aux
+                );
+            }
+            self.core.note_bad_frame();
+            return Ok(false);
+        }
         let input = match self.decoder.feed(f) {
             Ok(input) => input,
             Err(error) => {
@@ -739,7 +754,7 @@ mod tests {
     }
 
     /// Garbage in a node's inbox (an unknown kind, a peer message with an
-    /// impossible field) is counted and dropped: the node answers what
+    /// impossible field, a frame in another's name) is counted and dropped: the node answers what
     /// follows and reports the count with its counters.
     #[test]
     fn a_node_counts_and_drops_bad_frames_and_goes_on() {
@@ -757,6 +772,13 @@ mod tests {
                 kind: codec::kind::REFLECT,
                 from: 0,
                 data: [f64::NAN; 5],
+                ..Frame::default()
+            },
+            // A frame its transport found written in another's name.
+            Frame {
+                kind: crate::transport::wire::IMPOSTOR,
+                from: 0,
+                aux: 3,
                 ..Frame::default()
             },
         ];
@@ -782,7 +804,7 @@ mod tests {
                 _ => None,
             })
             .collect();
-        assert_eq!(counted, vec![2]);
+        assert_eq!(counted, vec![3]);
     }
 
     #[test]

@@ -100,6 +100,9 @@ pub struct NetOptions {
     /// The node program; default: [`crate::runtime::processes::default_node_program`]
     /// (a host such as the Python package names its own).
     pub node_program: Option<crate::runtime::processes::NodeProgram>,
+    /// The fleet's key, which the agents of a placement log in with
+    /// (`--fleet-key`).
+    pub fleet_key: Option<crate::transport::credentials::Secret>,
 }
 
 pub use crate::protocol::config::default_clock;
@@ -326,6 +329,7 @@ pub fn execute<const D: usize>(
             .agent_wait
             .unwrap_or(std::time::Duration::from_secs(30)),
         run_id: opts.net.run_id.clone(),
+        fleet_key: opts.net.fleet_key.clone(),
         poll_us: opts.poll_us,
         verbose: opts.verbose,
         checkpoint_dir: opts

@@ -36,6 +36,9 @@ pub struct AgentOptions {
     pub zenoh: ZenohSettings,
     /// The run to join.
     pub run_id: String,
+    /// The fleet's key, this agent's password
+    /// ([`crate::transport::credentials`]).
+    pub fleet_key: crate::transport::credentials::Secret,
     /// This host's name, as in the run's placement.
     pub host: String,
     /// The node program on this host.
@@ -54,7 +57,7 @@ pub enum AgentError {
     Transport(#[from] crate::transport::TransportError),
     /// No coordinator of the run appeared in time.
     #[error(
-        "no coordinator of run {run_id} appeared at {endpoints} within {waited:?} (is `sonarnet run` listening there, with this run id?)"
+        "no coordinator of run {run_id} admitted this agent at {endpoints} within {waited:?} (is `sonarnet run` listening there, with this run id, this host in its placement, and the same --fleet-key?)"
     )]
     NoCoordinator {
         /// The run id.
@@ -161,6 +164,7 @@ pub fn run_agent(opts: &AgentOptions, term: &AtomicBool) -> Result<AgentEnd, Age
             &opts.zenoh,
             &opts.run_id,
             &opts.host,
+            &opts.fleet_key,
             left.min(Duration::from_secs(1)),
         ) {
             Ok(l) => break l,
@@ -188,7 +192,7 @@ pub fn run_agent(opts: &AgentOptions, term: &AtomicBool) -> Result<AgentEnd, Age
         }
         if let Some(bytes) = link.recv(Duration::from_millis(20)) {
             match serde_json::from_slice::<AgentCommand>(&bytes) {
-                Ok(AgentCommand::Spawn { launch }) => {
+                Ok(AgentCommand::Spawn { launch, password }) => {
                     let node = launch.node.id;
                     let launch = NodeLaunch {
                         transport: TransportChoice::Zenoh(opts.zenoh.clone()),
@@ -196,7 +200,12 @@ pub fn run_agent(opts: &AgentOptions, term: &AtomicBool) -> Result<AgentEnd, Age
                         gate: false,
                         ..*launch
                     };
-                    match spawn_child(&opts.node_program, &launch, std::process::Stdio::null()) {
+                    match spawn_child(
+                        &opts.node_program,
+                        &launch,
+                        std::process::Stdio::null(),
+                        password.as_ref(),
+                    ) {
                         Ok(c) => {
                             log(&format!("started node {node} (pid {})", c.id()));
                             send(&AgentEvent::Spawned { node, pid: c.id() });

@@ -99,6 +99,8 @@ struct Nodes {
     relaunch: Relaunch,
     /// When start-up last looked at the children.
     checked: Instant,
+    /// Over zenoh: the run's users, a password per node.
+    credentials: Option<crate::transport::credentials::RunCredentials>,
 }
 
 /// What came in from the nodes and is not yet handed to the coordinator.
@@ -249,6 +251,7 @@ impl Processes {
                     configs: configs.clone(),
                 },
                 checked: Instant::now(),
+                credentials: None,
             },
             inbox: Inbox {
                 decoder: ReportDecoder::new(configs[0].dim()),
@@ -347,7 +350,8 @@ impl Processes {
         if slot == n {
             if self.inbox.bad[slot] == 1 {
                 eprintln!(
-                    "warning: a process that is no node of this run sent a frame in the name of                      node {claimed}: dropped"
+                    "warning: a process that is no node of this run sent a frame in the name of \
+                     node {claimed}: dropped"
                 );
             }
             return;

@@ -46,6 +46,7 @@ use std::time::Duration;
 
 use crate::transport::wire::Frame;
 
+pub mod credentials;
 pub mod iox;
 mod mem;
 pub mod wire;
@@ -69,7 +70,16 @@ pub fn open_node(
             Ok(Box::new(t))
         }
         #[cfg(feature = "zenoh")]
-        TransportChoice::Zenoh(z) => Ok(Box::new(zenoh::ZenohTransport::node(topology, id, z)?)),
+        TransportChoice::Zenoh(z) => {
+            let login =
+                credentials::Login::node_from_env(id).map_err(|detail| TransportError::Zenoh {
+                    op: format!("logging node {id} in"),
+                    detail,
+                })?;
+            Ok(Box::new(zenoh::ZenohTransport::node(
+                topology, id, z, &login,
+            )?))
+        }
         #[cfg(not(feature = "zenoh"))]
         TransportChoice::Zenoh(_) => Err(TransportError::ZenohUnavailable),
     }

@@ -10,6 +10,21 @@ use std::time::{Duration, Instant};
 
 const LIMIT: Duration = Duration::from_secs(120);
 
+/// The fleet key file every agent and coordinator of these tests shares,
+/// made once in Cargo's directory for test files.
+fn fleet_key() -> &'static str {
+    static KEY: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    KEY.get_or_init(|| {
+        let p = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fleet.key");
+        match sonarnet::transport::credentials::write_fleet_key(&p) {
+            // Another test binary made it first.
+            Ok(_) | Err(sonarnet::transport::credentials::FleetKeyError::Exists { .. }) => {}
+            Err(e) => panic!("a fleet key: {e}"),
+        }
+        p.to_string_lossy().into_owned()
+    })
+}
+
 fn endpoint() -> String {
     ZenohSettings::free_loopback_endpoint().expect("a free loopback port")
 }
@@ -40,6 +55,8 @@ fn start_placed(
         "--run-id",
         run_id,
         "--quiet",
+        "--fleet-key",
+        fleet_key(),
     ];
     for p in places {
         args.extend_from_slice(&["--place", p]);
@@ -63,6 +80,8 @@ fn start_agent_with(ep: &str, run_id: &str, host: &str, extra: &[&str]) -> Child
         host,
         "--wait",
         "60",
+        "--fleet-key",
+        fleet_key(),
     ];
     args.extend_from_slice(extra);
     spawn_sonarnet(&args)
@@ -273,6 +292,8 @@ fn an_agent_with_the_wrong_run_id_is_not_admitted() {
         "a",
         "--wait",
         "3",
+        "--fleet-key",
+        fleet_key(),
     ]);
     let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
     assert_eq!(out.status.code(), Some(1));
@@ -284,6 +305,101 @@ fn an_agent_with_the_wrong_run_id_is_not_admitted() {
         "{stderr}"
     );
     assert_nothing_left(&id);
+}
+
+#[test]
+fn an_agent_without_the_fleet_key_is_refused_and_named_while_the_run_goes_on() {
+    let dir = TempDir::new("zenoh-stranger");
+    let ep = endpoint();
+    let id = run_id("stranger");
+    let other_key = dir.path().join("other.key");
+    sonarnet::transport::credentials::write_fleet_key(&other_key).expect("a second key");
+    let coordinator = start_run(
+        &scenario("mourya2017-spiral.toml"),
+        &dir.path().join("out"),
+        &ep,
+        &id,
+        &[],
+    );
+    // A stranger that knows the endpoint, the run id and a host name, but
+    // holds another fleet's key, tries for 4 s before the real agents come.
+    let stranger = spawn_sonarnet(&[
+        "agent",
+        "--connect",
+        &ep,
+        "--run-id",
+        &id,
+        "--host",
+        "a",
+        "--wait",
+        "4",
+        "--fleet-key",
+        other_key.to_str().expect("utf-8"),
+    ]);
+    let o = wait_watchdog(stranger, "the stranger", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        stderr.contains(&format!("no coordinator of run {id} admitted this agent"))
+            && stderr.contains("--fleet-key"),
+        "{stderr}"
+    );
+    let a = start_agent(&ep, &id, "a");
+    let b = start_agent(&ep, &id, "b");
+    let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: refused a zenoh peer with a wrong password for its user"),
+        "{stderr}"
+    );
+    agents_end_cleanly(a, b);
+    assert_nothing_left(&id);
+}
+
+#[test]
+fn a_run_on_agents_needs_a_private_fleet_key_and_fleet_key_makes_one() {
+    let spiral = scenario("mourya2017-spiral.toml");
+    let dir = TempDir::new("zenoh-keys");
+    let placed = ["--transport", "zenoh", "--place", "a=0-5"];
+    let out = run_file(&spiral, dir.path(), &placed, LIMIT);
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("--fleet-key") && e.contains("agents of a") && e.contains("sonarnet fleet-key"),
+        "{e}"
+    );
+    let key = dir.path().join("fleet.key");
+    let key_s = key.to_str().expect("utf-8");
+    let made = sonarnet(&["fleet-key", key_s], LIMIT);
+    assert!(made.status.success(), "{made:?}");
+    let again = sonarnet(&["fleet-key", key_s], LIMIT);
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("never overwritten"));
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o640)).expect("chmod");
+    let mut args = placed.to_vec();
+    args.extend(["--fleet-key", key_s]);
+    let out = run_file(&spiral, dir.path(), &args, LIMIT);
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("readable by others (mode 640)"), "{e}");
+    let agent = sonarnet(
+        &[
+            "agent",
+            "--connect",
+            "tcp/127.0.0.1:1",
+            "--run-id",
+            "r",
+            "--host",
+            "a",
+            "--fleet-key",
+            key_s,
+        ],
+        LIMIT,
+    );
+    assert_eq!(agent.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&agent.stderr).contains("chmod 600"));
 }
 
 #[test]
@@ -465,6 +581,8 @@ fn an_agent_in_its_own_network_namespace_joins_over_a_veth_pair() {
             "b",
             "--wait",
             "60",
+            "--fleet-key",
+            fleet_key(),
         ])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())

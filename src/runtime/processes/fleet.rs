@@ -24,6 +24,11 @@ pub enum AgentCommand {
     Spawn {
         /// What the node is told.
         launch: Box<NodeLaunch>,
+        /// The node's zenoh password for this run, which the agent hands to
+        /// the node process in its environment
+        /// ([`crate::transport::credentials::PASSWORD_ENV`]).
+        #[serde(default)]
+        password: Option<crate::transport::credentials::Secret>,
     },
     /// Send a signal to a node's process (faults: SIGSTOP, SIGCONT, SIGKILL).
     Signal {
@@ -234,8 +239,13 @@ impl RemoteFleet {
         }
     }
 
-    /// Ask the agent of node `launch.node.id`'s host to start it.
-    pub fn spawn(self: &Arc<Self>, launch: &NodeLaunch) -> Result<NodeProc, EngineError> {
+    /// Ask the agent of node `launch.node.id`'s host to start it, with its
+    /// zenoh `password`.
+    pub fn spawn(
+        self: &Arc<Self>,
+        launch: &NodeLaunch,
+        password: Option<&crate::transport::credentials::Secret>,
+    ) -> Result<NodeProc, EngineError> {
         let node = launch.node.id;
         let agent = {
             let mut st = self.lock();
@@ -248,6 +258,7 @@ impl RemoteFleet {
             &agent,
             &AgentCommand::Spawn {
                 launch: Box::new(launch.clone()),
+                password: password.cloned(),
             },
         )?;
         Ok(NodeProc::Remote {

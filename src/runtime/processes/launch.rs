@@ -216,6 +216,9 @@ pub struct ProcessOptions {
     /// The run id; `None`: a fresh one ([`crate::transport::unique_run_id`],
     /// or [`crate::transport::secret_run_id`] over zenoh).
     pub run_id: Option<String>,
+    /// The fleet's key, which the agents of a placement log in with
+    /// (`--fleet-key`; [`crate::transport::credentials`]).
+    pub fleet_key: Option<crate::transport::credentials::Secret>,
 }
 
 impl Default for ProcessOptions {
@@ -230,18 +233,23 @@ impl Default for ProcessOptions {
             placement: None,
             agent_wait: Duration::from_secs(30),
             run_id: None,
+            fleet_key: None,
         }
     }
 }
 
 /// Start one node process of `prog` with `launch` and `stdin` (the start
 /// gate, [`NodeLaunch::gate`]): in its own process group (a terminal's
-/// Ctrl-C reaches only the coordinator), stdout to null, stderr inherited. The node asks for SIGTERM if the coordinator dies
-/// itself ([`guard_parent`]).
+/// Ctrl-C reaches only the coordinator), stdout to null, stderr inherited.
+/// The node asks for SIGTERM if the coordinator dies itself
+/// ([`guard_parent`]). A zenoh `password` goes into the node's environment
+/// ([`PASSWORD_ENV`](crate::transport::credentials::PASSWORD_ENV)), never
+/// on its command line, which every user of the host can read.
 pub(crate) fn spawn_child(
     prog: &NodeProgram,
     launch: &NodeLaunch,
     stdin: std::process::Stdio,
+    password: Option<&crate::transport::credentials::Secret>,
 ) -> Result<std::process::Child, crate::protocol::EngineError> {
     use crate::protocol::EngineError;
     use crate::protocol::error::Cause;
@@ -259,6 +267,9 @@ pub(crate) fn spawn_child(
         .stdin(stdin)
         .stdout(Stdio::null())
         .stderr(Stdio::inherit());
+    if let Some(p) = password {
+        cmd.env(crate::transport::credentials::PASSWORD_ENV, p.expose());
+    }
     // No `pre_exec`: without it the standard library starts the child with
     // posix_spawn (a vfork-like clone that shares the coordinator's memory
     // until exec), not fork, whose copy of the coordinator's page tables

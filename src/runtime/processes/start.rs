@@ -44,6 +44,7 @@ impl Processes {
                 prog,
                 &launch,
                 stdin.into(),
+                None,
             )?)));
         }
         drop(gate);
@@ -69,8 +70,22 @@ impl Processes {
         configs: &[NodeConfig],
         opts: &ProcessOptions,
     ) -> Result<(), EngineError> {
-        let tx = crate::transport::zenoh::ZenohTransport::coordinator(topo, z)
+        let agents = opts
+            .placement
+            .as_ref()
+            .map(|pl| pl.agents())
+            .unwrap_or_default();
+        let creds = crate::transport::credentials::RunCredentials::fresh(
+            configs.len(),
+            &agents,
+            opts.fleet_key.as_ref(),
+        )
+        .map_err(|e| {
+            EngineError::Transport(crate::transport::TransportError::InvalidTopology(e))
+        })?;
+        let tx = crate::transport::zenoh::ZenohTransport::coordinator(topo, z, &creds)
             .map_err(EngineError::Transport)?;
+        self.nodes.credentials = Some(creds);
         if let Some(pl) = &opts.placement {
             let fleet = fleet::RemoteFleet::open(tx.session(), &self.run_id, pl, configs.len())?;
             let agents = pl.agents();
@@ -122,12 +137,18 @@ impl Processes {
             .placement
             .as_ref()
             .and_then(|pl| pl.host_of(launch.node.id));
+        let password = self
+            .nodes
+            .credentials
+            .as_ref()
+            .and_then(|c| c.node(launch.node.id));
         match (&self.nodes.fleet, host) {
-            (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch),
+            (Some(fleet), Some(h)) if h != fleet::LOCAL_HOST => fleet.spawn(launch, password),
             _ => Ok(NodeProc::Local(spawn_child(
                 &self.nodes.relaunch.program,
                 launch,
                 std::process::Stdio::null(),
+                password,
             )?)),
         }
     }

@@ -14,6 +14,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::SampleKind;
 
+use crate::transport::credentials::{Login, Secret, agent_user};
 use crate::transport::zenoh::config::Role;
 use crate::transport::zenoh::declare_token;
 use crate::transport::zenoh::open_session;
@@ -154,14 +155,24 @@ pub struct AgentLink {
 
 impl AgentLink {
     /// Connect to the coordinator of run `run_id` as the agent of host
-    /// `name`, trying for up to `connect_timeout`.
+    /// `name`, with the fleet's key, trying for up to `connect_timeout`.
     pub fn open(
         settings: &ZenohSettings,
         run_id: &str,
         name: &str,
+        fleet_key: &Secret,
         connect_timeout: Duration,
     ) -> Result<Self, TransportError> {
-        let session = open_session(settings, Role::Client, run_id, connect_timeout)?;
+        let login = Login {
+            user: agent_user(name),
+            password: fleet_key.clone(),
+        };
+        let session = open_session(
+            settings,
+            Role::Client(Some(&login)),
+            run_id,
+            connect_timeout,
+        )?;
         let prefix = prefix(run_id);
         let (ctx, cmds) = crossbeam::channel::unbounded();
         let key = format!("{prefix}/agent/{name}/cmd");

@@ -5,13 +5,17 @@
 //! # Key expressions
 //!
 //! Every key of a run starts with [`prefix`]`(run_id)` = `sonarnet/<run id>`, so
-//! two runs on one network never cross, and the coordinator's router admits
-//! nothing else ([`config`]).
+//! two runs on one network never cross. The coordinator's router admits only
+//! the run's users, and each only on its own keys ([`config`]): a frame key
+//! names its sender, which the router checks against the user, and the
+//! receiving side checks every frame's `from` against the key (a frame
+//! claiming another sender arrives as an [`IMPOSTOR`] frame naming both, as
+//! over iceoryx2).
 //!
 //! | key | what |
 //! |---|---|
-//! | `<prefix>/in/<i>`, `<prefix>/in/c` | frames for node `i` / the coordinator: one put per sender and [`Transport::flush`], the frames' [`FRAME_BYTES`](super::wire::FRAME_BYTES)-byte forms back to back |
-//! | `<prefix>/bcast` | the broadcast group (sync rounds) |
+//! | `<prefix>/in/<to>/<from>` | frames for node `<to>` (`c`: the coordinator) from `<from>`: one put per sender and [`Transport::flush`], the frames' [`FRAME_BYTES`](super::wire::FRAME_BYTES)-byte forms back to back |
+//! | `<prefix>/bcast/<from>` | the broadcast group (sync rounds) |
 //! | `<prefix>/alive/node/<i>`, `<prefix>/alive/agent/<name>`, `<prefix>/alive/coordinator` | liveliness tokens: a party's death (its socket closes, or its lease of [`config::LEASE_MS`] runs out) is seen by the others |
 //! | `<prefix>/barrier/<endpoint>` | the coordinator's queryable: a reply means every frame put before the query reached the coordinator's router ([`Transport::shutdown`]) |
 //! | `<prefix>/agent/<name>/cmd`, `<prefix>/agent/<name>/ev` | an agent's commands and events ([`fleet`]) |
@@ -37,11 +41,13 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Queryable;
 
-use super::wire::Frame;
+use super::credentials::{Login, RunCredentials};
+use super::wire::{COORDINATOR_ID, Frame, IMPOSTOR};
 use super::{Endpoint, RunTopology, Transport, TransportError, ZenohSettings};
 
 pub mod config;
 pub mod fleet;
+mod refusals;
 
 pub use config::Role;
 
@@ -57,6 +63,14 @@ fn endpoint_key(e: Endpoint) -> String {
     }
 }
 
+/// The sender id a key's last chunk names (`c`: the coordinator).
+fn sender_of(key: &str) -> Option<u32> {
+    match key.rsplit('/').next()? {
+        "c" => Some(COORDINATOR_ID),
+        i => i.parse().ok(),
+    }
+}
+
 pub(crate) fn zerr(op: impl Into<String>) -> impl FnOnce(zenoh::Error) -> TransportError {
     let op = op.into();
     move |e| TransportError::Zenoh {
@@ -68,33 +82,46 @@ pub(crate) fn zerr(op: impl Into<String>) -> impl FnOnce(zenoh::Error) -> Transp
 /// zenoh's own log, on standard error, when `RUST_LOG` asks for it
 /// (the book, "Across hosts": `RUST_LOG=zenoh=debug`), as zenoh's
 /// `try_init_log_from_env` would set it up but for the stream: standard
-/// output carries the run's summary. Once per process; later calls do
-/// nothing.
+/// output carries the run's summary; and, always, a line for each peer the
+/// router refuses at the handshake ([`refusals`]). Once per process; later
+/// calls do nothing.
 fn init_log() {
-    if let Ok(filter) = tracing_subscriber::EnvFilter::try_from_default_env() {
-        let _ = tracing_subscriber::fmt()
-            .with_env_filter(filter)
-            .with_writer(std::io::stderr)
-            .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-            .with_target(true)
-            .try_init();
-    }
+    use tracing_subscriber::Layer;
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
+    let fmt = tracing_subscriber::EnvFilter::try_from_default_env()
+        .ok()
+        .map(|filter| {
+            tracing_subscriber::fmt::layer()
+                .with_writer(std::io::stderr)
+                .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+                .with_target(true)
+                .with_filter(filter)
+        });
+    let _ = tracing_subscriber::registry()
+        .with(fmt)
+        .with(refusals::layer())
+        .try_init();
 }
 
 /// Opens a session for run `run_id` in `role`.
 pub(crate) fn open_session(
     settings: &ZenohSettings,
-    role: Role,
+    role: Role<'_>,
     run_id: &str,
     connect_timeout: Duration,
 ) -> Result<zenoh::Session, TransportError> {
     init_log();
     let cfg = config::session_config(settings, role, run_id, connect_timeout)?;
     let what = match role {
-        Role::Router => format!("listening on {}", settings.listen.join(", ")),
-        Role::Client => format!("connecting to {}", settings.connect.join(", ")),
+        Role::Router(_) => format!("listening on {}", settings.listen.join(", ")),
+        Role::Client(login) => format!(
+            "connecting to {} as {} (is the run there, and are these its credentials?)",
+            settings.connect.join(", "),
+            login.map_or("nobody", |l| l.user.as_str())
+        ),
     };
-    zenoh::open(cfg).wait().map_err(zerr(what))
+    cfg.open().map_err(zerr(what))
 }
 
 /// A reliable publisher on `key`: blocks rather than drops when congested,
@@ -175,8 +202,24 @@ pub(crate) fn declare_token(
         .map_err(zerr(format!("declaring the liveliness token {key}")))
 }
 
-/// A frame subscriber feeding `tx`; payloads that are not whole frames are
-/// counted in `bad` and dropped.
+/// `f` as it came on a key naming `sender` as its sender: itself if it
+/// says so, else an [`IMPOSTOR`] frame naming the sender (`from`) and the one
+/// it claimed (`aux`).
+fn stamp(sender: u32, f: Frame) -> Frame {
+    if f.from == sender {
+        return f;
+    }
+    Frame {
+        kind: IMPOSTOR,
+        from: sender,
+        aux: f.from,
+        ..f
+    }
+}
+
+/// A frame subscriber on `key` (whose last chunk is the sender) feeding
+/// `tx`, every frame [`stamp`]ed; payloads that are not whole frames, or on
+/// a key naming no sender, are dropped.
 fn frame_subscriber(
     session: &zenoh::Session,
     key: String,
@@ -185,10 +228,13 @@ fn frame_subscriber(
     session
         .declare_subscriber(key.clone())
         .callback(move |sample| {
+            let Some(sender) = sender_of(sample.key_expr().as_str()) else {
+                return;
+            };
             let bytes = sample.payload().to_bytes();
             if let Some(frames) = Frame::from_bytes(&bytes) {
                 for f in frames {
-                    let _ = tx.send(f);
+                    let _ = tx.send(stamp(sender, f));
                 }
             }
         })
@@ -214,31 +260,35 @@ pub struct ZenohTransport {
 }
 
 impl ZenohTransport {
-    /// The coordinator's endpoint: a router listening on `settings.listen`,
-    /// with the run's barrier and its liveliness token.
+    /// The coordinator's endpoint: a router listening on `settings.listen`
+    /// and admitting the users of `creds`, with the run's barrier and its
+    /// liveliness token.
     pub fn coordinator(
         topology: &RunTopology,
         settings: &ZenohSettings,
+        creds: &RunCredentials,
     ) -> Result<Self, TransportError> {
         let session = open_session(
             settings,
-            Role::Router,
+            Role::Router(creds),
             topology.run_id(),
             config::CONNECT_TIMEOUT,
         )?;
         Self::on(session, topology, Endpoint::Coordinator)
     }
 
-    /// Node `id`'s endpoint: a client of `settings.connect`.
+    /// Node `id`'s endpoint: a client of `settings.connect`, logged in as
+    /// `login`.
     pub fn node(
         topology: &RunTopology,
         id: u32,
         settings: &ZenohSettings,
+        login: &Login,
     ) -> Result<Self, TransportError> {
         topology.check_endpoint(Endpoint::Node(id))?;
         let session = open_session(
             settings,
-            Role::Client,
+            Role::Client(Some(login)),
             topology.run_id(),
             config::CONNECT_TIMEOUT,
         )?;
@@ -254,12 +304,12 @@ impl ZenohTransport {
         let (tx, rx) = crossbeam::channel::unbounded();
         let mut subs = vec![frame_subscriber(
             &session,
-            format!("{prefix}/in/{}", endpoint_key(me)),
+            format!("{prefix}/in/{}/*", endpoint_key(me)),
             tx.clone(),
         )?];
         let is_node = matches!(me, Endpoint::Node(_));
         if is_node && topology.broadcast() {
-            subs.push(frame_subscriber(&session, format!("{prefix}/bcast"), tx)?);
+            subs.push(frame_subscriber(&session, format!("{prefix}/bcast/*"), tx)?);
         }
         let barrier = if is_node {
             None
@@ -336,7 +386,12 @@ impl Transport for ZenohTransport {
                 continue;
             }
             if !self.publishers.contains_key(&to) {
-                let p = self.publisher(format!("{}/in/{}", self.prefix, endpoint_key(to)))?;
+                let p = self.publisher(format!(
+                    "{}/in/{}/{}",
+                    self.prefix,
+                    endpoint_key(to),
+                    endpoint_key(self.me)
+                ))?;
                 await_match(&p, MATCH_WAIT);
                 self.publishers.insert(to, p);
             }
@@ -348,7 +403,8 @@ impl Transport for ZenohTransport {
         }
         if !self.pending_bcast.is_empty() {
             if self.bcast.is_none() {
-                let p = self.publisher(format!("{}/bcast", self.prefix))?;
+                let p =
+                    self.publisher(format!("{}/bcast/{}", self.prefix, endpoint_key(self.me)))?;
                 await_match(&p, MATCH_WAIT);
                 self.bcast = Some(p);
             }

@@ -1,9 +1,11 @@
 //! The zenoh transport on loopback TCP: frames, order, broadcast, the
-//! barrier, liveliness, and that a party without the run id is shut out.
+//! barrier, liveliness, and that a party without the run's credentials is
+//! shut out and a node can write only in its own name.
 
 use super::fleet::{FleetEvent, FleetLink, Member};
 use super::*;
 use crate::transport::ZenohSettings;
+use crate::transport::credentials::{Secret, node_user};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -13,6 +15,28 @@ fn router() -> ZenohSettings {
         connect: vec![],
         config_file: None,
     }
+}
+
+/// The users of a run of `n` nodes, no agents.
+fn creds(n: usize) -> RunCredentials {
+    RunCredentials::fresh(n, &[], None).unwrap()
+}
+
+/// Node `i`'s login in `c`.
+fn login(c: &RunCredentials, i: u32) -> Login {
+    Login {
+        user: node_user(i),
+        password: c.node(i).unwrap().clone(),
+    }
+}
+
+/// The coordinator of `topo` and node `i`'s transports, with `c`'s users.
+fn coordinator(topo: &RunTopology, z: &ZenohSettings, c: &RunCredentials) -> ZenohTransport {
+    ZenohTransport::coordinator(topo, z, c).unwrap()
+}
+
+fn node(topo: &RunTopology, i: u32, z: &ZenohSettings, c: &RunCredentials) -> ZenohTransport {
+    ZenohTransport::node(topo, i, &z.for_local_nodes(), &login(c, i)).unwrap()
 }
 
 fn frame(from: u32, seq: u64) -> Frame {
@@ -42,11 +66,9 @@ fn frames_cross_in_order_both_ways_and_broadcasts_reach_every_member_and_the_sen
         .unwrap()
         .with_broadcast(2)
         .unwrap();
-    let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
-    let local = z.for_local_nodes();
-    let mut nodes: Vec<ZenohTransport> = (0..3)
-        .map(|i| ZenohTransport::node(&topo, i, &local).unwrap())
-        .collect();
+    let users = creds(3);
+    let mut c = coordinator(&topo, &z, &users);
+    let mut nodes: Vec<ZenohTransport> = (0..3).map(|i| node(&topo, i, &z, &users)).collect();
     for s in 0..200u64 {
         c.send(Endpoint::Node(1), &frame(u32::MAX, s)).unwrap();
         if s % 7 == 0 {
@@ -86,14 +108,61 @@ fn frames_cross_in_order_both_ways_and_broadcasts_reach_every_member_and_the_sen
 }
 
 #[test]
-fn a_party_that_does_not_know_the_run_id_hears_nothing_and_reaches_no_one() {
+fn a_party_without_the_runs_credentials_cannot_even_connect() {
     let z = router();
     let topo = RunTopology::ring("zt-secret-1f2e", 2, 4).unwrap();
-    let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
+    let users = creds(2);
+    let _c = coordinator(&topo, &z, &users);
     let local = z.for_local_nodes();
-    let mut n0 = ZenohTransport::node(&topo, 0, &local).unwrap();
-    // An eavesdropper on the same router, subscribed to every run.
-    let spy = open_session(&local, Role::Client, "other", Duration::from_secs(5)).unwrap();
+    let wrong = Login {
+        user: node_user(0),
+        password: Secret::fresh().unwrap(),
+    };
+    let stranger = Login {
+        user: "node-7".into(),
+        password: users.node(1).unwrap().clone(),
+    };
+    for (who, l) in [
+        ("no login", None),
+        ("a wrong password", Some(&wrong)),
+        ("a user the run does not have", Some(&stranger)),
+    ] {
+        let e = open_session(
+            &local,
+            Role::Client(l),
+            "zt-secret-1f2e",
+            Duration::from_millis(500),
+        );
+        assert!(e.is_err(), "a client with {who} connected");
+    }
+    assert!(
+        open_session(
+            &local,
+            Role::Client(Some(&login(&users, 1))),
+            "zt-secret-1f2e",
+            Duration::from_secs(5)
+        )
+        .is_ok()
+    );
+}
+
+#[test]
+fn a_node_can_write_only_in_its_own_name_and_hear_only_its_own_inbox() {
+    let z = router();
+    let run = "zt-poser-9a";
+    let topo = RunTopology::ring(run, 3, 4).unwrap();
+    let users = creds(3);
+    let mut c = coordinator(&topo, &z, &users);
+    let mut n1 = node(&topo, 1, &z, &users);
+    // Node 0's credentials in a raw session: it listens to every key of
+    // every run, and writes into node 1's name.
+    let spy = open_session(
+        &z.for_local_nodes(),
+        Role::Client(Some(&login(&users, 0))),
+        run,
+        Duration::from_secs(5),
+    )
+    .unwrap();
     let heard = Arc::new(Mutex::new(Vec::<String>::new()));
     let h = Arc::clone(&heard);
     let _sub = spy
@@ -102,50 +171,55 @@ fn a_party_that_does_not_know_the_run_id_hears_nothing_and_reaches_no_one() {
         .callback(move |s| h.lock().unwrap().push(s.key_expr().to_string()))
         .wait()
         .unwrap();
-    // A node of another run, and a wildcard put into every run's inbox.
-    let other = RunTopology::ring("zt-guess", 2, 4).unwrap();
-    let mut intruder = ZenohTransport::node(&other, 0, &local).unwrap();
-    intruder
-        .send(Endpoint::Coordinator, &frame(0, 666))
-        .unwrap();
-    intruder.flush().unwrap();
-    spy.put("sonarnet/*/in/c", {
+    let bytes = |f: Frame| {
         let mut b = Vec::new();
-        frame(0, 667).put_bytes(&mut b);
+        f.put_bytes(&mut b);
         b
-    })
-    .wait()
-    .unwrap();
-    // The run itself works meanwhile.
-    n0.send(Endpoint::Coordinator, &frame(0, 1)).unwrap();
-    n0.shutdown(Duration::from_secs(5)).unwrap();
-    let got = take(&mut c, 1);
-    std::thread::sleep(Duration::from_millis(300));
-    c.recv(&mut Vec::new(), Some(Duration::from_millis(1)))
+    };
+    let p = prefix(run);
+    for key in [
+        format!("{p}/in/c/1"),
+        format!("{p}/in/2/1"),
+        format!("{p}/in/*/1"),
+        "sonarnet/other/in/c/0".to_string(),
+    ] {
+        spy.put(key, bytes(frame(1, 666))).wait().unwrap();
+    }
+    // On its own key, in another's name: it arrives, as an impostor frame.
+    spy.put(format!("{p}/in/c/0"), bytes(frame(2, 667)))
+        .wait()
         .unwrap();
+    // The run itself works meanwhile.
+    n1.send(Endpoint::Coordinator, &frame(1, 1)).unwrap();
+    n1.send(Endpoint::Node(2), &frame(1, 2)).unwrap();
+    n1.shutdown(Duration::from_secs(5)).unwrap();
+    let got = take(&mut c, 2);
     let mut rest = Vec::new();
-    c.recv(&mut rest, Some(Duration::from_millis(200))).unwrap();
-    assert_eq!(got.iter().map(|f| f.seq).collect::<Vec<_>>(), vec![1]);
-    assert!(
-        rest.is_empty(),
-        "intruders reached the coordinator: {rest:?}"
-    );
+    c.recv(&mut rest, Some(Duration::from_millis(300))).unwrap();
+    let mut seen: Vec<(u32, u32, u32, u64)> = got
+        .iter()
+        .chain(&rest)
+        .map(|f| (f.kind, f.from, f.aux, f.seq))
+        .collect();
+    seen.sort();
+    assert_eq!(seen, vec![(7, 1, 0, 1), (IMPOSTOR, 0, 2, 667)]);
     let heard = heard.lock().unwrap();
-    assert!(heard.is_empty(), "the eavesdropper heard {heard:?}");
+    assert!(heard.is_empty(), "node 0 overheard {heard:?}");
 }
 
 #[test]
 fn the_coordinator_sees_a_node_come_and_go_within_a_second() {
     let z = router();
     let topo = RunTopology::ring("zt-alive", 2, 4).unwrap();
-    let c = ZenohTransport::coordinator(&topo, &z).unwrap();
+    let users = creds(2);
+    let c = coordinator(&topo, &z, &users);
     let events = Arc::new(Mutex::new(Vec::new()));
     let e = Arc::clone(&events);
     let _fleet = FleetLink::open(c.session(), "zt-alive", move |ev| {
         e.lock().unwrap().push((Instant::now(), ev))
     })
     .unwrap();
-    let n1 = ZenohTransport::node(&topo, 1, &z.for_local_nodes()).unwrap();
+    let n1 = node(&topo, 1, &z, &users);
     let wait_for = |want: &FleetEvent| {
         let deadline = Instant::now() + Duration::from_secs(5);
         while Instant::now() < deadline {
@@ -175,10 +249,10 @@ fn a_nodes_first_frame_put_as_its_session_opens_reaches_the_coordinator() {
     // processes over QUIC (tests/it/zenoh.rs, the encrypted run).
     let z = router();
     let topo = RunTopology::ring("zt-first", 2, 4).unwrap();
-    let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
-    let local = z.for_local_nodes();
+    let users = creds(2);
+    let mut c = coordinator(&topo, &z, &users);
     for round in 0..5u64 {
-        let mut n = ZenohTransport::node(&topo, 1, &local).unwrap();
+        let mut n = node(&topo, 1, &z, &users);
         n.send(Endpoint::Coordinator, &frame(1, round)).unwrap();
         n.flush().unwrap();
         let got = take(&mut c, 1);
@@ -232,13 +306,14 @@ mod quic {
     fn frames_cross_a_quic_link_in_order_from_the_first_put_on() {
         let z = quic_router("order");
         let topo = RunTopology::ring("zt-quic", 3, 4).unwrap();
-        let mut c = ZenohTransport::coordinator(&topo, &z).unwrap();
+        let users = creds(3);
+        let mut c = coordinator(&topo, &z, &users);
         let client = ZenohSettings {
             config_file: Some(config("order-client", "ca.pem", false)),
             ..z.for_local_nodes()
         };
-        let mut n1 = ZenohTransport::node(&topo, 1, &client).unwrap();
-        let mut n2 = ZenohTransport::node(&topo, 2, &client).unwrap();
+        let mut n1 = ZenohTransport::node(&topo, 1, &client, &login(&users, 1)).unwrap();
+        let mut n2 = ZenohTransport::node(&topo, 2, &client, &login(&users, 2)).unwrap();
         // At once, before anything else: the first put must not be lost.
         n1.send(Endpoint::Coordinator, &frame(1, 0)).unwrap();
         n1.flush().unwrap();
@@ -267,19 +342,34 @@ mod quic {
     fn a_party_that_does_not_trust_the_runs_certificate_cannot_connect() {
         let z = quic_router("distrust");
         let topo = RunTopology::ring("zt-quic-2", 2, 4).unwrap();
-        let _c = ZenohTransport::coordinator(&topo, &z).unwrap();
+        let users = creds(2);
+        let _c = coordinator(&topo, &z, &users);
         let stranger = ZenohSettings {
             config_file: Some(config("distrust-client", "other-ca.pem", false)),
             ..z.for_local_nodes()
         };
         let t0 = Instant::now();
-        let e = open_session(&stranger, Role::Client, "zt-quic-2", Duration::from_secs(2));
+        let l = login(&users, 1);
+        let e = open_session(
+            &stranger,
+            Role::Client(Some(&l)),
+            "zt-quic-2",
+            Duration::from_secs(2),
+        );
         assert!(e.is_err(), "a client trusting another CA connected");
         assert!(t0.elapsed() < Duration::from_secs(30));
         let friend = ZenohSettings {
             config_file: Some(config("distrust-friend", "ca.pem", false)),
             ..z.for_local_nodes()
         };
-        assert!(open_session(&friend, Role::Client, "zt-quic-2", Duration::from_secs(5)).is_ok());
+        assert!(
+            open_session(
+                &friend,
+                Role::Client(Some(&l)),
+                "zt-quic-2",
+                Duration::from_secs(5)
+            )
+            .is_ok()
+        );
     }
 }
