@@ -8,7 +8,10 @@
 //! `SONARNET_GARBAGE_MODE=flood`, well-formed timing reports in its own
 //! name, 256 at a time; with `SONARNET_GARBAGE_MODE=peer-flood`, well-formed
 //! gossip requests to its first neighbour, 256 at a time (and nothing to
-//! the coordinator after READY).
+//! the coordinator after READY); with `SONARNET_GARBAGE_MODE=bad-checkpoint`
+//! it is the real node program, but writes a truncated checkpoint file where
+//! its checkpoints go and none of its own, so that a `restart` from its
+//! checkpoint finds the file corrupted.
 //!
 //! ```sh
 //! cargo build --release --examples
@@ -40,7 +43,11 @@ fn main() -> ExitCode {
         .windows(2)
         .find(|w| w[0] == "--launch")
         .and_then(|w| serde_json::from_str::<NodeLaunch>(&w[1]).ok());
+    let mode = std::env::var("SONARNET_GARBAGE_MODE").unwrap_or_default();
     match launch {
+        Some(l) if Some(l.node.id) == garbage && mode == "bad-checkpoint" => {
+            bad_checkpoint(l, &args)
+        }
         Some(l) if Some(l.node.id) == garbage => match send_garbage(&l) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -50,6 +57,31 @@ fn main() -> ExitCode {
         },
         _ => node_program::node_main(args),
     }
+}
+
+/// The first incarnation of a checkpointing node: a truncated checkpoint
+/// file where its checkpoints go, then the real node program told to write
+/// none. A restarted incarnation (`resume`) is the real node program.
+fn bad_checkpoint(mut l: NodeLaunch, args: &[String]) -> ExitCode {
+    if l.resume {
+        return node_program::node_main(args.to_vec());
+    }
+    if let Some(path) = l.checkpoint.take() {
+        let junk = format!("{{\"node\": {}, \"sample\": 29, \"u\": [1.5, ", l.node.id);
+        if let Err(e) = std::fs::write(&path, junk) {
+            eprintln!("garbage_node: {}: {e}", path.display());
+            return ExitCode::from(1);
+        }
+    }
+    let Ok(json) = serde_json::to_string(&l) else {
+        return ExitCode::from(1);
+    };
+    let mut argv: Vec<String> = args.to_vec();
+    if let Some(k) = argv.iter().position(|a| a == "--launch") {
+        argv.truncate(k);
+    }
+    argv.extend(["--launch".to_string(), json]);
+    node_program::node_main(argv)
 }
 
 /// READY, then a frame of an unknown kind every millisecond for at most a

@@ -137,7 +137,12 @@ impl CliError {
     /// The process exit code: 2 for bad input, 1 for a failed run.
     pub fn exit_code(&self) -> u8 {
         match self {
-            CliError::Input(_) | CliError::Run(RunError::Input(_)) => 2,
+            CliError::Input(_)
+            | CliError::Run(RunError::Input(_))
+            | CliError::RunFailed {
+                error: crate::protocol::EngineError::Checkpoint { .. },
+                ..
+            } => 2,
             _ => 1,
         }
     }

@@ -537,8 +537,9 @@ impl Probe {
 }
 
 /// The node's core: restored from its checkpoint file when `opts.resume`
-/// and the file exists, else in its initial state. A checkpoint that cannot
-/// be read is reported, and the node starts fresh.
+/// and the file exists, else in its initial state. The coordinator reads
+/// the file before it restarts the node, and fails the run if it does not
+/// read; should it break in between, the node reports it and starts fresh.
 fn start_core(node: NodeConfig, opts: &NodeLoop<'_>) -> NodeCore {
     let id = node.id;
     let Some(path) = opts.checkpoint.as_ref().filter(|_| opts.resume) else {

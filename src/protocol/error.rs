@@ -152,6 +152,15 @@ pub enum EngineError {
         /// The coordinator's endpoints.
         listen: String,
     },
+    /// A node to restart from its checkpoint file has a file that does not
+    /// read (the file, and where and why it does not): bad input, exit 2.
+    #[error("node {node} cannot restart from its checkpoint: {reason}")]
+    Checkpoint {
+        /// The node.
+        node: u32,
+        /// The file, and the line and column or the reason.
+        reason: String,
+    },
     /// Nodes did not report READY in time.
     #[error("nodes {missing:?} did not come up within {waited:?}")]
     Startup {

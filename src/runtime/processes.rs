@@ -780,7 +780,7 @@ impl Network for Processes {
                 }
             }
             self.pump()?;
-            self.apply_faults();
+            self.apply_faults()?;
             out.append(&mut self.inbox.events);
             while let Some((node, how)) = self.check_children() {
                 if let Some(w) = &mut self.water {

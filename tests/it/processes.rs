@@ -1087,6 +1087,61 @@ fn over_zenoh_a_node_that_sends_frames_in_another_nodes_name_is_named_and_cut_of
     assert!(!deaths.contains("\"node\":2"), "node 2 lives: {deaths}");
 }
 
+/// A checkpoint file that is corrupted when a node is to restart from it
+/// (`garbage_node` writes a truncated one where node 2's checkpoints go, and
+/// none of its own) fails the run before the node is started: exit 2, the
+/// error naming the file and the line and column where it breaks, the
+/// partial results written as `failed`, and nothing left behind.
+#[test]
+fn a_corrupted_checkpoint_file_fails_the_restart_with_exit_2_naming_the_file_and_column() {
+    let _cpu = cpu_exclusive();
+    let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_sonarnet"));
+    let garbage = exe
+        .parent()
+        .expect("target dir")
+        .join("examples")
+        .join("garbage_node");
+    let tmp = TempDir::new("bad-checkpoint");
+    let dir = tmp.path().join("run");
+    let child = Command::new(&exe)
+        .args([
+            "run",
+            scenario("mourya2017-spiral-faults.toml")
+                .to_str()
+                .expect("utf-8"),
+            "--variant",
+            "restart",
+            "--engine",
+            "processes",
+            "--quiet",
+            "--out",
+            dir.to_str().expect("utf-8"),
+        ])
+        .env("SONARNET_NODE_BIN", &garbage)
+        .env("SONARNET_GARBAGE_NODE", "2")
+        .env("SONARNET_GARBAGE_MODE", "bad-checkpoint")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn sonarnet");
+    let o = wait_watchdog(child, "sonarnet run with a corrupted checkpoint", LIMIT);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    let ck = dir.join("checkpoints").join("node-2.json");
+    assert!(
+        stderr.contains("node 2 cannot restart from its checkpoint")
+            && stderr.contains(&ck.display().to_string())
+            && stderr.contains("line 1 column"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("partial results were written"), "{stderr}");
+    let m = metrics(&dir);
+    assert_eq!(m["status"], "failed");
+    // The restart is due at sample 30 of the realtime clock.
+    assert!(m["samples_completed"].as_u64().unwrap_or(0) >= 25, "{m}");
+    assert_nothing_left(&run_id_of(&dir));
+}
+
 /// A node that floods the coordinator with well-formed frames in its own
 /// name (timing reports, 256 at a time) is named and cut off once it sends
 /// more than its allowance (`flood_budget` frames per sample it was

@@ -1,6 +1,7 @@
 //! Faults on node processes: the coordinator carries out the steps of the
 //! run's [`FaultWorld`] with real signals and new processes.
 
+use crate::protocol::EngineError;
 use crate::protocol::codec::Control;
 use crate::protocol::coordinator::Event;
 use crate::protocol::plan::RunPlan;
@@ -28,11 +29,14 @@ impl Processes {
             .map(|(_, t0, scale)| t0.elapsed().as_secs_f64() * scale)
     }
 
-    /// Carry out every fault event that is due, with real signals.
-    pub(super) fn apply_faults(&mut self) {
-        let Some(now) = self.fault_now() else { return };
+    /// Carry out every fault event that is due, with real signals; fails
+    /// only on a checkpoint file that does not read ([`Self::restart`]).
+    pub(super) fn apply_faults(&mut self) -> Result<(), EngineError> {
+        let Some(now) = self.fault_now() else {
+            return Ok(());
+        };
         let Some((sched, _, _)) = self.faults.as_mut() else {
-            return;
+            return Ok(());
         };
         let mut steps = Vec::new();
         let sample = sched.samples_done() as u32;
@@ -65,13 +69,14 @@ impl Processes {
                         w.link_fault_end(id);
                     }
                 }
-                FaultStep::Restart(n, checkpoint) => self.restart(n, checkpoint),
+                FaultStep::Restart(n, checkpoint) => self.restart(n, checkpoint)?,
                 FaultStep::Drift(n, factor) => {
                     let _ = self.control(n, &Control::ClockFactor(factor));
                     let _ = self.flush_all();
                 }
             }
         }
+        Ok(())
     }
 
     /// A `restart` fault: SIGKILL and reap node `node` if it is alive (the
@@ -79,11 +84,14 @@ impl Processes {
     /// shared memory, and start a new process for it (from its checkpoint
     /// file when `checkpoint`). It rejoins when it reports READY
     /// ([`Processes::ready`]). A node that cannot be started stays dead, and
-    /// the run says why.
-    fn restart(&mut self, node: u32, checkpoint: bool) {
+    /// the run says why. A checkpoint file that is there but does not read
+    /// (corrupted, another node's, the wrong dimension) fails the run, naming
+    /// the file and where it breaks, before the node is started: the node
+    /// would otherwise have to start fresh, which is not the run asked for.
+    fn restart(&mut self, node: u32, checkpoint: bool) -> Result<(), EngineError> {
         let i = node as usize;
         if i >= self.nodes.children.len() {
-            return;
+            return Ok(());
         }
         if let Some(mut child) = self.nodes.children[i].take() {
             child.kill();
@@ -112,6 +120,11 @@ impl Processes {
             eprintln!("warning: node {node} restart: cleaning up its old ports: {e}");
         }
         let launch = self.launch_of(&self.nodes.relaunch.configs[i], checkpoint);
+        if let (true, Some(path)) = (launch.resume, &launch.checkpoint) {
+            let dim = self.nodes.relaunch.configs[i].dim();
+            crate::engine::checkpoint::Checkpoint::read(path, node, dim)
+                .map_err(|reason| EngineError::Checkpoint { node, reason })?;
+        }
         match self.start_node(&launch) {
             Ok(child) => {
                 if let (Some(pid), Some(tx)) = (child.local_pid(), self.tx.as_mut()) {
@@ -133,6 +146,7 @@ impl Processes {
             }
             Err(e) => eprintln!("warning: node {node} could not be restarted: {e}"),
         }
+        Ok(())
     }
 
     /// Node `node` reported READY: a restarted node is up again.
