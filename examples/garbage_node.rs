@@ -8,7 +8,9 @@
 //! `SONARNET_GARBAGE_MODE=flood`, well-formed timing reports in its own
 //! name, 256 at a time; with `SONARNET_GARBAGE_MODE=peer-flood`, well-formed
 //! gossip requests to its first neighbour, 256 at a time (and nothing to
-//! the coordinator after READY); with `SONARNET_GARBAGE_MODE=bad-checkpoint`
+//! the coordinator after READY); with `SONARNET_GARBAGE_MODE=peer-impostor`,
+//! well-formed gossip requests to its first neighbour in a third node's
+//! name, 4 at a time; with `SONARNET_GARBAGE_MODE=bad-checkpoint`
 //! it is the real node program, but writes a truncated checkpoint file where
 //! its checkpoints go and none of its own, so that a `restart` from its
 //! checkpoint finds the file corrupted.
@@ -132,6 +134,27 @@ fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
         junk = (0..256u64)
             .map(|seq| {
                 codec::encode_peer(&sonarnet::protocol::PeerMsg::Request { from: id, seq, r })
+            })
+            .collect();
+    }
+    if mode == "peer-impostor"
+        && let Some(&nb) = l.node.neighbours.first()
+    {
+        // Gossip to its first neighbour in the name of a third node.
+        let n = l.node.n_nodes.max(3);
+        let posed = (1..n)
+            .map(|k| (id + k) % n)
+            .find(|&k| k != nb)
+            .unwrap_or(id);
+        to = Endpoint::Node(nb);
+        let r = sonarnet::model::coords::Coords::from([480.0, 510.0, 1700.0]);
+        junk = (0..4u64)
+            .map(|seq| {
+                codec::encode_peer(&sonarnet::protocol::PeerMsg::Request {
+                    from: posed,
+                    seq,
+                    r,
+                })
             })
             .collect();
     }

@@ -415,6 +415,14 @@ pub trait Transport {
     /// [`IMPOSTOR`](wire::IMPOSTOR) frame (iceoryx2 does; the coordinator
     /// calls it for every node process it starts). Nothing by default.
     fn authenticate_sender(&mut self, _node: u32, _pid: u32) {}
+
+    /// Tells the nodes what [`Transport::authenticate_sender`] was told, so
+    /// that they check their peers' frames too (iceoryx2 writes the run's
+    /// roster of node processes); call it before the nodes open their
+    /// transports, and after each restart. Does nothing by default.
+    fn publish_senders(&mut self) -> Result<(), TransportError> {
+        Ok(())
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -446,6 +454,10 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     fn forget_unread(&mut self, keep: Option<Endpoint>) {
         (**self).forget_unread(keep)
     }
+    fn publish_senders(&mut self) -> Result<(), TransportError> {
+        (**self).publish_senders()
+    }
+
     fn authenticate_sender(&mut self, node: u32, pid: u32) {
         (**self).authenticate_sender(node, pid)
     }

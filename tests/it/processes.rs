@@ -1087,6 +1087,28 @@ fn over_zenoh_a_node_that_sends_frames_in_another_nodes_name_is_named_and_cut_of
     assert!(!deaths.contains("\"node\":2"), "node 2 lives: {deaths}");
 }
 
+/// A node that gossips to its neighbour in a third node's name (4 requests
+/// a millisecond) is caught by the neighbour: its transport checks every
+/// publisher's process against the run's roster of node processes, which
+/// the coordinator writes before the nodes start. The neighbour names it
+/// once, counts and drops its frames, and the run finishes without it.
+#[test]
+fn a_node_that_gossips_in_another_nodes_name_is_named_by_its_neighbour_and_dropped() {
+    let (stderr, m) = run_with_a_broken_node_1("peer-impostor");
+    assert!(
+        stderr.contains("warning: node 1 sent a frame in node ")
+            && stderr.contains("name: dropped"),
+        "{stderr}"
+    );
+    let dropped: u64 = (0..6)
+        .filter(|&i| i != 1)
+        .map(|i| m["nodes"][i]["bad_frames"].as_u64().unwrap_or(0))
+        .sum();
+    assert!(dropped >= 100, "{dropped}");
+    let deaths = m["deaths"].as_array().expect("deaths").len();
+    assert_eq!(deaths, 1, "{}", m["deaths"]);
+}
+
 /// A checkpoint file that is corrupted when a node is to restart from it
 /// (`garbage_node` writes a truncated one where node 2's checkpoints go, and
 /// none of its own) fails the run before the node is started: exit 2, the

@@ -129,6 +129,9 @@ impl Processes {
             Ok(child) => {
                 if let (Some(pid), Some(tx)) = (child.local_pid(), self.tx.as_mut()) {
                     tx.authenticate_sender(node, pid);
+                    if let Err(e) = tx.publish_senders() {
+                        eprintln!("warning: node {node} restart: {e}");
+                    }
                 }
                 self.nodes.children[i] = Some(child);
                 self.nodes.restarting[i] = true;

@@ -54,6 +54,7 @@ impl Processes {
                 tx.authenticate_sender(i as u32, pid);
             }
         }
+        tx.publish_senders().map_err(EngineError::Transport)?;
         p.tx = Some(Box::new(tx));
         // Open the gate: every node reads end-of-file and opens its ports.
         drop(gate_writer);

@@ -206,7 +206,8 @@ pub struct CleanupReport {
     pub dead_nodes_removed: usize,
     /// Dead or undefined nodes that could not be cleaned (permissions, concurrent cleaner).
     pub cleanup_failures: usize,
-    /// Orphaned global management segments removed.
+    /// Orphaned global management segments and rosters of node processes
+    /// removed.
     pub segments_removed: usize,
 }
 
@@ -237,6 +238,14 @@ pub fn cleanup_stale_resources() -> Result<CleanupReport, TransportError> {
     if let Ok(rd) = std::fs::read_dir(SHM_DIR) {
         for e in rd.flatten() {
             note(&e.file_name().to_string_lossy(), GLOBAL_MGMT_SUFFIX);
+        }
+    }
+    if let Ok(rd) = std::fs::read_dir(iox_path_to_std(base.global.root_path())) {
+        for e in rd.flatten() {
+            note(
+                &e.file_name().to_string_lossy(),
+                super::senders::ROSTER_SUFFIX,
+            );
         }
     }
 
@@ -281,6 +290,11 @@ fn cleanup_prefix(prefix: &str, report: &mut CleanupReport) -> Result<(), Transp
     .map_err(|e| TransportError::ipc(format!("listing iceoryx2 nodes of {prefix}"), e))?;
     if alive == 0 {
         report.segments_removed += remove_global_mgmt_segments_by_scan(prefix);
+        if let Ok(roster) = super::senders::roster_path(prefix)
+            && std::fs::remove_file(roster).is_ok()
+        {
+            report.segments_removed += 1;
+        }
     } else {
         report.runs_alive += 1;
     }

@@ -108,6 +108,7 @@ pub use cleanup::{
 };
 #[cfg(test)]
 use cleanup::{PREFIX_LEN, parse_prefix};
+use cleanup::{base_config, iox_path_to_std};
 use cleanup::{config_for_prefix, init_logging, remove_global_mgmt_segment};
 use services::{down_listener_node, endpoint_index, taken_by_receivers};
 
@@ -346,7 +347,11 @@ impl IoxTransport {
                 .receive()
                 .map_err(|e| TransportError::ipc("receiving from broadcast group", e))?
             {
-                out.push(*sample.payload());
+                let f = *sample.payload();
+                out.push(match auth.as_mut() {
+                    Some((s, _)) => s.stamp(&b.service, sample.header().publisher_id().value(), f),
+                    None => f,
+                });
             }
         }
         Ok(())
@@ -497,6 +502,9 @@ impl Drop for IoxTransport {
         if unconfirmed {
             let _ = self.shutdown(DROP_LINGER);
         }
+        if let Some(s) = &mut self.senders {
+            s.withdraw();
+        }
     }
 }
 
@@ -540,9 +548,24 @@ impl Transport for IoxTransport {
     /// frame names, else it comes back as an
     /// [`IMPOSTOR`](crate::transport::wire::IMPOSTOR) frame naming both.
     fn authenticate_sender(&mut self, node: u32, pid: u32) {
+        let prefix = resource_prefix(self.topology.run_id());
         self.senders
-            .get_or_insert_with(Default::default)
+            .get_or_insert_with(|| match senders::roster_path(&prefix) {
+                Ok(path) => senders::Senders::writing(path, std::process::id()),
+                Err(_) => senders::Senders::default(),
+            })
             .set(node, pid);
+    }
+
+    /// Writes the run's roster of node processes for the nodes' own checks
+    /// ([`senders`]), if it changed since it was last written.
+    fn publish_senders(&mut self) -> Result<(), TransportError> {
+        match self.senders.as_mut() {
+            Some(s) => s
+                .publish()
+                .map_err(|e| TransportError::ipc("writing the run's roster of node processes", e)),
+            None => Ok(()),
+        }
     }
 
     fn forget_unread(&mut self, keep: Option<Endpoint>) {

@@ -179,7 +179,7 @@ impl IoxTransport {
             pubsub_services.push(s);
             event_services.push(e);
         }
-        Self::assemble(
+        let mut this = Self::assemble(
             t,
             me,
             node,
@@ -193,7 +193,14 @@ impl IoxTransport {
             },
             pubsub_services,
             event_services,
-        )
+        )?;
+        // A run whose coordinator wrote a roster of its node processes:
+        // every frame is checked against it (`senders`).
+        let roster = super::senders::roster_path(&super::resource_prefix(t.run_id()))?;
+        if roster.exists() {
+            this.senders = Some(super::senders::Senders::from_roster(roster));
+        }
+        Ok(this)
     }
 
     fn assemble(
