@@ -19,7 +19,7 @@ use super::Svc;
 use crate::transport::wire::{COORDINATOR_ID, Frame, IMPOSTOR};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::PortFactory;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// The roster file's name after the run's resource prefix.
@@ -28,6 +28,12 @@ pub(super) const ROSTER_SUFFIX: &str = ".roster";
 /// The largest roster read (a line per node of at most 4096, and the
 /// coordinator's).
 const MAX_ROSTER_BYTES: u64 = 1 << 20;
+
+/// How often a node reads the roster again at most, while publishers it
+/// does not know send it frames (a restarted peer's new process is on it
+/// within microseconds of its start; a stranger's flood costs no more than
+/// this).
+const RELOAD_EVERY: std::time::Duration = std::time::Duration::from_millis(10);
 
 /// The roster file of the run with resource prefix `prefix`.
 pub(super) fn roster_path(prefix: &str) -> Result<PathBuf, crate::transport::TransportError> {
@@ -42,11 +48,11 @@ pub(super) struct Senders {
     pids: HashMap<i64, u32>,
     /// Publisher id -> the node its process is (only publishers found).
     known: HashMap<u128, u32>,
-    /// A node's: the roster to read the process ids from, and the
-    /// publishers that were not on it when last read (read again only once
-    /// for each).
+    /// A node's: the roster to read the process ids from, and when it was
+    /// last read (read again for a publisher it does not know, at most
+    /// every [`RELOAD_EVERY`]).
     roster: Option<PathBuf>,
-    tried: HashSet<u128>,
+    read_at: Option<std::time::Instant>,
     /// The coordinator's: the roster to write, and whether it is behind.
     writes: Option<PathBuf>,
     stale: bool,
@@ -130,6 +136,7 @@ impl Senders {
     /// what is known).
     fn reload(&mut self) {
         let Some(path) = &self.roster else { return };
+        self.read_at = Some(std::time::Instant::now());
         if let Some(pids) = read_roster(path) {
             self.pids = pids;
         }
@@ -156,7 +163,8 @@ impl Senders {
         });
         let pid = found?;
         let mut node = self.pids.get(&pid).copied();
-        if node.is_none() && self.roster.is_some() && self.tried.insert(publisher) {
+        let due = self.read_at.is_none_or(|t| t.elapsed() >= RELOAD_EVERY);
+        if node.is_none() && self.roster.is_some() && due {
             self.reload();
             node = self.pids.get(&pid).copied();
         }
