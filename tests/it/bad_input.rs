@@ -205,6 +205,22 @@ fn a_schedule_that_names_a_non_edge_is_rejected() {
     );
 }
 
+#[test]
+fn a_corrupted_schedule_names_the_file_line_and_column() {
+    let text = GOOD.replace(
+        "iterations_per_sample = 5",
+        "iterations_per_sample = 1\nschedule = \"s.csv\"",
+    );
+    let sched = "iteration,v,w\n0,0,1\n1,1,\u{1}2\n2,2,1\n";
+    let (code, stderr, _) = run_bad(&text, &[("s.csv", sched)]);
+    assert_clear(
+        code,
+        &stderr,
+        std::path::Path::new("s.csv"),
+        &["line 3", "column `w`"],
+    );
+}
+
 /// A valid 3-iteration schedule for GOOD with one iteration per sample.
 const SCHEDULE: &str = "iteration,v,w\n0,0,1\n1,1,2\n2,2,1\n";
 
