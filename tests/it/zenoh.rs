@@ -458,6 +458,16 @@ fn the_acoustic_channel_runs_over_zenoh_as_over_shared_memory() {
     assert_eq!(run["transport"], "zenoh");
     let messages = read_rows(&dir.path().join("messages.csv"));
     assert!(!messages.is_empty(), "the water recorded its messages");
+    // The coordinator delivers the water's frames in their senders' names:
+    // no node took one for an impostor's.
+    let m = metrics(dir.path());
+    for i in 0..6 {
+        assert!(
+            m["nodes"][i].get("bad_frames").is_none(),
+            "node {i}: {}",
+            m["nodes"][i]
+        );
+    }
     assert_nothing_left(&run_id_of(dir.path()));
 }
 

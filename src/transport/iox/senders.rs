@@ -174,13 +174,15 @@ impl Senders {
     }
 
     /// `f` as it came from the publisher `publisher` of `inbox`: itself if
-    /// that publisher's process is the node `f` names (or the coordinator,
-    /// which does not check itself), else an [`IMPOSTOR`] frame naming the
+    /// that publisher's process is the node `f` names or the coordinator
+    /// (which relays frames in the nodes' names), else an [`IMPOSTOR`] frame naming the
     /// node the process is (`from`, `u32::MAX` for a process that is no
     /// node of the run) and the one it claimed (`aux`).
     pub(super) fn stamp(&mut self, inbox: &PubSub, publisher: u128, f: Frame) -> Frame {
         let real = self.node_of(inbox, publisher);
-        if real == Some(f.from) {
+        // The coordinator relays the nodes' gossip (link faults, the
+        // acoustic channel's deliveries) in their names.
+        if real == Some(f.from) || real == Some(COORDINATOR_ID) {
             return f;
         }
         Frame {

@@ -203,10 +203,11 @@ pub(crate) fn declare_token(
 }
 
 /// `f` as it came on a key naming `sender` as its sender: itself if it
-/// says so, else an [`IMPOSTOR`] frame naming the sender (`from`) and the one
+/// says so or comes from the coordinator (which relays frames in the nodes'
+/// names), else an [`IMPOSTOR`] frame naming the sender (`from`) and the one
 /// it claimed (`aux`).
 fn stamp(sender: u32, f: Frame) -> Frame {
-    if f.from == sender {
+    if f.from == sender || sender == COORDINATOR_ID {
         return f;
     }
     Frame {
