@@ -6,7 +6,7 @@
 //! | party | zenoh user | password |
 //! |---|---|---|
 //! | node `i` | `node-<i>` ([`node_user`]) | fresh for each run ([`Secret::fresh`]), given to the node process in its environment ([`PASSWORD_ENV`]) by the coordinator, or by its agent, which gets it on its own command key |
-//! | the agent of host `h` | `agent-<h>` ([`agent_user`]) | the fleet key: a file every host of the fleet holds, readable by its owner only (`sonarnet fleet-key FILE` makes one) |
+//! | the agent of host `h` | `agent-<h>` ([`agent_user`]) | issued for the run from the fleet key ([`agent_password`]): the key is a file every host of the fleet holds, readable by its owner only (`sonarnet fleet-key FILE` makes one) |
 //!
 //! zenoh's handshake proves a password with an HMAC of a fresh nonce, so the
 //! password itself never crosses the network; the per-node passwords reach
@@ -106,6 +106,21 @@ pub fn agent_user(host: &str) -> String {
     format!("agent-{host}")
 }
 
+/// The password of the agent of `host` in run `run_id`: the HMAC
+/// (SHA3-256, zenoh's own) of `sonarnet agent <run id> <host>` keyed with the
+/// fleet key, in hex. The coordinator and the agent each derive it, so the
+/// fleet key never serves as a password itself, and a password of one run
+/// or host is worth nothing in another.
+#[cfg(feature = "zenoh")]
+pub fn agent_password(fleet_key: &Secret, run_id: &str, host: &str) -> Result<Secret, String> {
+    let mac = zenoh_crypto::hmac::sign(
+        fleet_key.expose().as_bytes(),
+        format!("sonarnet agent {run_id} {host}").as_bytes(),
+    )
+    .map_err(|e| format!("deriving the agent's password: {e}"))?;
+    Ok(Secret(mac.iter().map(|x| format!("{x:02x}")).collect()))
+}
+
 /// A client's credentials: its user and password.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Login {
@@ -134,7 +149,8 @@ impl Login {
 }
 
 /// The users the coordinator's router admits for one run: a fresh password
-/// per node, and the fleet key for the agent of each host of the placement.
+/// per node, and for the agent of each host of the placement the password
+/// the fleet key gives it for this run ([`agent_password`]).
 #[derive(Debug, Clone)]
 pub struct RunCredentials {
     nodes: Vec<Secret>,
@@ -142,20 +158,27 @@ pub struct RunCredentials {
 }
 
 impl RunCredentials {
-    /// Fresh passwords for nodes `0..nodes`, and `fleet_key` for the agents
-    /// of `agent_hosts` (which need one: `None` with hosts is an error naming
-    /// the flag).
+    /// Fresh passwords for nodes `0..nodes`, and the passwords of run
+    /// `run_id` for the agents of `agent_hosts` from `fleet_key` (which they
+    /// need: `None` with hosts is an error naming the flag).
     pub fn fresh(
         nodes: usize,
         agent_hosts: &[&str],
         fleet_key: Option<&Secret>,
+        run_id: &str,
     ) -> Result<RunCredentials, String> {
         let agents = match (agent_hosts.is_empty(), fleet_key) {
             (true, _) => Vec::new(),
+            #[cfg(feature = "zenoh")]
             (false, Some(k)) => agent_hosts
                 .iter()
-                .map(|h| (h.to_string(), k.clone()))
-                .collect(),
+                .map(|h| Ok((h.to_string(), agent_password(k, run_id, h)?)))
+                .collect::<Result<_, String>>()?,
+            #[cfg(not(feature = "zenoh"))]
+            (false, Some(_)) => {
+                let _ = run_id;
+                return Err("agents need a sonarnet built with zenoh".into());
+            }
             (false, None) => {
                 return Err(format!(
                     "nodes placed on the agents of {} need the fleet's key: --fleet-key FILE, the file the agents were given (`sonarnet fleet-key FILE` makes one)",
@@ -371,19 +394,27 @@ mod tests {
     #[test]
     fn run_credentials_give_every_node_and_agent_one_dictionary_line() {
         let key = Secret::parse(&"k".repeat(40)).unwrap();
-        let c = RunCredentials::fresh(3, &["a", "b"], Some(&key)).unwrap();
+        let c = RunCredentials::fresh(3, &["a", "b"], Some(&key), "r1").unwrap();
         let d = c.dictionary();
         assert_eq!(d.lines().count(), 5);
         assert!(d.contains(&format!("node-2:{}\n", c.node(2).unwrap().expose())));
-        assert!(d.contains(&format!("agent-b:{}\n", "k".repeat(40))));
+        assert!(!d.contains(&"k".repeat(40)), "the fleet key is no password");
+        #[cfg(feature = "zenoh")]
+        {
+            let b = agent_password(&key, "r1", "b").unwrap();
+            assert!(d.contains(&format!("agent-b:{}\n", b.expose())));
+            assert_eq!(b.expose().len(), 64);
+            assert_ne!(b, agent_password(&key, "r2", "b").unwrap());
+            assert_ne!(b, agent_password(&key, "r1", "a").unwrap());
+        }
         assert_ne!(c.node(0), c.node(1));
         assert!(c.node(3).is_none());
-        let e = RunCredentials::fresh(3, &["a"], None).unwrap_err();
+        let e = RunCredentials::fresh(3, &["a"], None, "r1").unwrap_err();
         assert!(
             e.contains("--fleet-key") && e.contains("agents of a"),
             "{e}"
         );
-        assert!(RunCredentials::fresh(3, &[], None).is_ok());
+        assert!(RunCredentials::fresh(3, &[], None, "r1").is_ok());
     }
 
     #[test]

@@ -80,6 +80,7 @@ impl Processes {
             configs.len(),
             &agents,
             opts.fleet_key.as_ref(),
+            &self.run_id,
         )
         .map_err(|e| {
             EngineError::Transport(crate::transport::TransportError::InvalidTopology(e))

@@ -12,7 +12,8 @@
 //! * Every client authenticates with zenoh's user and password extension
 //!   ([`crate::transport::credentials`]): the router admits only the users of
 //!   its run, each node with a password made for this run, each agent with
-//!   the fleet key. A party without them is refused at the handshake, and
+//!   the password the fleet key gives it for this run. A party without them
+//!   is refused at the handshake, and
 //!   the coordinator says so on standard error.
 //! * The router's access control ([`run_acl`], default deny) binds each user
 //!   to its own key expressions: node `i` may put only on keys that name it
@@ -311,7 +312,7 @@ mod tests {
 
     fn creds() -> RunCredentials {
         let key = crate::transport::credentials::Secret::parse(&"f".repeat(40)).unwrap();
-        RunCredentials::fresh(2, &["hb"], Some(&key)).unwrap()
+        RunCredentials::fresh(2, &["hb"], Some(&key), "run-1").unwrap()
     }
 
     #[test]

@@ -14,7 +14,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::SampleKind;
 
-use crate::transport::credentials::{Login, Secret, agent_user};
+use crate::transport::credentials::{Login, Secret, agent_password, agent_user};
 use crate::transport::zenoh::config::Role;
 use crate::transport::zenoh::declare_token;
 use crate::transport::zenoh::open_session;
@@ -163,9 +163,14 @@ impl AgentLink {
         fleet_key: &Secret,
         connect_timeout: Duration,
     ) -> Result<Self, TransportError> {
+        let password =
+            agent_password(fleet_key, run_id, name).map_err(|detail| TransportError::Zenoh {
+                op: "logging in".into(),
+                detail,
+            })?;
         let login = Login {
             user: agent_user(name),
-            password: fleet_key.clone(),
+            password,
         };
         let session = open_session(
             settings,

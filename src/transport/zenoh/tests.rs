@@ -19,7 +19,7 @@ fn router() -> ZenohSettings {
 
 /// The users of a run of `n` nodes, no agents.
 fn creds(n: usize) -> RunCredentials {
-    RunCredentials::fresh(n, &[], None).unwrap()
+    RunCredentials::fresh(n, &[], None, "zt").unwrap()
 }
 
 /// Node `i`'s login in `c`.
