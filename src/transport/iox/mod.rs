@@ -558,7 +558,8 @@ impl Transport for IoxTransport {
     }
 
     /// Writes the run's roster of node processes for the nodes' own checks
-    /// ([`senders`]), if it changed since it was last written.
+    /// (`<iceoryx2 root>/<run prefix>.roster`), if it changed since it was
+    /// last written.
     fn publish_senders(&mut self) -> Result<(), TransportError> {
         match self.senders.as_mut() {
             Some(s) => s
