@@ -37,6 +37,24 @@ pub const IMPOSTOR: u32 = 0xFFFF_FFF0;
 pub const FRAME_BYTES: usize = 64;
 
 impl Frame {
+    /// This frame as it came from `real`, the sender a transport knows it
+    /// came from (`None`: no endpoint of the run): itself if that is the
+    /// sender it names, or the coordinator (which relays the nodes' gossip
+    /// in their names, under link faults and on the acoustic channel); else
+    /// an [`IMPOSTOR`] frame naming the real sender (`from`, `u32::MAX` for
+    /// none) and the claimed one (`aux`).
+    pub fn as_sent_by(self, real: Option<u32>) -> Frame {
+        if real == Some(self.from) || real == Some(COORDINATOR_ID) {
+            return self;
+        }
+        Frame {
+            kind: IMPOSTOR,
+            from: real.unwrap_or(u32::MAX),
+            aux: self.from,
+            ..self
+        }
+    }
+
     /// Appends the frame's [`FRAME_BYTES`] little-endian bytes to `out`
     /// (byte transports such as zenoh; shared memory moves the record itself).
     pub fn put_bytes(&self, out: &mut Vec<u8>) {
@@ -82,6 +100,28 @@ impl Frame {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_frame_is_taken_from_its_own_sender_or_the_relaying_coordinator_and_else_marked() {
+        let f = Frame {
+            kind: 7,
+            from: 2,
+            seq: 9,
+            ..Frame::default()
+        };
+        assert_eq!(f.as_sent_by(Some(2)), f);
+        assert_eq!(f.as_sent_by(Some(COORDINATOR_ID)), f);
+        let posed = f.as_sent_by(Some(1));
+        assert_eq!(
+            (posed.kind, posed.from, posed.aux, posed.seq),
+            (IMPOSTOR, 1, 2, 9)
+        );
+        let stranger = f.as_sent_by(None);
+        assert_eq!(
+            (stranger.kind, stranger.from, stranger.aux),
+            (IMPOSTOR, u32::MAX, 2)
+        );
+    }
 
     proptest! {
         /// Every bit survives the byte form, NaN payloads and signed zeros included.

@@ -960,9 +960,15 @@ fn run_with_a_broken_node_1(mode: &str) -> (String, serde_json::Value) {
     run_with_a_broken_node_1_and(mode, &[])
 }
 
-/// [`run_with_a_broken_node_1`] with `extra` flags for `sonarnet run`.
-fn run_with_a_broken_node_1_and(mode: &str, extra: &[&str]) -> (String, serde_json::Value) {
-    let _cpu = cpu_exclusive();
+/// `sonarnet run` of the faults spiral on node processes into `dir`, with
+/// `args`, and `examples/garbage_node.rs` as the node program: node `node`
+/// broken in `mode`, the real node program for the others.
+fn spawn_with_a_garbage_node(
+    node: &str,
+    mode: &str,
+    args: &[&str],
+    dir: &std::path::Path,
+) -> std::process::Child {
     let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_sonarnet"));
     let garbage = exe
         .parent()
@@ -970,32 +976,36 @@ fn run_with_a_broken_node_1_and(mode: &str, extra: &[&str]) -> (String, serde_js
         .join("examples")
         .join("garbage_node");
     assert!(garbage.exists(), "{} was not built", garbage.display());
-    let tmp = TempDir::new("garbage-node");
-    let dir = tmp.path().join("run");
-    let child = Command::new(&exe)
+    Command::new(&exe)
         .args([
             "run",
             scenario("mourya2017-spiral-faults.toml")
                 .to_str()
                 .expect("utf-8"),
-            "--variant",
-            "pause",
             "--engine",
             "processes",
-            "--set",
-            "target.samples=30",
             "--quiet",
             "--out",
             dir.to_str().expect("utf-8"),
         ])
-        .args(extra)
+        .args(args)
         .env("SONARNET_NODE_BIN", &garbage)
-        .env("SONARNET_GARBAGE_NODE", "1")
+        .env("SONARNET_GARBAGE_NODE", node)
         .env("SONARNET_GARBAGE_MODE", mode)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
-        .expect("spawn sonarnet");
+        .expect("spawn sonarnet")
+}
+
+/// [`run_with_a_broken_node_1`] with `extra` flags for `sonarnet run`.
+fn run_with_a_broken_node_1_and(mode: &str, extra: &[&str]) -> (String, serde_json::Value) {
+    let _cpu = cpu_exclusive();
+    let tmp = TempDir::new("garbage-node");
+    let dir = tmp.path().join("run");
+    let mut args = vec!["--variant", "pause", "--set", "target.samples=30"];
+    args.extend_from_slice(extra);
+    let child = spawn_with_a_garbage_node("1", mode, &args, &dir);
     let o = wait_watchdog(child, "sonarnet run with a broken node", LIMIT);
     let stderr = String::from_utf8_lossy(&o.stderr).to_string();
     assert!(o.status.success(), "{stderr}");
@@ -1117,35 +1127,9 @@ fn a_node_that_gossips_in_another_nodes_name_is_named_by_its_neighbour_and_dropp
 #[test]
 fn a_corrupted_checkpoint_file_fails_the_restart_with_exit_2_naming_the_file_and_column() {
     let _cpu = cpu_exclusive();
-    let exe = std::path::PathBuf::from(env!("CARGO_BIN_EXE_sonarnet"));
-    let garbage = exe
-        .parent()
-        .expect("target dir")
-        .join("examples")
-        .join("garbage_node");
     let tmp = TempDir::new("bad-checkpoint");
     let dir = tmp.path().join("run");
-    let child = Command::new(&exe)
-        .args([
-            "run",
-            scenario("mourya2017-spiral-faults.toml")
-                .to_str()
-                .expect("utf-8"),
-            "--variant",
-            "restart",
-            "--engine",
-            "processes",
-            "--quiet",
-            "--out",
-            dir.to_str().expect("utf-8"),
-        ])
-        .env("SONARNET_NODE_BIN", &garbage)
-        .env("SONARNET_GARBAGE_NODE", "2")
-        .env("SONARNET_GARBAGE_MODE", "bad-checkpoint")
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("spawn sonarnet");
+    let child = spawn_with_a_garbage_node("2", "bad-checkpoint", &["--variant", "restart"], &dir);
     let o = wait_watchdog(child, "sonarnet run with a corrupted checkpoint", LIMIT);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");

@@ -69,8 +69,16 @@ fn start_agent(ep: &str, run_id: &str, host: &str) -> Child {
     start_agent_with(ep, run_id, host, &[])
 }
 
-fn start_agent_with(ep: &str, run_id: &str, host: &str, extra: &[&str]) -> Child {
-    let mut args = vec![
+/// `sonarnet agent` for `host` of run `run_id` at `ep`, waiting `wait`
+/// seconds, with the fleet key file `key`.
+fn agent_args<'a>(
+    ep: &'a str,
+    run_id: &'a str,
+    host: &'a str,
+    wait: &'a str,
+    key: &'a str,
+) -> Vec<&'a str> {
+    vec![
         "agent",
         "--connect",
         ep,
@@ -79,10 +87,14 @@ fn start_agent_with(ep: &str, run_id: &str, host: &str, extra: &[&str]) -> Child
         "--host",
         host,
         "--wait",
-        "60",
+        wait,
         "--fleet-key",
-        fleet_key(),
-    ];
+        key,
+    ]
+}
+
+fn start_agent_with(ep: &str, run_id: &str, host: &str, extra: &[&str]) -> Child {
+    let mut args = agent_args(ep, run_id, host, "60", fleet_key());
     args.extend_from_slice(extra);
     spawn_sonarnet(&args)
 }
@@ -282,19 +294,7 @@ fn an_agent_with_the_wrong_run_id_is_not_admitted() {
         &["a=0-5"],
         &["--agent-wait", "2"],
     );
-    let intruder = spawn_sonarnet(&[
-        "agent",
-        "--connect",
-        &ep,
-        "--run-id",
-        "zt-guessed",
-        "--host",
-        "a",
-        "--wait",
-        "3",
-        "--fleet-key",
-        fleet_key(),
-    ]);
+    let intruder = spawn_sonarnet(&agent_args(&ep, "zt-guessed", "a", "3", fleet_key()));
     let out = wait_watchdog(coordinator, "the coordinator", LIMIT);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no agent connected for host(s) a"));
@@ -323,19 +323,8 @@ fn an_agent_without_the_fleet_key_is_refused_and_named_while_the_run_goes_on() {
     );
     // A stranger that knows the endpoint, the run id and a host name, but
     // holds another fleet's key, tries for 4 s before the real agents come.
-    let stranger = spawn_sonarnet(&[
-        "agent",
-        "--connect",
-        &ep,
-        "--run-id",
-        &id,
-        "--host",
-        "a",
-        "--wait",
-        "4",
-        "--fleet-key",
-        other_key.to_str().expect("utf-8"),
-    ]);
+    let other = other_key.to_str().expect("utf-8");
+    let stranger = spawn_sonarnet(&agent_args(&ep, &id, "a", "4", other));
     let o = wait_watchdog(stranger, "the stranger", LIMIT);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
@@ -581,19 +570,7 @@ fn an_agent_in_its_own_network_namespace_joins_over_a_veth_pair() {
     let a = start_agent(&ep, &id, "a");
     let b = std::process::Command::new("ip")
         .args(["netns", "exec", &ns, env!("CARGO_BIN_EXE_sonarnet")])
-        .args([
-            "agent",
-            "--connect",
-            &ep,
-            "--run-id",
-            &id,
-            "--host",
-            "b",
-            "--wait",
-            "60",
-            "--fleet-key",
-            fleet_key(),
-        ])
+        .args(agent_args(&ep, &id, "b", "60", fleet_key()))
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()

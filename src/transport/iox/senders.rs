@@ -16,7 +16,7 @@
 
 use super::PubSub;
 use super::Svc;
-use crate::transport::wire::{COORDINATOR_ID, Frame, IMPOSTOR};
+use crate::transport::wire::{COORDINATOR_ID, Frame};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::PortFactory;
 use std::collections::HashMap;
@@ -173,24 +173,11 @@ impl Senders {
         Some(node)
     }
 
-    /// `f` as it came from the publisher `publisher` of `inbox`: itself if
-    /// that publisher's process is the node `f` names or the coordinator
-    /// (which relays frames in the nodes' names), else an [`IMPOSTOR`] frame naming the
-    /// node the process is (`from`, `u32::MAX` for a process that is no
-    /// node of the run) and the one it claimed (`aux`).
+    /// `f` as it came from the publisher `publisher` of `inbox`, whose
+    /// process is the node (or coordinator) it was found to be, if any
+    /// ([`Frame::as_sent_by`]).
     pub(super) fn stamp(&mut self, inbox: &PubSub, publisher: u128, f: Frame) -> Frame {
-        let real = self.node_of(inbox, publisher);
-        // The coordinator relays the nodes' gossip (link faults, the
-        // acoustic channel's deliveries) in their names.
-        if real == Some(f.from) || real == Some(COORDINATOR_ID) {
-            return f;
-        }
-        Frame {
-            kind: IMPOSTOR,
-            from: real.unwrap_or(u32::MAX),
-            aux: f.from,
-            ..f
-        }
+        f.as_sent_by(self.node_of(inbox, publisher))
     }
 }
 

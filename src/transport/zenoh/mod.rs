@@ -9,7 +9,8 @@
 //! the run's users, and each only on its own keys ([`config`]): a frame key
 //! names its sender, which the router checks against the user, and the
 //! receiving side checks every frame's `from` against the key (a frame
-//! claiming another sender arrives as an [`IMPOSTOR`] frame naming both, as
+//! claiming another sender arrives as an
+//! [`IMPOSTOR`](super::wire::IMPOSTOR) frame naming both, as
 //! over iceoryx2).
 //!
 //! | key | what |
@@ -42,7 +43,7 @@ use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::Queryable;
 
 use super::credentials::{Login, RunCredentials};
-use super::wire::{COORDINATOR_ID, Frame, IMPOSTOR};
+use super::wire::{COORDINATOR_ID, Frame};
 use super::{Endpoint, RunTopology, Transport, TransportError, ZenohSettings};
 
 pub mod config;
@@ -202,25 +203,10 @@ pub(crate) fn declare_token(
         .map_err(zerr(format!("declaring the liveliness token {key}")))
 }
 
-/// `f` as it came on a key naming `sender` as its sender: itself if it
-/// says so or comes from the coordinator (which relays frames in the nodes'
-/// names), else an [`IMPOSTOR`] frame naming the sender (`from`) and the one
-/// it claimed (`aux`).
-fn stamp(sender: u32, f: Frame) -> Frame {
-    if f.from == sender || sender == COORDINATOR_ID {
-        return f;
-    }
-    Frame {
-        kind: IMPOSTOR,
-        from: sender,
-        aux: f.from,
-        ..f
-    }
-}
-
 /// A frame subscriber on `key` (whose last chunk is the sender) feeding
-/// `tx`, every frame [`stamp`]ed; payloads that are not whole frames, or on
-/// a key naming no sender, are dropped.
+/// `tx`, every frame taken [as sent by](Frame::as_sent_by) that sender;
+/// payloads that are not whole frames, or on a key naming no sender, are
+/// dropped.
 fn frame_subscriber(
     session: &zenoh::Session,
     key: String,
@@ -235,7 +221,7 @@ fn frame_subscriber(
             let bytes = sample.payload().to_bytes();
             if let Some(frames) = Frame::from_bytes(&bytes) {
                 for f in frames {
-                    let _ = tx.send(stamp(sender, f));
+                    let _ = tx.send(f.as_sent_by(Some(sender)));
                 }
             }
         })

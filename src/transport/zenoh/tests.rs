@@ -6,6 +6,7 @@ use super::fleet::{FleetEvent, FleetLink, Member};
 use super::*;
 use crate::transport::ZenohSettings;
 use crate::transport::credentials::{Secret, node_user};
+use crate::transport::wire::IMPOSTOR;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
