@@ -13,7 +13,9 @@
 //! name, 4 at a time; with `SONARNET_GARBAGE_MODE=bad-checkpoint`
 //! it is the real node program, but writes a truncated checkpoint file where
 //! its checkpoints go and none of its own, so that a `restart` from its
-//! checkpoint finds the file corrupted.
+//! checkpoint finds the file corrupted. A mode written `early-<mode>` sends
+//! the same frames without ever saying READY, so that the coordinator cuts
+//! the node off while it is still starting the run.
 //!
 //! ```sh
 //! cargo build --release --examples
@@ -95,9 +97,14 @@ fn send_garbage(l: &NodeLaunch) -> Result<(), Box<dyn std::error::Error>> {
     wait_at_gate(l)?;
     let id = l.node.id;
     let mut tx = open_node(&l.transport, &topo, id, Duration::ZERO)?;
-    tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
-    tx.flush()?;
     let mode = std::env::var("SONARNET_GARBAGE_MODE").unwrap_or_default();
+    // `early-<mode>`: the same frames, without ever saying READY.
+    let early = mode.starts_with("early-");
+    let mode = mode.trim_start_matches("early-");
+    if !early {
+        tx.send(Endpoint::Coordinator, &codec::encode_ready(id))?;
+        tx.flush()?;
+    }
     let impostor = mode == "impostor";
     let mut junk = vec![Frame {
         kind: 0xdead,

@@ -101,6 +101,9 @@ struct Nodes {
     checked: Instant,
     /// Over zenoh: the run's users, a password per node.
     credentials: Option<crate::transport::credentials::RunCredentials>,
+    /// Nodes cut off during start-up and how: their deaths reach the
+    /// coordinator with the run's first events.
+    cut_at_startup: Vec<(u32, String)>,
 }
 
 /// What came in from the nodes and is not yet handed to the coordinator.
@@ -252,6 +255,7 @@ impl Processes {
                 },
                 checked: Instant::now(),
                 credentials: None,
+                cut_at_startup: Vec::new(),
             },
             inbox: Inbox {
                 decoder: ReportDecoder::new(configs[0].dim()),
@@ -422,8 +426,14 @@ impl Processes {
     }
 
     /// Start-up: receive and decode whatever arrives within `timeout`. Fails on
-    /// a dead child, an interrupt, or a transport error.
-    fn poll(&mut self, timeout: Duration) -> Result<Vec<CoordinatorInput>, EngineError> {
+    /// a dead child, an interrupt, or a transport error; with `keep_cut_offs`,
+    /// a node the coordinator cut off is no failure: its death is kept for
+    /// the run's first events, and the run goes on as after a crash.
+    fn poll(
+        &mut self,
+        timeout: Duration,
+        keep_cut_offs: bool,
+    ) -> Result<Vec<CoordinatorInput>, EngineError> {
         if self.interrupt.load(Ordering::SeqCst) {
             return Err(EngineError::Interrupted { sample: 0 });
         }
@@ -434,7 +444,11 @@ impl Processes {
             return Ok(out);
         }
         self.nodes.checked = Instant::now();
-        if let Some((node, how)) = self.check_children() {
+        while let Some((node, how)) = self.check_children() {
+            if keep_cut_offs && self.inbox.cut.get(node as usize).copied().unwrap_or(false) {
+                self.nodes.cut_at_startup.push((node, how));
+                continue;
+            }
             return Err(EngineError::NodeDied {
                 node,
                 sample: 0,
@@ -782,7 +796,11 @@ impl Network for Processes {
             self.pump()?;
             self.apply_faults()?;
             out.append(&mut self.inbox.events);
-            while let Some((node, how)) = self.check_children() {
+            let mut died = std::mem::take(&mut self.nodes.cut_at_startup);
+            while let Some(d) = self.check_children() {
+                died.push(d);
+            }
+            for (node, how) in died {
                 if let Some(w) = &mut self.water {
                     w.set_dead(node);
                 }

@@ -64,7 +64,7 @@ pub fn measure_hop(
                     silent_for: t0.elapsed(),
                 });
             }
-            for x in p.poll(Duration::from_millis(100))? {
+            for x in p.poll(Duration::from_millis(100), false)? {
                 if let CoordinatorInput::Hops { node, seconds, .. } = x
                     && node == v
                 {

@@ -164,17 +164,29 @@ impl Processes {
         let p = self;
         let n = p.nodes.children.len();
         // Wait for READY from everyone.
+        // A node cut off during start-up (a frame in another's name, a
+        // flood) is dead, not missing, whether or not its READY came.
         let mut ready = vec![false; n];
         let mut count = 0;
-        while count < n {
+        let unready_cut = |p: &Processes, ready: &[bool]| {
+            p.nodes
+                .cut_at_startup
+                .iter()
+                .filter(|(i, _)| !ready.get(*i as usize).copied().unwrap_or(true))
+                .count()
+        };
+        while count + unready_cut(p, &ready) < n {
             if start.elapsed() > timeout {
-                let missing = (0..n).filter(|&i| !ready[i]).map(|i| i as u32).collect();
+                let missing = (0..n)
+                    .filter(|&i| !ready[i] && !p.nodes.dead[i])
+                    .map(|i| i as u32)
+                    .collect();
                 return Err(EngineError::Startup {
                     missing,
                     waited: timeout,
                 });
             }
-            for input in p.poll(Duration::from_millis(50))? {
+            for input in p.poll(Duration::from_millis(50), true)? {
                 if let CoordinatorInput::Ready { node } = input {
                     let i = node as usize;
                     if i < n && !ready[i] {
