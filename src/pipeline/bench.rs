@@ -480,8 +480,9 @@ fn measure_overhead(
             .map_err(|e| run_failed(e, out))?;
         let q = |p: f64| crate::model::metrics::quantile(&h, p).unwrap_or(f64::NAN);
         let links = chain as f64 * hops_per_link;
-        ratios.push(rec.wall_seconds / (links * q(0.5)));
-        strict_ratios.push(rec.wall_seconds / (links * q(0.1)));
+        let wall = run.record.wall_seconds;
+        ratios.push(wall / (links * q(0.5)));
+        strict_ratios.push(wall / (links * q(0.1)));
         hops.extend(h);
     }
     let q = |p: f64| crate::model::metrics::quantile(&hops, p).unwrap_or(f64::NAN);

@@ -583,6 +583,19 @@ fn bench_prints_figures_not_debug_lines() {
             let hop = r["hop_median_s"].as_f64().unwrap();
             assert!(ratio.is_finite() && ratio > 0.0, "{r}");
             assert!(hop > 0.0 && hop < 0.1, "{r}");
+            // One repeat: the ratio is the node processes' wall time over
+            // the floor (not the in-process engine's).
+            let f = |k: &str| r[k].as_f64().unwrap();
+            approx::assert_relative_eq!(
+                ratio * f("floor_seconds"),
+                f("processes_seconds"),
+                max_relative = 1e-9
+            );
+            approx::assert_relative_eq!(
+                f("strict_floor_ratio") * f("strict_floor_seconds"),
+                f("processes_seconds"),
+                max_relative = 1e-9
+            );
         }
     }
     let bad = TempDir::new("bench-bad");
