@@ -237,8 +237,62 @@ pub fn ml_initial<const D: usize>(
     ml_estimate(obs, sigmas, best.1)
 }
 
+/// The likelihood's error ellipsoid whose long axis over short axis exceeds
+/// this (a Fisher-information condition number above its square) is
+/// searched along the long axis for a lower basin ([`ml_refine`]).
+pub const ELONGATED_AXES: f64 = 5.0;
+
+/// The starts along the long axis, in standard deviations along it.
+const AXIS_STARTS: [f64; 8] = [-6.0, -4.5, -3.0, -1.5, 1.5, 3.0, 4.5, 6.0];
+
+/// The Fisher information `J = sum grad h grad h^T / sigma^2` at `x`.
+fn fisher<const D: usize>(obs: &[Obs<D>], sigmas: &Sigmas, x: &Point<D>) -> SMatrix<f64, D, D> {
+    let mut j = SMatrix::<f64, D, D>::zeros();
+    for o in obs {
+        let (_, g) = o.residual_and_gradient(x);
+        j += g * g.transpose() * weight(o.sigma(sigmas));
+    }
+    j
+}
+
+/// A local minimum `x` of the ML cost, checked for a lower basin along the
+/// direction the measurements determine worst. Where the error ellipsoid
+/// at `x` (the Fisher information's, `J^{-1/2}`) is elongated, its long
+/// axis ratio above [`ELONGATED_AXES`] (in 3-D, the depth seen by
+/// receivers spread far wider than deep), the cost along that axis can have
+/// a second basin a few standard deviations away, where a descent from the
+/// previous sample's estimate stays. Levenberg-Marquardt is started at
+/// `x + m s v` for `m` = ±1.5, ±3, ±4.5, ±6 (`v` the long axis, `s` its
+/// standard deviation `1 / sqrt(lambda_min(J))`), and the lowest cost is
+/// kept; another start replaces `x` only if it is lower by more than a
+/// relative 1e-9 (a start that falls back into `x`'s basin changes nothing).
+/// Elsewhere `x` is returned as it is.
+pub fn ml_refine<const D: usize>(obs: &[Obs<D>], sigmas: &Sigmas, x: Point<D>) -> Point<D> {
+    let Some((vals, vecs)) = crate::model::linalg::sym_eigen(&fisher(obs, sigmas, &x)) else {
+        return x;
+    };
+    let (low, high) = (vals[0], vals[D - 1]);
+    if !(low > 0.0 && low.is_finite() && high.is_finite())
+        || high <= low * ELONGATED_AXES * ELONGATED_AXES
+    {
+        return x;
+    }
+    let axis = vecs.column(0).into_owned() / low.sqrt();
+    let mut best = (ml_cost(obs, sigmas, &x), x);
+    let bar = best.0 - 1e-9 * (1.0 + best.0);
+    for m in AXIS_STARTS {
+        let y = ml_estimate(obs, sigmas, x + axis * m);
+        let c = ml_cost(obs, sigmas, &y);
+        if c < bar && c < best.0 {
+            best = (c, y);
+        }
+    }
+    best.1
+}
+
 /// The ML track: sample 0 from [`ml_initial`], then each sample started
-/// from the previous estimate.
+/// from the previous estimate; each sample's minimum is checked for a lower
+/// basin along its worst-determined direction ([`ml_refine`]).
 pub fn ml_track<const D: usize>(
     geometry: &Geometry<D>,
     samples: &[SampleMeasurements],
@@ -265,7 +319,7 @@ pub fn ml_track<const D: usize>(
                 }
             }
         };
-        out.push(x);
+        out.push(ml_refine(&obs, &sigmas[k], x));
     }
     out
 }
@@ -276,12 +330,7 @@ pub fn ml_track<const D: usize>(
 /// azimuth and the elevation contribute one term each). `None` when `J` is
 /// singular.
 pub fn crlb<const D: usize>(obs: &[Obs<D>], sigmas: &Sigmas, x: &Point<D>) -> Option<f64> {
-    let mut j = SMatrix::<f64, D, D>::zeros();
-    for o in obs {
-        let (_, g) = o.residual_and_gradient(x);
-        j += g * g.transpose() * weight(o.sigma(sigmas));
-    }
-    let inv = j.try_inverse()?;
+    let inv = fisher(obs, sigmas, x).try_inverse()?;
     let tr = inv.trace();
     (tr.is_finite() && tr >= 0.0).then(|| tr.sqrt())
 }
