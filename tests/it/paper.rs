@@ -217,3 +217,22 @@ fn convergence_study() {
     sonarnet::plot::render_png(&fig, &path.with_extension("png")).unwrap();
     println!("plot: {} (and .png)", path.display());
 }
+
+/// The centralised ML reference of the 2-D spiral is the global minimum of
+/// each sample's cost, against brute force (a grid of ±40 m in steps of
+/// 1 m around the truth; descents from the ten best points of a 121-point
+/// grid a side over the whole box), at seeds 0-2.
+#[test]
+fn the_2d_ml_track_is_the_global_minimum_of_its_cost_at_every_sample() {
+    for seed in 0..3 {
+        let sc = Scenario::load(&scenario("mourya2017-spiral.toml"))
+            .unwrap()
+            .with_seed(seed);
+        crate::three_d::assert_the_ml_track_is_the_brute_force_minimum(
+            &sc,
+            [40, 40],
+            [1.0, 1.0],
+            120,
+        );
+    }
+}
