@@ -163,36 +163,26 @@ impl Processes {
     ) -> Result<(), EngineError> {
         let p = self;
         let n = p.nodes.children.len();
-        // Wait for READY from everyone.
-        // A node cut off during start-up (a frame in another's name, a
-        // flood) is dead, not missing, whether or not its READY came.
+        // Wait for READY from everyone alive: a node cut off during start-up
+        // (a frame in another's name, a flood) is dead, not missing, whether
+        // or not its READY came (any other death fails the poll).
         let mut ready = vec![false; n];
-        let mut count = 0;
-        let unready_cut = |p: &Processes, ready: &[bool]| {
-            p.nodes
-                .cut_at_startup
-                .iter()
-                .filter(|(i, _)| !ready.get(*i as usize).copied().unwrap_or(true))
-                .count()
-        };
-        while count + unready_cut(p, &ready) < n {
+        let awaited = |p: &Processes, ready: &[bool], i: usize| !ready[i] && !p.nodes.dead[i];
+        while (0..n).any(|i| awaited(p, &ready, i)) {
             if start.elapsed() > timeout {
-                let missing = (0..n)
-                    .filter(|&i| !ready[i] && !p.nodes.dead[i])
-                    .map(|i| i as u32)
-                    .collect();
                 return Err(EngineError::Startup {
-                    missing,
+                    missing: (0..n)
+                        .filter(|&i| awaited(p, &ready, i))
+                        .map(|i| i as u32)
+                        .collect(),
                     waited: timeout,
                 });
             }
             for input in p.poll(Duration::from_millis(50), true)? {
-                if let CoordinatorInput::Ready { node } = input {
-                    let i = node as usize;
-                    if i < n && !ready[i] {
-                        ready[i] = true;
-                        count += 1;
-                    }
+                if let CoordinatorInput::Ready { node } = input
+                    && let Some(r) = ready.get_mut(node as usize)
+                {
+                    *r = true;
                 }
             }
         }
